@@ -1,0 +1,47 @@
+// mucosa: the command-line tool. Library errors are caught here, once, and
+// printed as one `error: ...` line (STYLE.md, "Errors").
+#include <cstdio>
+#include <exception>
+#include <new>
+
+#include <CLI/CLI.hpp>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/version.hpp>
+
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+    using namespace mucosa;
+    CLI::App app{"Mucosa: photorealistic real-time rendering of wet, mucus-covered tissue.", "mucosa"};
+    app.set_version_flag("--version", std::string(version()));
+    app.require_subcommand(1);
+    app.fallthrough();
+    cli::Global global;
+    app.add_option("--threads", global.threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_flag("-q,--quiet", global.quiet, "Print only warnings and errors");
+    cli::addMapCommand(app, global);
+    cli::addDemoCommand(app, global);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "error: %s (see mucosa --help)\n", e.what());
+        return 2;
+    } catch (const Error& e) {
+        std::fprintf(stderr, "error: %s\n", e.what());
+        return 1;
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "error: out of memory\n");
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

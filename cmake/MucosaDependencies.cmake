@@ -1,0 +1,11 @@
+# Every dependency is a Debian 12 package (see scripts/debian-packages.txt).
+find_package(Threads REQUIRED)
+find_package(TBB CONFIG REQUIRED)
+find_package(nlohmann_json CONFIG REQUIRED)
+find_package(fmt CONFIG REQUIRED)
+find_package(ZLIB REQUIRED)
+find_package(PNG REQUIRED)
+find_package(OpenEXR CONFIG REQUIRED)
+if(MUCOSA_BUILD_APPS)
+  find_package(CLI11 CONFIG REQUIRED)
+endif()

@@ -1,0 +1,50 @@
+#pragma once
+// Atomic file output: every output is written to a temporary name in the
+// destination directory and renamed over the final name only when complete, so
+// a crash, a full disk or an error never leaves a half-written file behind.
+#include <cstddef>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace mucosa {
+
+class AtomicFile {
+public:
+    // Creates `<dir>/.<name>.tmp-XXXXXX` next to `path`; throws IoError if the
+    // directory is missing or unwritable.
+    explicit AtomicFile(std::filesystem::path path);
+    ~AtomicFile();  // removes the temporary unless commit() succeeded
+    AtomicFile(const AtomicFile&) = delete;
+    AtomicFile& operator=(const AtomicFile&) = delete;
+
+    void write(const void* data, std::size_t size);
+    void write(std::span<const std::byte> bytes) { write(bytes.data(), bytes.size()); }
+    void write(const std::string& text) { write(text.data(), text.size()); }
+
+    // Flushes, fsyncs and renames onto the final path.
+    void commit();
+
+    const std::filesystem::path& path() const noexcept { return path_; }
+    const std::filesystem::path& temporaryPath() const noexcept { return tmp_; }
+
+private:
+    std::filesystem::path path_, tmp_;
+    int fd_ = -1;
+    bool committed_ = false;
+};
+
+// Writes a whole buffer atomically.
+void writeFileAtomic(const std::filesystem::path& path, std::span<const std::byte> bytes);
+void writeFileAtomic(const std::filesystem::path& path, const std::string& text);
+
+// Reads a whole file; throws IoError naming the file if it cannot.
+std::vector<std::byte> readFile(const std::filesystem::path& path);
+std::string readTextFile(const std::filesystem::path& path);
+
+// Fails early (before any work) if `path` could not be created: its directory
+// is missing or not writable. Throws IoError.
+void requireWritable(const std::filesystem::path& path);
+
+}  // namespace mucosa

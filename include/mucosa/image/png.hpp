@@ -1,0 +1,48 @@
+#pragma once
+// PNG input (libpng) and output (Mucosa's own parallel encoder on zlib; see
+// docs/theory.md "PNG output" for why).
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include <mucosa/image/image.hpp>
+
+namespace mucosa::image {
+
+enum class PngCompression {
+    // Per 1 MiB piece: Huffman-only DEFLATE where the filtered bytes look like
+    // noise (>= 3 bits/byte of entropy: normal maps), zlib level `level`
+    // otherwise (smooth images, where LZ77 pays). See docs/theory.md.
+    Auto,
+    Zlib,  // zlib at `level` everywhere (what libpng would write, in parallel)
+};
+
+struct PngWriteOptions {
+    PngCompression compression = PngCompression::Auto;
+    int level = 6;    // zlib level 0..9 for the zlib pieces
+    int threads = 0;  // compression threads; 0 = all hardware threads. Bytes don't depend on it.
+};
+
+// Encodes 8- or 16-bit grey (1), grey+alpha (2), RGB (3) or RGBA (4) images.
+std::vector<std::byte> encodePng(const Image8& img, const PngWriteOptions& opt = {});
+std::vector<std::byte> encodePng(const Image16& img, const PngWriteOptions& opt = {});
+
+// Atomic: a temporary next to `path`, renamed when complete.
+void writePng(const std::filesystem::path& path, const Image8& img, const PngWriteOptions& opt = {});
+void writePng(const std::filesystem::path& path, const Image16& img, const PngWriteOptions& opt = {});
+
+// A decoded PNG: samples widened to 16 bits but keeping their bit depth
+// (8-bit files hold 0..255). Palette is expanded to RGB(A); low bit depths to 8.
+struct PngImage {
+    int bitDepth = 8;  // 8 or 16
+    Image16 pixels;
+};
+
+// Throws IoError/InputError naming the file when it is missing or not a PNG.
+PngImage readPng(const std::filesystem::path& path);
+PngImage decodePng(const std::vector<std::byte>& bytes, const std::string& nameForErrors = "<memory>");
+
+Image8 to8(const PngImage& png);  // 16-bit values rounded to 8
+
+}  // namespace mucosa::image

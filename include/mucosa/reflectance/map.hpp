@@ -1,0 +1,79 @@
+#pragma once
+// The pre-processing stage end to end: fractal noise -> height field ->
+// normals -> reflectance map file, with a JSON sidecar that regenerates it.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include <mucosa/image/image.hpp>
+#include <mucosa/noise/fractal.hpp>
+
+namespace mucosa::reflectance {
+
+struct MapParams {
+    noise::FractalParams noise;  // frequency = cycles across the whole map
+    int size = 1024;             // the map is size x size texels
+    double strength = 0.01;      // bump strength B: height amplitude in map widths
+    int bits = 8;                // 8 or 16 bits per channel
+    std::string preset;          // the preset this came from, if any (informational)
+};
+
+// Throws InputError naming the field.
+void validate(const MapParams& p);
+
+struct Preset {
+    std::string name, description;
+    MapParams params;
+};
+// Documented tissue looks (README "Presets").
+const std::vector<Preset>& presets();
+// Throws InputError("preset", ...) listing the known names.
+const Preset& findPreset(std::string_view name);
+
+// Bytes the whole pipeline needs at peak for these parameters (saturating).
+std::uint64_t mapMemoryBytes(const MapParams& p, bool withHeight);
+
+// Height field (1 channel float) by the fast path.
+image::ImageF heightField(const MapParams& p, int threads = 0);
+
+enum class HeightFormat { Png16, Exr };
+
+struct MapOutputs {
+    std::filesystem::path map;                    // PNG
+    std::optional<std::filesystem::path> height;  // .png (16-bit) or .exr
+    bool sidecar = true;                          // <map>.json next to the map
+};
+
+struct MapReport {
+    double noiseSeconds = 0, normalsSeconds = 0, encodeSeconds = 0, writeSeconds = 0;
+    std::uint64_t mapBytes = 0;
+    int resolvableOctaves = 0;
+    std::vector<std::string> warnings;
+    std::filesystem::path sidecar;
+    float heightMin = 0, heightMax = 0;
+};
+
+// Generates and writes everything atomically. Checks parameters, output
+// paths and memory before doing any work.
+MapReport generateMap(const MapParams& p, const MapOutputs& out, int threads = 0);
+
+// Sidecar file: <map path with .json extension>.
+std::filesystem::path sidecarPath(const std::filesystem::path& map);
+
+// JSON round trip of the parameters (the "params" object of a sidecar).
+nlohmann::json toJson(const MapParams& p);
+// Throws InputError naming `file` and the field.
+MapParams mapParamsFromJson(const nlohmann::json& j, const std::string& file);
+
+struct Sidecar {
+    MapParams params;
+    std::filesystem::path map;                    // resolved against the sidecar's folder
+    std::optional<std::filesystem::path> height;
+};
+Sidecar readSidecar(const std::filesystem::path& path);
+
+}  // namespace mucosa::reflectance
