@@ -245,8 +245,8 @@ MapReport generateMap(const MapParams& p, const MapOutputs& out, int threads) {
                {"height_range", json::array({report.heightMin, report.heightMax})},
                {"conventions",
                 {{"encoding", "rgb = 0.5 * N + 0.5, N = (-Hu, -Hv, 1) / |(-Hu, -Hv, 1)|"},
-                 {"u", "+x = column index (left to right)"},
-                 {"v", "+y = row index (first row of the file is v = 0)"},
+                 {"u", "+u = left to right along a row"},
+                 {"v", "+v = toward the first (top) row of the file: OpenGL / glTF 'green up'"},
                  {"strength", "Hu = strength * dH/du with u in map widths"}}}};
         if (out.height) s["outputs"]["height"] = out.height->filename().string();
         // Height and sidecar must sit next to the map for --from to find them.

@@ -36,7 +36,7 @@ inline std::array<double, 3> normalFrom(const float* H, int w, int h, int x, int
     const double su = sx.span ? strength * w / sx.span : 0.0;
     const double sv = sy.span ? strength * h / sy.span : 0.0;
     const double Hu = su * (at(sx.hi, y) - at(sx.lo, y));
-    const double Hv = sv * (at(x, sy.hi) - at(x, sy.lo));
+    const double Hv = sv * (at(x, sy.lo) - at(x, sy.hi));  // +v points to the first row
     const double inv = 1.0 / std::sqrt(Hu * Hu + Hv * Hv + 1.0);
     return {-Hu * inv, -Hv * inv, inv};
 }
@@ -72,7 +72,7 @@ __attribute__((always_inline)) inline void interiorRow(const float* __restrict u
         for (int i = 0; i < n; ++i) {
             const int x = x0 + i;
             const double Hu = su * (static_cast<double>(mid[x + 1]) - static_cast<double>(mid[x - 1]));
-            const double Hv = sv * (static_cast<double>(down[x]) - static_cast<double>(up[x]));
+            const double Hv = sv * (static_cast<double>(up[x]) - static_cast<double>(down[x]));
             const double inv = 1.0 / std::sqrt(Hu * Hu + Hv * Hv + 1.0);
             nx[i] = -Hu * inv;
             ny[i] = -Hv * inv;

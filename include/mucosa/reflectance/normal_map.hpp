@@ -4,9 +4,10 @@
 //   Hu = B * dH/du, Hv = B * dH/dv   (central differences, u, v in map widths)
 //   T = (1, 0, Hu), B = (0, 1, Hv), N = T x B / |T x B| = (-Hu, -Hv, 1) / |.|
 //   rgb = 0.5 * N + 0.5
-// +u is the column index (left to right), +v the row index (first row = v 0),
-// which is how OpenGL samples an image uploaded row by row and how glTF maps
-// UVs to images, so the map needs no flip in either.
+// Texture space is OpenGL's (and Blender's, and glTF's normal-texture
+// convention, "green up"): +u runs left to right along a row, +v runs from the
+// last row of the file (v = 0) up to the first (v = 1). So red = +u, green =
+// toward the top of the image, blue = out of the surface.
 #include <array>
 #include <cstdint>
 

@@ -1,0 +1,37 @@
+#pragma once
+// The triangle mesh every module shares (import, tangents, phantom, renderer,
+// fitting). Plain arrays, no third-party types in the public interface.
+//
+// Conventions (docs/theory.md, "Conventions"):
+//  - units: millimetres after import (the importer scales and reports);
+//  - UVs: OpenGL's convention, origin at the image's bottom-left, +v up (the
+//    glTF importer/exporter flips v; OBJ/PLY/Assimp's convention already is this);
+//  - tangents: xyz = dP/du orthonormalised against N, w = +-1 with
+//    B = w * cross(N, T) = dP/dv direction (glTF's TANGENT definition);
+//  - triangles wind counter-clockwise seen from the side the normals face.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mucosa::mesh {
+
+using Vec2 = std::array<float, 2>;
+using Vec3 = std::array<float, 3>;
+using Vec4 = std::array<float, 4>;
+
+struct Mesh {
+    std::vector<Vec3> positions;
+    std::vector<Vec3> normals;    // per vertex, unit; empty if absent
+    std::vector<Vec2> uvs;        // per vertex; empty if absent
+    std::vector<Vec4> tangents;   // per vertex, xyz unit, w = +-1; empty if absent
+    std::vector<std::uint32_t> indices;  // 3 per triangle
+
+    std::size_t vertexCount() const noexcept { return positions.size(); }
+    std::size_t triangleCount() const noexcept { return indices.size() / 3; }
+    bool hasNormals() const noexcept { return !normals.empty() && normals.size() == positions.size(); }
+    bool hasUvs() const noexcept { return !uvs.empty() && uvs.size() == positions.size(); }
+    bool hasTangents() const noexcept { return !tangents.empty() && tangents.size() == positions.size(); }
+};
+
+}  // namespace mucosa::mesh
