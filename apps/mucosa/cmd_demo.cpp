@@ -10,6 +10,7 @@
 
 namespace mucosa::cli {
 
+namespace {
 void addDemoCommand(CLI::App& app, Global& g) {
     auto outDir = std::make_shared<std::string>("out");
     CLI::App* c = app.add_subcommand("demo", "Run the whole pipeline on the built-in default and write results to ./out/");
@@ -32,5 +33,9 @@ void addDemoCommand(CLI::App& app, Global& g) {
         info(g, fmt::format("  parameters:      {}", fs::absolute(r.sidecar).lexically_normal().string()));
     });
 }
+
+}  // namespace
+
+MUCOSA_REGISTER_COMMAND(100, addDemoCommand);
 
 }  // namespace mucosa::cli

@@ -66,6 +66,7 @@ void run(MapArgs& a, const Global& g) {
 
 }  // namespace
 
+namespace {
 void addMapCommand(CLI::App& app, Global& g) {
     auto a = std::make_shared<MapArgs>();
     CLI::App* c = app.add_subcommand("map", "Generate a reflectance map (Perlin noise -> height -> normals -> RGB)");
@@ -93,5 +94,8 @@ void addMapCommand(CLI::App& app, Global& g) {
     c->add_flag("--timings", a->timings, "Print the time of each stage");
     c->callback([a, &g] { run(*a, g); });
 }
+}  // namespace
+
+MUCOSA_REGISTER_COMMAND(10, addMapCommand);
 
 }  // namespace mucosa::cli

@@ -20,8 +20,7 @@ int main(int argc, char** argv) {
     cli::Global global;
     app.add_option("--threads", global.threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
     app.add_flag("-q,--quiet", global.quiet, "Print only warnings and errors");
-    cli::addMapCommand(app, global);
-    cli::addDemoCommand(app, global);
+    cli::addRegisteredCommands(app, global);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -1,5 +1,4 @@
-target_sources(mucosa_cli PRIVATE
-  ${CMAKE_CURRENT_LIST_DIR}/main.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/cli_util.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/cmd_map.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/cmd_demo.cpp)
+# Every .cpp in apps/mucosa is part of the tool; subcommands register
+# themselves (MUCOSA_REGISTER_COMMAND in commands.hpp).
+file(GLOB mucosa_cli_sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_LIST_DIR}/*.cpp)
+target_sources(mucosa_cli PRIVATE ${mucosa_cli_sources})
