@@ -81,7 +81,7 @@ void addMapCommand(CLI::App& app, Global& g) {
                                   fmt::format("Frequency ratio between octaves [{}]", d.noise.lacunarity));
     a->gain = c->add_option("--gain", a->p.noise.gain, fmt::format("Amplitude ratio between octaves [{}]", d.noise.gain));
     a->seed = c->add_option("--seed", a->p.noise.seed, "Permutation seed; 0 = Perlin's reference table [0]");
-    a->z = c->add_option("--z", a->p.noise.z, "Slice z of 3D noise that is sampled [0]");
+    a->z = c->add_option("--z", a->p.noise.z, "Slice z of 3D noise that is sampled (avoid integers: lattice creases) [0.5]");
     a->strength = c->add_option("--strength", a->p.strength,
                                 fmt::format("Bump strength B: height amplitude in map widths [{}]", d.strength));
     a->turbulence = c->add_flag("--turbulence{true}", a->p.noise.turbulence, "Sum |noise| (ridged) instead of noise");

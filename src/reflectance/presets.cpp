@@ -23,23 +23,24 @@ MapParams make(double frequency, int octaves, double lacunarity, double gain, do
 }  // namespace
 
 const std::vector<Preset>& presets() {
-    // Strengths are chosen so the mean tilt of the normals is ~10 deg (serosa),
-    // ~20 deg (bronchial), ~30 deg (rough) at the default size; see README.
+    // Strengths are chosen so the mean tilt of the normals (1024^2 map) is
+    // ~6 deg (serosa), ~13 deg (bronchial, fine), ~20 deg (rough); README
+    // "Presets" shows each.
     static const std::vector<Preset> kPresets = {
         {"bronchial",
          "Bronchial mucosa: fine, dense irregularities that break highlights into many small glints "
          "(the paper's look; default).",
-         make(16, 6, 2.0, 0.5, 0.004, false, "bronchial")},
+         make(16, 6, 2.0, 0.5, 0.008, false, "bronchial")},
         {"serosa",
          "Smooth wet serosa: broad, gentle undulations; highlights stay large and coherent.",
-         make(4, 3, 2.0, 0.4, 0.006, false, "serosa")},
+         make(4, 3, 2.0, 0.4, 0.02, false, "serosa")},
         {"rough",
          "Rough or ridged tissue (inflamed, cobblestoned): turbulence gives creases and sharp ridges.",
-         make(8, 5, 2.0, 0.55, 0.006, true, "rough")},
+         make(8, 5, 2.0, 0.55, 0.022, true, "rough")},
         {"fine",
          "High-frequency variant of bronchial (the paper's Fig. 3, right): same amplitude, 4x the "
          "frequency, highlights shatter into speckle.",
-         make(64, 4, 2.0, 0.5, 0.001, false, "fine")},
+         make(64, 4, 2.0, 0.5, 0.0026, false, "fine")},
     };
     return kPresets;
 }

@@ -21,7 +21,10 @@ struct FractalParams {
     double lacunarity = 2.0;  // frequency ratio between octaves
     double gain = 0.5;        // amplitude ratio between octaves
     std::uint64_t seed = 0;   // permutation seed; 0 = Perlin's reference table
-    double z = 0.0;           // the slice z = const of 3D noise that is sampled
+    // The slice z = const of 3D noise that is sampled. Not an integer: on
+    // integer slices every z-gradient term vanishes and only the lattice-aligned
+    // xy parts remain, which shows as axis-aligned creases (README, "Presets").
+    double z = 0.5;
     bool turbulence = false;  // sum |noise| instead of noise
     bool tileable = false;    // periodic lattice: opposite edges meet seamlessly
 };

@@ -1,0 +1,45 @@
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/core/memory.hpp>
+
+#include <gtest/gtest.h>
+
+#include <mucosa/image/image.hpp>
+
+#include "test_support.hpp"
+
+using namespace mucosa;
+
+TEST(Core, ErrorsFormatAsOneLine) {
+    const InputError e("frequency", "map.json", "must be a positive number");
+    EXPECT_STREQ(e.what(), "frequency in map.json: must be a positive number");
+    EXPECT_STREQ(InputError("size", "", "must be at least 1").what(), "size: must be at least 1");
+}
+
+TEST(Core, RefusesAllocationsLargerThanAvailableMemory) {
+    EXPECT_GT(availableMemoryBytes(), 1u << 20);
+    EXPECT_THROW(requireMemory(availableMemoryBytes() + 1, "test"), ResourceError);
+    EXPECT_THROW(image::Image8(1 << 20, 1 << 20, 3), ResourceError);  // 3 TiB
+    try {
+        requireMemory(UINT64_MAX, "a huge map");
+    } catch (const ResourceError& e) {
+        EXPECT_NE(std::string(e.what()).find("18446744073709551615 bytes"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(saturatingMul(UINT64_MAX / 2, 3), UINT64_MAX);
+}
+
+TEST(Core, AtomicFileRemovesItsTemporaryUnlessCommitted) {
+    test::TempDir dir;
+    {
+        AtomicFile f(dir / "out.bin");
+        f.write(std::string("partial"));
+        EXPECT_TRUE(std::filesystem::exists(f.temporaryPath()));
+    }  // not committed: as if an error had been thrown mid-write
+    EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+    writeFileAtomic(dir / "out.bin", std::string("complete"));
+    EXPECT_EQ(readTextFile(dir / "out.bin"), "complete");
+    writeFileAtomic(dir / "out.bin", std::string("replaced"));
+    EXPECT_EQ(readTextFile(dir / "out.bin"), "replaced");
+    EXPECT_THROW(AtomicFile(dir / "missing" / "x"), IoError);
+    EXPECT_THROW(AtomicFile(dir.path()), IoError);
+}

@@ -1,0 +1,141 @@
+#include <mucosa/reflectance/map.hpp>
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/image/exr.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/reflectance/normal_map.hpp>
+
+#include "test_support.hpp"
+
+using namespace mucosa;
+using namespace mucosa::reflectance;
+
+namespace {
+double meanTiltDegrees(const image::Image8& m) {
+    double s = 0;
+    for (int y = 0; y < m.height(); ++y)
+        for (int x = 0; x < m.width(); ++x) {
+            const auto N = decode8(m.at(x, y, 0), m.at(x, y, 1), m.at(x, y, 2));
+            s += std::acos(std::min(1.0, N[2])) * 180.0 / M_PI;
+        }
+    return s / (static_cast<double>(m.width()) * m.height());
+}
+}  // namespace
+
+TEST(Map, SidecarRegeneratesTheSameBytes) {
+    test::TempDir dir;
+    MapParams p = findPreset("rough").params;
+    p.size = 300;
+    p.noise.seed = 12345;
+    p.bits = 16;
+    MapOutputs out;
+    out.map = dir / "a.png";
+    out.height = dir / "a_height.exr";
+    const MapReport r = generateMap(p, out, 2);
+    EXPECT_EQ(r.sidecar, dir / "a.json");
+    const Sidecar s = readSidecar(r.sidecar);
+    EXPECT_EQ(s.map, dir / "a.png");
+    ASSERT_TRUE(s.height.has_value());
+    EXPECT_EQ(toJson(s.params), toJson(p));
+    const nlohmann::json j = nlohmann::json::parse(readTextFile(r.sidecar));
+    EXPECT_FALSE(j["mucosa_version"].get<std::string>().empty());
+
+    MapOutputs again;
+    again.map = dir / "b.png";
+    again.height = dir / "b_height.exr";
+    generateMap(s.params, again, 1);  // another thread count, same bytes
+    EXPECT_EQ(test::readBytes(dir / "a.png"), test::readBytes(dir / "b.png"));
+    EXPECT_EQ(image::readExr(dir / "a_height.exr"), image::readExr(dir / "b_height.exr"));
+}
+
+TEST(Map, HeightOutputMatchesTheHeightField) {
+    test::TempDir dir;
+    MapParams p;
+    p.size = 64;
+    MapOutputs out;
+    out.map = dir / "m.png";
+    out.height = dir / "h.png";
+    const MapReport r = generateMap(p, out);
+    const image::ImageF H = heightField(p);
+    const image::PngImage h16 = image::readPng(dir / "h.png");
+    ASSERT_EQ(h16.bitDepth, 16);
+    const double range = r.heightMax - r.heightMin;
+    for (int i = 0; i < 64 * 64; ++i) {
+        const double back = r.heightMin + h16.pixels.data()[i] / 65535.0 * range;
+        ASSERT_NEAR(back, H.data()[i], range / 65535.0);
+    }
+}
+
+TEST(Map, PresetsAreValidAndDiffer) {
+    ASSERT_GE(presets().size(), 3u);
+    double previousTilt = -1;
+    for (const char* name : {"serosa", "bronchial", "rough"}) {
+        MapParams p = findPreset(name).params;
+        EXPECT_NO_THROW(validate(p));
+        p.size = 256;
+        const image::Image8 m = encodeNormals8(heightField(p), p.strength, Edges::Wrap);
+        const double tilt = meanTiltDegrees(m);
+        EXPECT_GT(tilt, previousTilt) << name << ": presets go from smooth to rough";
+        previousTilt = tilt;
+    }
+    EXPECT_THROW(findPreset("liver"), InputError);
+}
+
+TEST(Map, RefusesMapsThatWouldNotFitInMemoryBeforeAllocating) {
+    test::TempDir dir;
+    MapParams p;
+    p.size = 1 << 20;  // 1M x 1M: terabytes
+    MapOutputs out;
+    out.map = dir / "huge.png";
+    try {
+        generateMap(p, out);
+        FAIL() << "expected a ResourceError";
+    } catch (const ResourceError& e) {
+        EXPECT_NE(std::string(e.what()).find("bytes"), std::string::npos);
+    }
+    EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+}
+
+TEST(Map, WarnsWhenOctavesAreFinerThanTheMapResolves) {
+    test::TempDir dir;
+    MapParams p;
+    p.size = 64;
+    p.noise.frequency = 8;
+    p.noise.octaves = 6;  // 8..256 cycles; only 8, 16, 32 fit 64 texels
+    MapOutputs out;
+    out.map = dir / "m.png";
+    const MapReport r = generateMap(p, out);
+    EXPECT_EQ(r.resolvableOctaves, 3);
+    ASSERT_EQ(r.warnings.size(), 1u);
+    EXPECT_NE(r.warnings[0].find("only 3 of 6"), std::string::npos) << r.warnings[0];
+}
+
+TEST(Map, RejectsBadParametersNamingTheField) {
+    MapParams p;
+    p.size = 0;
+    try {
+        validate(p);
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.subject(), "size");
+    }
+    p = MapParams{};
+    p.bits = 12;
+    EXPECT_THROW(validate(p), InputError);
+    p = MapParams{};
+    p.strength = -1;
+    EXPECT_THROW(validate(p), InputError);
+    EXPECT_THROW(mapParamsFromJson(nlohmann::json{{"size", "big"}}, "x.json"), InputError);
+    try {
+        mapParamsFromJson(nlohmann::json{{"frequency", -2.0}}, "x.json");
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_STREQ(e.what(), "field 'frequency' in x.json: must be a positive number, got -2");
+    }
+}
