@@ -1,0 +1,148 @@
+// mucosa study: plan a perceptual realism study, run it in a browser, analyse it
+// (the paper's user study, section "Visual assessment").
+#include <pthread.h>
+
+#include <csignal>
+#include <cstdio>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/study/analysis.hpp>
+#include <mucosa/study/plan.hpp>
+#include <mucosa/study/server.hpp>
+
+#include "commands.hpp"
+
+namespace mucosa::cli {
+
+namespace {
+
+struct PlanArgs {
+    std::string manifest, output;
+    study::PlanOptions o;
+};
+
+struct ServeArgs {
+    std::string plan;
+    study::ServeOptions o;
+};
+
+struct AnalyzeArgs {
+    std::string input, twoafc, output;
+};
+
+void runPlan(const PlanArgs& a, const Global& g) {
+    requireWritable(a.output);
+    const study::Plan plan = study::makePlan(study::readManifest(a.manifest), a.o);
+    study::writePlan(plan, a.output);
+    const auto& first = plan.observers.front();
+    info(g, fmt::format("wrote {}: {} observer slots, {} images; each observer: calibration pair, {} Likert images "
+                        "(series of {}), {} 2AFC pairs (plan {})",
+                        a.output, plan.observers.size(), plan.images.size(), first.likertCount(),
+                        plan.options.seriesLength,
+                        first.trials.size() - 1 - static_cast<std::size_t>(first.likertCount()), plan.fingerprint));
+}
+
+void runServe(const ServeArgs& a, const Global& g) {
+    study::Plan plan = study::readPlan(a.plan);
+    const std::size_t slots = plan.observers.size();
+    // SIGINT/SIGTERM stop the server cleanly: they are blocked in every thread
+    // and one thread waits for them (no work inside a signal handler).
+    sigset_t stopSignals;
+    sigemptyset(&stopSignals);
+    sigaddset(&stopSignals, SIGINT);
+    sigaddset(&stopSignals, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &stopSignals, nullptr);
+    study::StudyServer server(std::move(plan), a.o);
+    std::thread waiter([&] {
+        int sig = 0;
+        sigwait(&stopSignals, &sig);
+        if (sig != 0) server.stop();
+    });
+    try {
+        server.run([&](int port) {
+            info(g, fmt::format("serving the study on http://{}:{}/ ({} observer slots, answers in {}); Ctrl-C stops",
+                                a.o.host, port, slots, a.o.db.string()));
+            std::fflush(stdout);
+        });
+    } catch (...) {
+        pthread_kill(waiter.native_handle(), SIGTERM);
+        waiter.join();
+        throw;
+    }
+    pthread_kill(waiter.native_handle(), SIGTERM);  // no-op if it already returned from sigwait
+    waiter.join();
+}
+
+void runAnalyze(const AnalyzeArgs& a, const Global& g) {
+    study::StudyData data = study::readStudyData(a.input);
+    if (!a.twoafc.empty()) data.choices = study::readTwoAfcCsv(a.twoafc);
+    const study::Analysis an = study::analyze(data);
+    study::writeReport(an, a.output, a.input);
+    for (const auto& w : an.warnings) warn(w);
+    for (const auto& gr : an.groups) {
+        std::string line = fmt::format("{}: {} observers", gr.group, gr.observers.size());
+        if (gr.friedman.result)
+            line += fmt::format(", Friedman chi2 = {:.3f} (df {}, p = {:.3g})", gr.friedman.result->chi2,
+                                gr.friedman.result->df, gr.friedman.result->p);
+        for (const auto& [c, r] : gr.roc) line += fmt::format(", AUC {} = {:.3f}", c, r.auc);
+        info(g, line);
+    }
+    info(g, fmt::format("wrote {}/stats.json, report.html, fig6_scores.svg, fig7_roc.svg", a.output));
+}
+
+void addStudyCommand(CLI::App& app, Global& g) {
+    CLI::App* study = app.add_subcommand("study", "Perceptual realism study: plan, serve in a browser, analyse");
+    study->require_subcommand(1);
+
+    auto p = std::make_shared<PlanArgs>();
+    CLI::App* plan = study->add_subcommand("plan", "Make a reproducible per-observer plan from an image manifest");
+    plan->footer("Example: mucosa study plan --manifest images.json -o study.json --observers 30 --seed 7");
+    plan->add_option("--manifest", p->manifest, "Image manifest (JSON: id, file, category 1-5, patient, pose)")
+        ->required();
+    plan->add_option("-o,--output", p->output, "Output plan (JSON)")->required();
+    plan->add_option("--observers", p->o.observers, "Observer slots to plan [30]")->check(CLI::Range(1, 100000));
+    plan->add_option("--seed", p->o.seed, "Random seed (same seed, same plan) [1]");
+    plan->add_option("--series", p->o.seriesLength, "Likert images per series; a pause screen between series [15]")
+        ->check(CLI::Range(1, 100000));
+    plan->add_option("--likert", p->o.likertLimit,
+                     "Likert images per observer, drawn evenly across categories; 0 = every image [0]")
+        ->check(CLI::NonNegativeNumber);
+    plan->add_option("--twoafc", p->o.twoafcPerComparison,
+                     "2AFC pairs per comparison (3 vs 4, 3 vs 5, 4 vs 5); 0 = no 2AFC [10]")
+        ->check(CLI::Range(0, 10000));
+    plan->callback([p, &g] { runPlan(*p, g); });
+
+    auto sv = std::make_shared<ServeArgs>();
+    CLI::App* serve = study->add_subcommand("serve", "Run the study in a browser; answers go to SQLite as given");
+    serve->footer("Example: mucosa study serve study.json --db answers.sqlite --port 8080\n"
+                  "Observers open http://HOST:PORT/, enter an id and group; reloading resumes.");
+    serve->add_option("plan", sv->plan, "Study plan from `mucosa study plan`")->required();
+    serve->add_option("--db", sv->o.db, "Answers database (SQLite; created if missing, resumed if present)")
+        ->required();
+    serve->add_option("--port", sv->o.port, "TCP port; 0 = any free port [8080]")->check(CLI::Range(0, 65535));
+    serve->add_option("--host", sv->o.host, "Address to listen on; 0.0.0.0 exposes it to the network [127.0.0.1]");
+    serve->add_option("--http-threads", sv->o.threads, "HTTP worker threads [64]")->check(CLI::Range(1, 1024));
+    serve->callback([sv, &g] { runServe(*sv, g); });
+
+    auto an = std::make_shared<AnalyzeArgs>();
+    CLI::App* analyze = study->add_subcommand("analyze", "Statistics, HTML report and figures from the answers");
+    analyze->alias("analyse");
+    analyze->footer("Example: mucosa study analyze answers.sqlite -o report/\n"
+                    "         mucosa study analyze ratings.csv --twoafc pairs.csv -o report/");
+    analyze->add_option("input", an->input, "answers.sqlite (from study serve) or ratings.csv")->required();
+    analyze->add_option("--twoafc", an->twoafc, "2AFC choices CSV (observer,group,left_category,right_category,"
+                                                "chosen_category); replaces the database's 2AFC answers");
+    analyze->add_option("-o,--output", an->output, "Report folder (stats.json, report.html, SVG figures)")
+        ->required();
+    analyze->callback([an, &g] { runAnalyze(*an, g); });
+}
+
+}  // namespace
+
+MUCOSA_REGISTER_COMMAND(90, addStudyCommand);
+
+}  // namespace mucosa::cli

@@ -1,0 +1,335 @@
+#include <mucosa/study/plan.hpp>
+
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+
+#include "rng.hpp"
+
+namespace mucosa::study {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr const char* kPlanFormat = "mucosa-study-plan";
+constexpr int kPlanVersion = 1;
+// The paper's 2AFC compares categories 3, 4 and 5 pairwise.
+constexpr std::pair<int, int> kComparisons[] = {{3, 4}, {3, 5}, {4, 5}};
+
+std::string scalarText(const json& v) {
+    if (v.is_string()) return v.get<std::string>();
+    if (v.is_number_integer()) return std::to_string(v.get<long long>());
+    return {};
+}
+
+bool validId(const std::string& s) {
+    return !s.empty() && s.size() <= 200 && std::none_of(s.begin(), s.end(), [](char c) {
+        return static_cast<unsigned char>(c) < 0x20;
+    });
+}
+
+std::uint64_t fnv1a(const std::string& s) {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    for (unsigned char c : s) {
+        h ^= c;
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
+json trialJson(const Trial& t) {
+    json j{{"kind", trialKindName(t.kind)}};
+    if (t.kind == TrialKind::Likert) {
+        j["image"] = t.image;
+    } else {
+        j["left"] = t.left;
+        j["right"] = t.right;
+    }
+    return j;
+}
+
+json imagesJson(const std::vector<Image>& images) {
+    json a = json::array();
+    for (const Image& im : images)
+        a.push_back({{"id", im.id}, {"file", im.file.string()}, {"category", im.category},
+                     {"patient", im.patient}, {"pose", im.pose}});
+    return a;
+}
+
+json observersJson(const std::vector<ObserverPlan>& observers) {
+    json a = json::array();
+    for (const ObserverPlan& o : observers) {
+        json t = json::array();
+        for (const Trial& tr : o.trials) t.push_back(trialJson(tr));
+        a.push_back({{"trials", std::move(t)}});
+    }
+    return a;
+}
+
+std::string fingerprintOf(const json& images, const json& observers) {
+    return fmt::format("{:016x}", fnv1a(images.dump() + "\n" + observers.dump()));
+}
+
+}  // namespace
+
+const char* trialKindName(TrialKind kind) {
+    switch (kind) {
+        case TrialKind::Calibration: return "calibration";
+        case TrialKind::Likert: return "likert";
+        case TrialKind::TwoAfc: return "twoafc";
+    }
+    return "?";
+}
+
+int ObserverPlan::likertCount() const {
+    return static_cast<int>(std::count_if(trials.begin(), trials.end(),
+                                          [](const Trial& t) { return t.kind == TrialKind::Likert; }));
+}
+
+std::vector<Image> readManifest(const fs::path& path) {
+    const std::string file = path.string();
+    json j;
+    try {
+        j = json::parse(readTextFile(path));
+    } catch (const json::parse_error& e) {
+        throw InputError("manifest", file, std::string("not valid JSON: ") + e.what());
+    }
+    const json* list = &j;
+    if (j.is_object()) {
+        if (!j.contains("images")) throw InputError("manifest", file, "has no \"images\" list");
+        list = &j["images"];
+    }
+    if (!list->is_array()) throw InputError("manifest", file, "\"images\" must be a list");
+    const fs::path base = fs::absolute(path).parent_path();
+    std::vector<Image> images;
+    std::set<std::string> ids;
+    for (std::size_t i = 0; i < list->size(); ++i) {
+        const json& e = (*list)[i];
+        const std::string where = fmt::format("image #{}", i + 1);
+        if (!e.is_object()) throw InputError("manifest", file, where + " is not an object");
+        Image im;
+        for (const char* key : {"id", "file", "category", "patient", "pose"})
+            if (!e.contains(key)) throw InputError("manifest", file, fmt::format("{} has no \"{}\"", where, key));
+        im.id = scalarText(e["id"]);
+        if (!validId(im.id)) throw InputError("manifest", file, where + ": \"id\" must be a non-empty string");
+        if (!ids.insert(im.id).second)
+            throw InputError("manifest", file, fmt::format("{}: id '{}' appears twice", where, im.id));
+        if (!e["file"].is_string() || e["file"].get<std::string>().empty())
+            throw InputError("manifest", file, fmt::format("image '{}': \"file\" must be a path", im.id));
+        im.file = fs::path(e["file"].get<std::string>());
+        if (im.file.is_relative()) im.file = base / im.file;
+        im.file = im.file.lexically_normal();
+        if (!e["category"].is_number_integer() || e["category"].get<long long>() < kMinCategory ||
+            e["category"].get<long long>() > kMaxCategory)
+            throw InputError("manifest", file,
+                             fmt::format("image '{}': \"category\" must be an integer 1-5 (got {})", im.id,
+                                         e["category"].dump()));
+        im.category = e["category"].get<int>();
+        im.patient = scalarText(e["patient"]);
+        im.pose = scalarText(e["pose"]);
+        if (im.patient.empty() || im.pose.empty())
+            throw InputError("manifest", file,
+                             fmt::format("image '{}': \"patient\" and \"pose\" must be strings or integers", im.id));
+        std::error_code ec;
+        if (!fs::is_regular_file(im.file, ec))
+            throw InputError("manifest", file, fmt::format("image '{}': file {} does not exist", im.id, im.file.string()));
+        images.push_back(std::move(im));
+    }
+    return images;
+}
+
+Plan makePlan(std::vector<Image> images, const PlanOptions& o) {
+    if (o.observers < 1 || o.observers > 100000) throw InputError("observers", "", "must be 1..100000");
+    if (o.seriesLength < 1) throw InputError("series length", "", "must be at least 1");
+    if (o.likertLimit < 0) throw InputError("Likert limit", "", "must be 0 (every image) or more");
+    if (o.twoafcPerComparison < 0 || o.twoafcPerComparison > 10000)
+        throw InputError("2AFC pairs", "", "must be 0..10000 per comparison");
+    if (images.empty()) throw InputError("manifest", "", "lists no images");
+
+    std::map<int, std::vector<int>> byCategory;
+    for (std::size_t i = 0; i < images.size(); ++i) byCategory[images[i].category].push_back(static_cast<int>(i));
+    for (int c = kMinCategory; c <= kMaxCategory; ++c)
+        if (byCategory[c].empty())
+            throw InputError("manifest", "",
+                             fmt::format("category {} has no images (the protocol rates categories 1-5 and "
+                                         "calibrates with a category 1 beside a category 5 image)",
+                                         c));
+    if (o.twoafcPerComparison > 0) {
+        for (auto [a, b] : kComparisons) {
+            std::set<std::string> poses;
+            for (int i : byCategory[a]) poses.insert(images[static_cast<std::size_t>(i)].viewKey());
+            for (int i : byCategory[b]) poses.insert(images[static_cast<std::size_t>(i)].viewKey());
+            if (poses.size() < 2)
+                throw InputError("manifest", "",
+                                 fmt::format("2AFC needs a category {} and a category {} image from different poses, "
+                                             "but all of them show one pose (use --twoafc 0 to skip 2AFC)",
+                                             a, b));
+        }
+    }
+
+    Plan plan;
+    plan.images = std::move(images);
+    plan.options = o;
+    detail::SplitMix64 root(o.seed);
+    for (int s = 0; s < o.observers; ++s) {
+        // Each observer's stream depends only on (seed, slot), so adding slots
+        // later leaves the earlier ones unchanged.
+        detail::SplitMix64 rng(root.next() ^ (0xD1B54A32D192ED03ull * static_cast<std::uint64_t>(s + 1)));
+        ObserverPlan op;
+        // Calibration: a category-1 image beside a category-5 one, of the same
+        // pose when there is one (the difference is then only realism).
+        Trial cal{TrialKind::Calibration};
+        const auto& c1 = byCategory[kMinCategory];
+        const auto& c5 = byCategory[kReferenceCategory];
+        cal.left = c1[rng.below(c1.size())];
+        std::vector<int> samePose;
+        for (int i : c5)
+            if (plan.images[static_cast<std::size_t>(i)].viewKey() == plan.images[static_cast<std::size_t>(cal.left)].viewKey())
+                samePose.push_back(i);
+        cal.right = samePose.empty() ? c5[rng.below(c5.size())] : samePose[rng.below(samePose.size())];
+        op.trials.push_back(cal);
+
+        // Likert: every image (or a limit, drawn evenly across categories), in random order.
+        std::vector<int> likert;
+        if (o.likertLimit == 0 || o.likertLimit >= static_cast<int>(plan.images.size())) {
+            for (std::size_t i = 0; i < plan.images.size(); ++i) likert.push_back(static_cast<int>(i));
+        } else {
+            std::vector<std::vector<int>> pools;
+            for (auto& [c, list] : byCategory) {
+                pools.push_back(list);
+                rng.shuffle(pools.back());
+            }
+            for (std::size_t round = 0; static_cast<int>(likert.size()) < o.likertLimit; ++round)
+                for (auto& pool : pools)
+                    if (round < pool.size() && static_cast<int>(likert.size()) < o.likertLimit)
+                        likert.push_back(pool[round]);
+        }
+        rng.shuffle(likert);
+        for (int i : likert) op.trials.push_back(Trial{TrialKind::Likert, i});
+
+        // 2AFC: per comparison, images of the lower category cycle in a shuffled
+        // order; the partner is drawn from the other category's other poses.
+        std::vector<Trial> afc;
+        for (auto [a, b] : kComparisons) {
+            std::vector<int> as = byCategory[a];
+            rng.shuffle(as);
+            std::size_t next = 0;
+            for (int m = 0; m < o.twoafcPerComparison; ++m) {
+                for (std::size_t tries = 0; tries < as.size(); ++tries) {
+                    const int ia = as[next++ % as.size()];
+                    std::vector<int> partners;
+                    for (int ib : byCategory[b])
+                        if (plan.images[static_cast<std::size_t>(ib)].viewKey() != plan.images[static_cast<std::size_t>(ia)].viewKey())
+                            partners.push_back(ib);
+                    if (partners.empty()) continue;
+                    const int ib = partners[rng.below(partners.size())];
+                    Trial t{TrialKind::TwoAfc};
+                    const bool swap = rng.coin();
+                    t.left = swap ? ib : ia;
+                    t.right = swap ? ia : ib;
+                    afc.push_back(t);
+                    break;
+                }
+            }
+        }
+        rng.shuffle(afc);
+        op.trials.insert(op.trials.end(), afc.begin(), afc.end());
+        plan.observers.push_back(std::move(op));
+    }
+    plan.fingerprint = fingerprintOf(imagesJson(plan.images), observersJson(plan.observers));
+    return plan;
+}
+
+void writePlan(const Plan& plan, const fs::path& path) {
+    const json images = imagesJson(plan.images), observers = observersJson(plan.observers);
+    json j{{"format", kPlanFormat},
+           {"version", kPlanVersion},
+           {"fingerprint", fingerprintOf(images, observers)},
+           {"options",
+            {{"observers", plan.options.observers},
+             {"seed", plan.options.seed},
+             {"series_length", plan.options.seriesLength},
+             {"likert_limit", plan.options.likertLimit},
+             {"twoafc_per_comparison", plan.options.twoafcPerComparison}}},
+           {"images", images},
+           {"observers", observers}};
+    writeFileAtomic(path, j.dump(1) + "\n");
+}
+
+Plan readPlan(const fs::path& path) {
+    const std::string file = path.string();
+    json j;
+    try {
+        j = json::parse(readTextFile(path));
+    } catch (const json::parse_error& e) {
+        throw InputError("plan", file, std::string("not valid JSON: ") + e.what());
+    }
+    try {
+        if (!j.is_object() || j.value("format", "") != kPlanFormat)
+            throw InputError("plan", file, "not a study plan (make one with `mucosa study plan`)");
+        if (j.value("version", 0) != kPlanVersion)
+            throw InputError("plan", file, fmt::format("unsupported plan version {}", j.value("version", 0)));
+        Plan plan;
+        const json& o = j.at("options");
+        plan.options.observers = o.at("observers").get<int>();
+        plan.options.seed = o.at("seed").get<std::uint64_t>();
+        plan.options.seriesLength = o.at("series_length").get<int>();
+        plan.options.likertLimit = o.at("likert_limit").get<int>();
+        plan.options.twoafcPerComparison = o.at("twoafc_per_comparison").get<int>();
+        for (const json& e : j.at("images")) {
+            Image im;
+            im.id = e.at("id").get<std::string>();
+            im.file = e.at("file").get<std::string>();
+            im.category = e.at("category").get<int>();
+            im.patient = e.at("patient").get<std::string>();
+            im.pose = e.at("pose").get<std::string>();
+            if (im.category < kMinCategory || im.category > kMaxCategory)
+                throw InputError("plan", file, fmt::format("image '{}' has category {}", im.id, im.category));
+            plan.images.push_back(std::move(im));
+        }
+        const int nImages = static_cast<int>(plan.images.size());
+        auto index = [&](const json& v) {
+            const int i = v.get<int>();
+            if (i < 0 || i >= nImages) throw InputError("plan", file, fmt::format("image index {} out of range", i));
+            return i;
+        };
+        for (const json& ob : j.at("observers")) {
+            ObserverPlan op;
+            for (const json& t : ob.at("trials")) {
+                Trial tr;
+                const std::string kind = t.at("kind").get<std::string>();
+                if (kind == "likert") {
+                    tr.kind = TrialKind::Likert;
+                    tr.image = index(t.at("image"));
+                } else if (kind == "calibration" || kind == "twoafc") {
+                    tr.kind = kind == "twoafc" ? TrialKind::TwoAfc : TrialKind::Calibration;
+                    tr.left = index(t.at("left"));
+                    tr.right = index(t.at("right"));
+                } else {
+                    throw InputError("plan", file, "unknown trial kind '" + kind + "'");
+                }
+                op.trials.push_back(tr);
+            }
+            if (op.trials.empty() || op.trials.front().kind != TrialKind::Calibration)
+                throw InputError("plan", file, "an observer's trials must start with the calibration pair");
+            plan.observers.push_back(std::move(op));
+        }
+        if (plan.observers.empty()) throw InputError("plan", file, "plans no observers");
+        plan.fingerprint = fingerprintOf(imagesJson(plan.images), observersJson(plan.observers));
+        if (j.value("fingerprint", "") != plan.fingerprint)
+            throw InputError("plan", file, "fingerprint does not match its content (the file was edited by hand?)");
+        return plan;
+    } catch (const json::exception& e) {
+        throw InputError("plan", file, std::string("malformed: ") + e.what());
+    }
+}
+
+}  // namespace mucosa::study

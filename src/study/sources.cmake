@@ -1,0 +1,35 @@
+# study: perceptual realism study kit (plan, web runner, statistics, report).
+find_package(SQLite3 REQUIRED)
+find_package(Boost 1.74 REQUIRED)  # Boost.Math is header-only: chi-squared, normal, binomial
+# Debian's cpp-httplib is the split build (declarations in httplib.h, code in
+# libcpp-httplib.so built with OpenSSL/zlib/brotli): its pkg-config flags must
+# be used as they are, or the class layouts would not match the library. We
+# serve plain HTTP on loopback; SSL is never used at run time.
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(CPP_HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
+
+# The web page, embedded into the library at build time.
+set(mucosa_study_web
+  ${CMAKE_CURRENT_LIST_DIR}/web/index.html
+  ${CMAKE_CURRENT_LIST_DIR}/web/app.js
+  ${CMAKE_CURRENT_LIST_DIR}/web/style.css)
+set(mucosa_study_web_cpp ${CMAKE_CURRENT_BINARY_DIR}/study/web_assets.cpp)
+add_custom_command(OUTPUT ${mucosa_study_web_cpp}
+  COMMAND ${CMAKE_COMMAND} -E make_directory ${CMAKE_CURRENT_BINARY_DIR}/study
+  COMMAND ${CMAKE_COMMAND} -DOUT=${mucosa_study_web_cpp} "-DFILES=${mucosa_study_web}"
+          -P ${CMAKE_CURRENT_LIST_DIR}/embed_web.cmake
+  DEPENDS ${mucosa_study_web} ${CMAKE_CURRENT_LIST_DIR}/embed_web.cmake
+  COMMENT "Embedding the study web page" VERBATIM)
+set_source_files_properties(${mucosa_study_web_cpp} PROPERTIES
+  INCLUDE_DIRECTORIES ${CMAKE_CURRENT_LIST_DIR})
+
+target_sources(mucosa PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/plan.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/stats.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/analysis.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/data_io.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/report.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/store.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/server.cpp
+  ${mucosa_study_web_cpp})
+target_link_libraries(mucosa PRIVATE SQLite::SQLite3 Boost::headers PkgConfig::CPP_HTTPLIB)

@@ -1,0 +1,123 @@
+#include <fstream>
+#include <map>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/study/plan.hpp>
+
+#include "test_support.hpp"
+
+namespace mucosa::study {
+namespace {
+
+// The paper's design: 5 categories x `patients` x `poses` images.
+std::vector<Image> paperImages(int patients = 5, int poses = 8) {
+    std::vector<Image> v;
+    for (int c = 1; c <= 5; ++c)
+        for (int p = 1; p <= patients; ++p)
+            for (int q = 1; q <= poses; ++q)
+                v.push_back(Image{"C" + std::to_string(c) + "_P" + std::to_string(p) + "_V" + std::to_string(q), "/dev/null", c, std::to_string(p), std::to_string(q)});
+    return v;
+}
+
+TEST(studyPlan, SameSeedSamePlanOtherSeedOtherPlan) {
+    PlanOptions o;
+    o.observers = 4;
+    o.seed = 42;
+    const Plan a = makePlan(paperImages(), o), b = makePlan(paperImages(), o);
+    EXPECT_EQ(a.fingerprint, b.fingerprint);
+    o.seed = 43;
+    EXPECT_NE(makePlan(paperImages(), o).fingerprint, a.fingerprint);
+}
+
+TEST(studyPlan, FollowsTheProtocol) {
+    PlanOptions o;
+    o.observers = 20;
+    o.twoafcPerComparison = 12;
+    const Plan plan = makePlan(paperImages(), o);
+    int leftHigher = 0, afcTotal = 0;
+    for (const ObserverPlan& op : plan.observers) {
+        ASSERT_EQ(op.trials.front().kind, TrialKind::Calibration);
+        EXPECT_EQ(plan.images[op.trials[0].left].category, 1);
+        EXPECT_EQ(plan.images[op.trials[0].right].category, 5);
+        std::multiset<int> likert;
+        std::map<std::pair<int, int>, int> comparisons;
+        bool seenAfc = false;
+        for (std::size_t i = 1; i < op.trials.size(); ++i) {
+            const Trial& t = op.trials[i];
+            ASSERT_NE(t.kind, TrialKind::Calibration);
+            if (t.kind == TrialKind::Likert) {
+                EXPECT_FALSE(seenAfc) << "Likert after 2AFC";
+                likert.insert(t.image);
+            } else {
+                seenAfc = true;
+                const Image &l = plan.images[t.left], &r = plan.images[t.right];
+                EXPECT_NE(l.viewKey(), r.viewKey()) << "2AFC pair from the same pose";
+                EXPECT_NE(l.category, r.category);
+                EXPECT_GE(std::min(l.category, r.category), 3);
+                ++comparisons[{std::min(l.category, r.category), std::max(l.category, r.category)}];
+                leftHigher += l.category > r.category;
+                ++afcTotal;
+            }
+        }
+        // Every image exactly once.
+        EXPECT_EQ(likert.size(), plan.images.size());
+        EXPECT_EQ(std::set<int>(likert.begin(), likert.end()).size(), plan.images.size());
+        EXPECT_EQ(comparisons.size(), 3u);
+        for (const auto& [k, n] : comparisons) EXPECT_EQ(n, 12);
+    }
+    // Left/right is randomised: 720 coin flips, far from all on one side.
+    EXPECT_GT(leftHigher, afcTotal * 0.4);
+    EXPECT_LT(leftHigher, afcTotal * 0.6);
+}
+
+TEST(studyPlan, LikertLimitDrawsEvenlyAcrossCategories) {
+    PlanOptions o;
+    o.observers = 2;
+    o.likertLimit = 15;
+    const Plan plan = makePlan(paperImages(), o);
+    std::map<int, int> perCategory;
+    for (const Trial& t : plan.observers[0].trials)
+        if (t.kind == TrialKind::Likert) ++perCategory[plan.images[t.image].category];
+    for (int c = 1; c <= 5; ++c) EXPECT_EQ(perCategory[c], 3);
+}
+
+TEST(studyPlan, RefusesManifestMissingACategory) {
+    auto images = paperImages();
+    std::erase_if(images, [](const Image& i) { return i.category == 4; });
+    try {
+        makePlan(images, {});
+        FAIL() << "accepted a manifest without category 4";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("category 4"), std::string::npos) << e.what();
+    }
+}
+
+TEST(studyPlan, RefusesTwoAfcWhenAllImagesShareOnePose) {
+    auto images = paperImages(1, 1);
+    EXPECT_THROW(makePlan(images, {}), InputError);
+    PlanOptions o;
+    o.twoafcPerComparison = 0;  // Likert only: fine
+    EXPECT_NO_THROW(makePlan(images, o));
+}
+
+TEST(studyPlan, WritesAndReadsBack) {
+    test::TempDir dir;
+    PlanOptions o;
+    o.observers = 3;
+    const Plan plan = makePlan(paperImages(2, 2), o);
+    writePlan(plan, dir / "study.json");
+    const Plan back = readPlan(dir / "study.json");
+    EXPECT_EQ(back.fingerprint, plan.fingerprint);
+    EXPECT_EQ(back.observers.size(), 3u);
+    // A hand-edited plan is refused rather than silently served.
+    std::string text = test::readBytes(dir / "study.json");
+    text.replace(text.find("\"likert\""), 8, "\"twoafc\"");
+    std::ofstream(dir / "edited.json") << text;
+    EXPECT_THROW(readPlan(dir / "edited.json"), InputError);
+}
+
+}  // namespace
+}  // namespace mucosa::study
