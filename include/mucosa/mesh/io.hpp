@@ -1,0 +1,74 @@
+#pragma once
+// Reading any mesh format Assimp understands into a Mesh (millimetres, good
+// normals), and writing glTF 2.0 (.glb/.gltf), PLY and OBJ.
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <mucosa/mesh/mesh.hpp>
+
+namespace mucosa::mesh {
+
+// The length unit of the coordinates in a file. glTF fixes metres; OBJ, PLY
+// and STL carry no unit, so Auto guesses from the size (see LoadInfo::unitReason).
+enum class Unit { Auto, Millimetres, Centimetres, Metres, Inches };
+
+// Parses "auto", "mm", "cm", "m", "in" (InputError otherwise).
+Unit parseUnit(const std::string& text);
+double millimetresPer(Unit unit) noexcept;  // 1, 10, 1000, 25.4 (Auto: 1)
+
+struct LoadOptions {
+    Unit unit = Unit::Auto;
+    // Non-finite coordinates are refused (InputError) unless this is set; then
+    // they are kept and counted (mucosa mesh info inspects broken files).
+    bool allowNonFinite = false;
+    // Compute angle-weighted normals where the file has none (or zero ones).
+    bool computeMissingNormals = true;
+};
+
+// What the importer found and did, for reports.
+struct LoadInfo {
+    std::string format;           // Assimp's importer ("glTF2 Importer", ...)
+    std::size_t fileBytes = 0;
+    std::size_t subMeshes = 0;    // triangle meshes merged into one
+    std::size_t droppedPrimitives = 0;  // points/lines ignored
+    double scaleToMillimetres = 1;
+    std::string unitReason;       // "glTF is in metres", "assumed millimetres: ..."
+    std::string upAxis;           // "+Y (glTF)" or "as stored in the file"
+    bool fileHadNormals = false, fileHadUvs = false, fileHadTangents = false;
+    std::size_t repairedNormals = 0;  // zero/non-finite normals recomputed
+    std::vector<std::string> warnings;
+};
+
+// Loads and merges every triangle mesh of the file (node transforms applied),
+// scaled to millimetres. UVs come out in OpenGL's convention (Assimp flips glTF's
+// v on import; nothing is flipped twice). Tangents, when the file has them,
+// keep the file's handedness w. Throws IoError (missing/unreadable) or
+// InputError (unsupported, no triangles, bad indices, non-finite values, sizes
+// that cannot be real) naming the file; refuses absurd sizes before allocating.
+Mesh load(const std::filesystem::path& path, const LoadOptions& options = {}, LoadInfo* info = nullptr);
+
+enum class FileFormat { Glb, Gltf, Ply, Obj };
+// From the extension (.glb, .gltf, .ply, .obj); InputError otherwise.
+FileFormat outputFormat(const std::filesystem::path& path);
+
+struct SaveOptions {
+    std::string name = "mucosa";  // node/mesh name in glTF, comment in PLY/OBJ
+};
+
+// Writes atomically (a temporary next to `path`, renamed when complete).
+// glTF: positions in metres (the format's unit), v flipped to glTF's top-left
+// origin, POSITION min/max, unit NORMAL, TANGENT xyz unit with w = +-1;
+// .gltf embeds its buffer as a base64 data URI (one file, one atomic rename).
+// PLY (binary little-endian) and OBJ: millimetres, OpenGL UVs.
+void save(const Mesh& mesh, const std::filesystem::path& path, const SaveOptions& options = {});
+void writeGltf(const Mesh& mesh, const std::filesystem::path& path, bool binary, const SaveOptions& options = {});
+void writePly(const Mesh& mesh, const std::filesystem::path& path, const SaveOptions& options = {});
+void writeObj(const Mesh& mesh, const std::filesystem::path& path, const SaveOptions& options = {});
+
+// Throws InputError if indices are out of range, the index count is not a
+// multiple of 3, or attribute arrays disagree in length with the positions.
+void validateIndices(const Mesh& mesh, const std::string& nameForErrors = {});
+
+}  // namespace mucosa::mesh

@@ -1,0 +1,25 @@
+#pragma once
+// Per-vertex tangent frames for normal/reflectance mapping (the paper's eq. 5,
+// Lengyel 2001), robust to mirrored UVs, seams and zero-UV-area triangles.
+#include <cstddef>
+
+#include <mucosa/mesh/mesh.hpp>
+
+namespace mucosa::mesh {
+
+struct TangentReport {
+    std::size_t degenerateUvTriangles = 0;  // |s1 t2 - s2 t1| ~ 0: contribute nothing
+    std::size_t fallbackVertices = 0;       // no usable dP/du: T from dP/dv or any unit vector _|_ N
+    std::size_t mirroredVertices = 0;       // w = -1
+};
+
+// Fills mesh.tangents (xyz unit, orthogonal to the normal, w = +-1 with
+// B = w cross(N, T) along +v). Per triangle T and B as Lengyel 2001 (eq. 5 of
+// the paper); per vertex the triangles' directions, projected on the vertex's
+// tangent plane and normalised, are summed weighted by the corner angle (as
+// MikkTSpace does, so the two agree), then Gram-Schmidt against N.
+// Never yields NaN or zero vectors. Needs normals and UVs (InputError otherwise).
+// threads: 0 = all hardware threads; the result does not depend on it.
+TangentReport computeTangents(Mesh& mesh, int threads = 0);
+
+}  // namespace mucosa::mesh

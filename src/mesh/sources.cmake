@@ -1,0 +1,16 @@
+# Mesh module: import (Assimp), repair, tangent frames, UVs, glTF/PLY/OBJ
+# output, the airway phantom.
+find_package(assimp CONFIG REQUIRED)
+target_sources(mucosa PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/adjacency.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/analysis.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/gltf_write.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/io.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/load.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/normals.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/obj_write.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/ply_write.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/repair.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/tangents.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/uv_stretch.cpp)
+target_link_libraries(mucosa PRIVATE assimp::assimp)

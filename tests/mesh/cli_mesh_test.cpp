@@ -1,0 +1,72 @@
+#include <fstream>
+#include <sstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include <mucosa/mesh/analysis.hpp>
+#include <mucosa/mesh/io.hpp>
+
+#include "mesh_test_util.hpp"
+
+namespace mucosa::test {
+namespace {
+
+// Progress lines may precede it; exactly one line is the error, and it is the last.
+void expectOneErrorLine(const std::string& err, const std::string& what) {
+    int errors = 0;
+    std::string last;
+    std::istringstream in(err);
+    for (std::string l; std::getline(in, l);) {
+        errors += l.rfind("error: ", 0) == 0 ? 1 : 0;
+        last = l;
+    }
+    EXPECT_EQ(errors, 1) << what << ": " << err;
+    EXPECT_EQ(last.rfind("error: ", 0), 0u) << what << ": " << err;
+}
+
+TEST(MeshCli, InfoReportsTheAirway) {
+    const auto r = runCli("mesh info '" + testdata("airway/vh_m_airway_lumen.obj").string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("x1000 to millimetres"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("triangles:     20696"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("boundary edges"), std::string::npos);
+    EXPECT_NE(r.out.find("non-manifold"), std::string::npos);
+}
+
+TEST(MeshCli, ConvertsFlipsAndWritesTangents) {
+    TempDir dir;
+    const auto r = runCli("mesh '" + testdata("gltf/NormalTangentTest.glb").string() + "' -o '" + (dir / "o.glb").string() +
+                          "' --flip --recompute-normals");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const Mesh m = mesh::load(dir / "o.glb");
+    EXPECT_TRUE(m.hasTangents());
+    EXPECT_EQ(mesh::analyse(m).badTangents, 0u);
+}
+
+TEST(MeshCli, BadInputsGiveOneErrorLineAndNoOutput) {
+    TempDir dir;
+    std::ofstream(dir / "nan.obj") << "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n";
+    std::ofstream(dir / "empty.obj") << "";
+    std::ofstream(dir / "range.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n";
+    std::ofstream(dir / "lines.obj") << "v 0 0 0\nv 1 0 0\nl 1 2\n";
+    std::ofstream(dir / "x.abcdef") << "v 0 0 0\n";
+    const std::string out = (dir / "out.glb").string();
+    for (const char* in : {"missing.obj", "nan.obj", "empty.obj", "range.obj", "lines.obj", "x.abcdef"}) {
+        const auto r = runCli("mesh '" + (dir / in).string() + "' -o '" + out + "'");
+        EXPECT_NE(r.exitCode, 0) << in;
+        expectOneErrorLine(r.err, in);
+        EXPECT_FALSE(std::filesystem::exists(out)) << in;
+    }
+    const auto bad = runCli("mesh '" + testdata("gltf/NormalTangentTest.glb").string() + "' -o '" + (dir / "o.fbx").string() + "'");
+    EXPECT_NE(bad.exitCode, 0);
+    expectOneErrorLine(bad.err, "fbx output");
+    const auto missingInfo = runCli("mesh info '" + (dir / "missing.ply").string() + "'");
+    EXPECT_NE(missingInfo.exitCode, 0);
+    expectOneErrorLine(missingInfo.err, "info");
+    // Nothing but the inputs is left in the directory (no temporaries).
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 5);
+}
+
+}  // namespace
+}  // namespace mucosa::test

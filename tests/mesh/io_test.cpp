@@ -1,0 +1,215 @@
+#include <cmath>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/mesh/analysis.hpp>
+#include <mucosa/mesh/io.hpp>
+#include <mucosa/mesh/tangents.hpp>
+
+#include "mesh_test_util.hpp"
+
+namespace mucosa::test {
+namespace {
+
+Mesh texturedAirway() {
+    Mesh m = mesh::load(testdata("gltf/NormalTangentMirrorTest.glb"));
+    return m;
+}
+
+// The Khronos validator's accessor rules, checked on our own output:
+// POSITION has min/max equal to the data, NORMAL unit, TANGENT xyz unit with
+// w = +-1, indices in range, views 4-byte aligned and inside the buffer.
+void checkGltfRules(const Glb& g, std::size_t expectVertices) {
+    const auto& j = g.json;
+    ASSERT_EQ(j["asset"]["version"], "2.0");
+    ASSERT_EQ(j["buffers"].size(), 1u);
+    ASSERT_EQ(j["buffers"][0]["byteLength"].get<std::size_t>(), g.bin.size());
+    for (const auto& v : j["bufferViews"]) {
+        EXPECT_EQ(v["byteOffset"].get<std::size_t>() % 4, 0u);
+        EXPECT_LE(v["byteOffset"].get<std::size_t>() + v["byteLength"].get<std::size_t>(), g.bin.size());
+    }
+    const auto& prim = j["meshes"][0]["primitives"][0];
+    const auto& attr = prim["attributes"];
+    for (const char* name : {"POSITION", "NORMAL", "TEXCOORD_0", "TANGENT"}) ASSERT_TRUE(attr.contains(name)) << name;
+    for (const auto& [name, a] : attr.items()) EXPECT_EQ(j["accessors"][a.get<int>()]["count"].get<std::size_t>(), expectVertices);
+
+    const int pa = attr["POSITION"];
+    const auto P = accessorFloats(g, pa);
+    const auto& acc = j["accessors"][pa];
+    ASSERT_TRUE(acc.contains("min") && acc.contains("max"));
+    for (int k = 0; k < 3; ++k) {
+        float lo = INFINITY, hi = -INFINITY;
+        for (std::size_t v = 0; v < expectVertices; ++v) lo = std::min(lo, P[3 * v + k]), hi = std::max(hi, P[3 * v + k]);
+        EXPECT_EQ(acc["min"][k].get<float>(), lo);
+        EXPECT_EQ(acc["max"][k].get<float>(), hi);
+    }
+    const auto N = accessorFloats(g, attr["NORMAL"]);
+    for (std::size_t v = 0; v < expectVertices; ++v) {
+        const double l = std::sqrt(double(N[3 * v]) * N[3 * v] + double(N[3 * v + 1]) * N[3 * v + 1] +
+                                   double(N[3 * v + 2]) * N[3 * v + 2]);
+        ASSERT_NEAR(l, 1.0, 5e-4) << "normal " << v;
+    }
+    const auto T = accessorFloats(g, attr["TANGENT"]);
+    for (std::size_t v = 0; v < expectVertices; ++v) {
+        const double l = std::sqrt(double(T[4 * v]) * T[4 * v] + double(T[4 * v + 1]) * T[4 * v + 1] +
+                                   double(T[4 * v + 2]) * T[4 * v + 2]);
+        ASSERT_NEAR(l, 1.0, 5e-4) << "tangent " << v;
+        ASSERT_TRUE(T[4 * v + 3] == 1.0f || T[4 * v + 3] == -1.0f) << "tangent w " << v;
+    }
+    const auto& ia = j["accessors"][prim["indices"].get<int>()];
+    const auto& iv = j["bufferViews"][ia["bufferView"].get<int>()];
+    const std::size_t count = ia["count"];
+    ASSERT_EQ(count % 3, 0u);
+    for (std::size_t i = 0; i < count; ++i) {
+        std::uint32_t idx = 0;
+        const std::size_t at = iv["byteOffset"].get<std::size_t>();
+        if (ia["componentType"] == 5123) {
+            std::uint16_t s;
+            std::memcpy(&s, g.bin.data() + at + 2 * i, 2);
+            idx = s;
+        } else {
+            ASSERT_EQ(ia["componentType"], 5125);
+            std::memcpy(&idx, g.bin.data() + at + 4 * i, 4);
+        }
+        ASSERT_LT(idx, expectVertices);
+    }
+    EXPECT_EQ(prim.value("mode", 4), 4);
+}
+
+TEST(MeshIo, GlbOutputFollowsAccessorRules) {
+    TempDir dir;
+    const Mesh m = texturedAirway();
+    mesh::save(m, dir / "out.glb");
+    const Glb g = parseGlb(readBytes(dir / "out.glb"));
+    checkGltfRules(g, m.vertexCount());
+}
+
+TEST(MeshIo, GltfEmbedsBufferAndFollowsRules) {
+    TempDir dir;
+    Mesh m = mesh::load(testdata("gltf/NormalTangentTest.glb"));
+    mesh::computeTangents(m);
+    mesh::save(m, dir / "out.gltf");
+    Glb g;
+    g.json = nlohmann::json::parse(readBytes(dir / "out.gltf"));
+    const std::string uri = g.json["buffers"][0]["uri"];
+    const std::string prefix = "data:application/octet-stream;base64,";
+    ASSERT_EQ(uri.rfind(prefix, 0), 0u);
+    // Decode base64.
+    std::string b64 = uri.substr(prefix.size());
+    auto val = [](char c) -> int {
+        if (c >= 'A' && c <= 'Z') return c - 'A';
+        if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+        if (c >= '0' && c <= '9') return c - '0' + 52;
+        return c == '+' ? 62 : 63;
+    };
+    for (std::size_t i = 0; i + 3 < b64.size(); i += 4) {
+        const int a = val(b64[i]), b = val(b64[i + 1]);
+        g.bin += static_cast<char>(a << 2 | b >> 4);
+        if (b64[i + 2] != '=') g.bin += static_cast<char>((b & 15) << 4 | val(b64[i + 2]) >> 2);
+        if (b64[i + 3] != '=') g.bin += static_cast<char>((val(b64[i + 2]) & 3) << 6 | val(b64[i + 3]));
+    }
+    checkGltfRules(g, m.vertexCount());
+    // And it reads back.
+    const Mesh back = mesh::load(dir / "out.gltf");
+    EXPECT_EQ(back.triangleCount(), m.triangleCount());
+}
+
+// Write -> read back keeps every corner's attributes (glTF: through metres and
+// the v flip; PLY/OBJ: millimetres).
+void expectRoundTrip(const Mesh& a, const Mesh& b, bool tangents) {
+    ASSERT_EQ(a.triangleCount(), b.triangleCount());
+    for (std::size_t c = 0; c < a.indices.size(); ++c) {
+        const auto i = a.indices[c], j = b.indices[c];
+        for (int k = 0; k < 3; ++k) ASSERT_NEAR(a.positions[i][k], b.positions[j][k], 1e-4f * (1 + std::abs(a.positions[i][k])));
+        for (int k = 0; k < 3; ++k) ASSERT_NEAR(a.normals[i][k], b.normals[j][k], 1e-5f);
+        for (int k = 0; k < 2; ++k) ASSERT_NEAR(a.uvs[i][k], b.uvs[j][k], 1e-6f) << "corner " << c;
+        if (tangents) {
+            for (int k = 0; k < 4; ++k) ASSERT_NEAR(a.tangents[i][k], b.tangents[j][k], 1e-5f) << "corner " << c;
+        }
+    }
+}
+
+TEST(MeshIo, RoundTripsGlbPlyObj) {
+    TempDir dir;
+    const Mesh m = texturedAirway();
+    for (const char* name : {"rt.glb", "rt.gltf", "rt.ply", "rt.obj"}) {
+        mesh::save(m, dir / name);
+        mesh::LoadOptions o;
+        o.unit = mesh::Unit::Auto;
+        const Mesh back = mesh::load(dir / name, o);
+        SCOPED_TRACE(name);
+        expectRoundTrip(m, back, std::string(name).find(".gl") != std::string::npos);
+    }
+}
+
+TEST(MeshIo, AirwayLoadsInMillimetres) {
+    mesh::LoadInfo info;
+    const Mesh m = mesh::load(testdata("airway/vh_m_airway_lumen.obj"), {}, &info);
+    EXPECT_EQ(info.scaleToMillimetres, 1000.0);
+    const auto r = mesh::analyse(m);
+    // Trachea + main bronchi: about 156 mm tall (the stats file: 0.1563 m).
+    EXPECT_NEAR(r.boundsMax[1] - r.boundsMin[1], 156.3, 0.1);
+    EXPECT_TRUE(m.hasNormals());
+    EXPECT_EQ(r.badNormals, 0u);
+    EXPECT_EQ(r.nonManifoldEdges, 0u);
+    EXPECT_GT(r.signedVolume, 0) << "normals point out of the lumen in this file";
+}
+
+void writeText(const std::filesystem::path& p, const std::string& s) {
+    std::ofstream(p, std::ios::binary) << s;
+}
+
+TEST(MeshIo, BadInputsThrowTypedErrors) {
+    TempDir dir;
+    EXPECT_THROW(mesh::load(dir / "missing.obj"), IoError);
+    writeText(dir / "x.xyzzy", "hello");
+    EXPECT_THROW(mesh::load(dir / "x.xyzzy"), InputError);
+    writeText(dir / "empty.obj", "");
+    EXPECT_THROW(mesh::load(dir / "empty.obj"), InputError);
+    writeText(dir / "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    EXPECT_THROW(mesh::load(dir / "points.obj"), InputError);
+    writeText(dir / "nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+    EXPECT_THROW(mesh::load(dir / "nan.obj"), InputError);
+    writeText(dir / "range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+    EXPECT_THROW(mesh::load(dir / "range.obj"), InputError);
+    // A PLY header that promises four billion vertices: refused before allocating.
+    writeText(dir / "huge.ply",
+              "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    EXPECT_THROW(mesh::load(dir / "huge.ply"), InputError);
+    // A binary STL whose count disagrees with its size.
+    std::string stl(84, '\0');
+    const std::uint32_t count = 1000000000;
+    std::memcpy(stl.data() + 80, &count, 4);
+    writeText(dir / "huge.stl", stl);
+    EXPECT_THROW(mesh::load(dir / "huge.stl"), InputError);
+}
+
+TEST(MeshIo, WriterRefusesBadMeshesAndLeavesNoFile) {
+    TempDir dir;
+    Mesh m = grid(2);
+    m.indices.push_back(99);
+    m.indices.push_back(0);
+    m.indices.push_back(1);
+    EXPECT_THROW(mesh::save(m, dir / "bad.glb"), InputError);
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.glb"));
+    EXPECT_THROW(mesh::save(grid(2), dir / "bad.fbx"), InputError);
+    EXPECT_THROW(mesh::save(grid(2), dir / "no" / "dir.glb"), IoError);
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 0);
+}
+
+TEST(MeshIo, StlAndPlyImportGetNormals) {
+    TempDir dir;
+    writeText(dir / "tri.stl",
+              "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 10 0 0\nvertex 0 10 0\nendloop\nendfacet\n"
+              "endsolid t\n");
+    const Mesh m = mesh::load(dir / "tri.stl");
+    ASSERT_EQ(m.triangleCount(), 1u);
+    ASSERT_TRUE(m.hasNormals());
+    EXPECT_NEAR(m.normals[0][2], 1.0f, 1e-6f);
+}
+
+}  // namespace
+}  // namespace mucosa::test
