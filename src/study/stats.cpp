@@ -206,11 +206,16 @@ std::optional<MannWhitneyResult> mannWhitney(std::span<const double> a, std::spa
     forEachTieGroup(all, [&](double t) { tie += t * t * t - t; });
     const double s = std::sqrt(n1 * n2 / 12 * ((n + 1) - tie / (n * (n - 1))));
     if (!(s > 0)) {
-        setWhy(why, "all values are tied");
-        return std::nullopt;
+        // Every value tied: no evidence of a difference. SciPy's formula gives
+        // z = -0.5 / 0 = -inf and clips p to 1; we report z = 0 and p = 1.
+        r.z = 0;
+        r.p = 1;
+        return r;
     }
     r.z = (u - n1 * n2 / 2 - 0.5) / s;
-    r.p = twoSidedNormalP(r.z);
+    // 2 sf(z) with the sign kept: when U1 = U2 the continuity correction makes
+    // z slightly negative and p clips to 1, as in SciPy.
+    r.p = std::min(1.0, std::erfc(r.z / std::sqrt(2.0)));
     return r;
 }
 

@@ -77,9 +77,12 @@ TEST(studyStats, BinomialTwoSidedIsTwiceTheSmallTail) {
     EXPECT_EQ(binomialTest(7, 7).ciHigh, 1.0);
 }
 
-TEST(studyStats, MannWhitneyAllTiedIsUndefined) {
+TEST(studyStats, MannWhitneyAllTiedGivesPOneAndEmptyIsUndefined) {
     const std::vector<double> a{3, 3}, b{3, 3, 3};
-    EXPECT_FALSE(mannWhitney(a, b));
+    const auto m = mannWhitney(a, b);  // as scipy.stats.mannwhitneyu: U = n1 n2 / 2, p = 1
+    ASSERT_TRUE(m);
+    EXPECT_EQ(m->U, 3.0);
+    EXPECT_EQ(m->p, 1.0);
     EXPECT_FALSE(mannWhitney(a, {}));
 }
 

@@ -38,7 +38,8 @@ std::optional<WilcoxonResult> wilcoxonSignedRank(std::span<const double> x, std:
 
 // Mann & Whitney 1947, U of the first sample, two-sided normal approximation
 // with tie correction and continuity correction: scipy.stats.mannwhitneyu(a, b,
-// alternative='two-sided', method='asymptotic', use_continuity=True).
+// alternative='two-sided', method='asymptotic', use_continuity=True). When
+// every value is tied: U = n1 n2 / 2, z = 0, p = 1 (SciPy: p = 1 too).
 struct MannWhitneyResult {
     int n1 = 0, n2 = 0;
     double U = 0, z = 0, p = 1;

@@ -1,0 +1,143 @@
+"""`mucosa study serve` over HTTP: resume, idempotence, refusals, SIGKILL.
+
+Usage: server_api_test.py MUCOSA_CLI WORK_DIR
+"""
+import json
+import os
+import random
+import shutil
+import sqlite3
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import study_fixture as fx  # noqa: E402
+
+cli, work = sys.argv[1], sys.argv[2]
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
+plan_path, plan = fx.make_plan(cli, work, observers=3, extra=("--likert", "8", "--series", "4", "--twoafc", "2"))
+db = os.path.join(work, "answers.sqlite")
+failures = []
+
+
+def check(cond, what):
+    print(("ok   " if cond else "FAIL ") + what)
+    if not cond:
+        failures.append(what)
+
+
+def answer_for(trial, rng):
+    return {"calibration": "seen", "likert": rng.randint(1, 5), "twoafc": rng.choice(["left", "right"])}[trial["kind"]]
+
+
+rng = random.Random(5)
+srv = fx.Server(cli, plan_path, db)
+try:
+    B = srv.base
+    # --- sessions
+    s, st = fx.request(B, "POST", "/api/session", {"observer": "N01", "group": "naive"})
+    check(s == 200 and st["trial"] == 0 and st["screen"]["kind"] == "calibration", "new observer starts at calibration")
+    check("category" not in json.dumps(st) and "C1_" not in json.dumps(st), "screens never reveal categories or ids")
+    s, _ = fx.request(B, "POST", "/api/session", {"observer": "N01", "group": "expert"})
+    check(s == 409, "same id, other group -> 409")
+    for bad in ({"observer": "", "group": "naive"}, {"observer": "a b", "group": "naive"},
+                {"observer": "x" * 65, "group": "naive"}, {"observer": "N02", "group": "student"},
+                {"observer": 7, "group": "naive"}, {"group": "naive"}):
+        s, _ = fx.request(B, "POST", "/api/session", bad)
+        check(s == 400, f"bad session {bad!r:.40} -> 400")
+    # --- answers
+    trials = plan["observers"][0]["trials"]
+    given = []
+    s, _ = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": 0, "answer": 3})
+    check(s == 400, "calibration answered with a score -> 400")
+    s, _ = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": 1, "answer": 3})
+    check(s == 409, "answer to a later screen -> 409 (nothing skipped)")
+    s, _ = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": 99, "answer": 3})
+    check(s == 400, "trial outside the plan -> 400")
+    s, _ = fx.request(B, "POST", "/api/answer", {"observer": "ghost", "trial": 0, "answer": "seen"})
+    check(s == 404, "unknown observer -> 404")
+    for i in range(4):
+        a = answer_for(trials[i], rng)
+        s, st = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": i, "answer": a,
+                                                     "shown_at_ms": 1700000000000, "answered_at_ms": 1700000001234})
+        check(s == 200 and st["trial"] == i + 1, f"answer {i} stored, next screen {i + 1}")
+        given.append(a)
+    s, st = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": 3, "answer": given[3]})
+    check(s == 200 and st["trial"] == 4, "the same answer resent (lost reply) -> 200, stored once")
+    other = 1 + (given[3] % 5) if trials[3]["kind"] == "likert" else "seen"
+    s, _ = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": 3, "answer": other})
+    check(s == 409, "a different answer to an answered screen -> 409, first answer kept")
+    nxt = trials[4]
+    s, _ = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": 4, "answer": 6 if nxt["kind"] == "likert" else "up"})
+    check(s == 400, "out-of-range answer -> 400")
+    # --- malformed requests
+    for raw, code, what in ((b"{bad json", 400, "malformed JSON"), (b"[1,2]", 400, "JSON array"),
+                            (b"x" * 100000, 413, "oversized body")):
+        s, _ = fx.request(B, "POST", "/api/answer", raw=raw)
+        check(s == code, f"{what} -> {code} (got {s})")
+    for path in ("/image/../../../etc/passwd", "/image/%2e%2e%2fstudy.json", "/image/-1", "/image/1e3",
+                 "/image/99999999999", "/study.json", "/answers.sqlite", "/../study.json", "/api/state",
+                 "/api/state?observer=../x", "/nope"):
+        s, body = fx.request(B, "GET", path)
+        check(400 <= s < 500 and b"root:" not in (body if isinstance(body, bytes) else b""), f"GET {path} -> {s}")
+    s, body = fx.request(B, "GET", "/image/0")
+    with open(os.path.join(work, plan["images"][0]["file"]), "rb") as f:
+        check(s == 200 and body == f.read(), "GET /image/0 serves the plan's first image")
+    s, _ = fx.request(B, "GET", "/")
+    check(s == 200, "GET / serves the page")
+    # --- slots
+    for i, g in ((2, "expert"), (3, "naive")):
+        s, st = fx.request(B, "POST", "/api/session", {"observer": f"X{i}", "group": g})
+        check(s == 200, f"observer X{i} gets a slot")
+    s, st = fx.request(B, "POST", "/api/session", {"observer": "X4", "group": "naive"})
+    check(s == 409 and "slots" in st["error"], "a 4th observer on a 3-slot plan -> 409 naming the slots")
+
+    # --- SIGKILL mid-study: nothing acknowledged is lost, nothing asked twice
+    srv.kill()
+    port = B.rsplit(":", 1)[1]
+    srv = fx.Server(cli, plan_path, db)
+    B = srv.base
+    s, st = fx.request(B, "GET", "/api/state?observer=N01")
+    check(s == 200 and st["trial"] == 4, f"after SIGKILL and restart N01 resumes at screen 4 (got {st.get('trial')})")
+    for i in range(4, len(trials)):
+        a = answer_for(trials[i], rng)
+        s, st = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": i, "answer": a})
+        check(s == 200, f"answer {i} after restart")
+        given.append(a)
+    check(st["done"] is True and "screen" not in st, "observer done after the last screen")
+    s, _ = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": len(trials), "answer": 3})
+    check(s == 400, "answer after the end -> 400")
+finally:
+    code = srv.stop()
+check(code == 0, f"SIGTERM stops the server cleanly (exit {code})")
+
+rows = fx.db_rows(db, "N01")
+check(rows == fx.expected_rows(plan, 0, given), "database holds exactly the answers given, in order, once each")
+con = sqlite3.connect(db)
+check(con.execute("PRAGMA journal_mode").fetchone()[0] == "wal", "database is in WAL mode")
+t = con.execute("SELECT shown_at_ms, answered_at_ms, received_at FROM answers WHERE observer='N01' AND trial=1").fetchone()
+check(t[0] == 1700000000000 and t[1] == 1700000001234 and t[2].endswith("Z"), "timestamps stored")
+con.close()
+
+# A database made for another plan is refused with one error line.
+other_plan = os.path.join(work, "other.json")
+fx.run(cli, "study", "plan", "--manifest", os.path.join(work, "images.json"), "-o", other_plan, "--seed", "99")
+r = fx.run(cli, "study", "serve", other_plan, "--db", db, "--port", "0", check=False)
+check(r.returncode != 0 and r.stderr.startswith("error: ") and r.stderr.count("\n") == 1 and "another plan" in r.stderr,
+      "serving another plan's database is refused: " + r.stderr.strip())
+
+# The database analyses directly.
+r = fx.run(cli, "study", "analyze", db, "-o", os.path.join(work, "report"), check=False)
+ok = r.returncode == 0
+if ok:
+    with open(os.path.join(work, "report", "stats.json")) as f:
+        stats = json.load(f)
+    n = sum(c["n_ratings"] for c in stats["all"]["categories"].values())
+    ok = n == sum(1 for t in trials if t["kind"] == "likert") and stats["all"]["observers"] == ["N01"]
+check(ok, "analyze reads the database: every Likert answer, the right observer " + r.stderr.strip()[:200])
+
+if failures:
+    print(f"{len(failures)} check(s) failed")
+    sys.exit(1)
+print("all server checks passed")
