@@ -1,0 +1,46 @@
+#pragma once
+// The real-time renderer: one GLSL program per shading mode (all compiled up
+// front, so switching modes costs nothing), the mesh in one vertex buffer,
+// textures uploaded once. Works in any current OpenGL 3.3 core context
+// (HeadlessContext or a GLFW window).
+#include <memory>
+
+#include <mucosa/image/image.hpp>
+#include <mucosa/mesh/mesh.hpp>
+#include <mucosa/shading/reference.hpp>
+
+namespace mucosa::render {
+
+enum class TextureSlot { Diffuse, Reflectance, Highlight };
+
+// Size of the automatically generated multitexture highlight texture.
+inline constexpr int kHighlightTextureSize = 256;
+
+class Renderer {
+public:
+    Renderer();  // needs a current context; throws GraphicsError if a shader fails
+    ~Renderer();
+    Renderer(const Renderer&) = delete;
+    Renderer& operator=(const Renderer&) = delete;
+
+    // Uploads positions, normals, tangents, uvs (all required: throws
+    // InputError("mesh", ...) naming what is missing).
+    void setMesh(const mesh::Mesh& mesh);
+    // Uploads an image (rows in file order: first row at v = 1). Without a
+    // Highlight texture the renderer makes one from the current shininess
+    // (shading::highlightSphereMap(kHighlightTextureSize, shininess)).
+    void setTexture(TextureSlot slot, const image::Image8& img, shading::Filter filter, shading::Wrap wrap);
+    void clearTexture(TextureSlot slot);  // back to the default (white / flat / generated)
+
+    // Clears the bound framebuffer to black and draws the mesh; the viewport
+    // must already be set (Framebuffer::bind does).
+    void draw(const shading::FrameSetup& frame);
+
+    std::size_t triangleCount() const noexcept;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mucosa::render

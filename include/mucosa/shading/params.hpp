@@ -1,0 +1,98 @@
+#pragma once
+// The one parameter registry (STYLE.md, "One parameter registry"): every
+// material, BRDF and light parameter of the shading model is declared once,
+// with its name, default, range, unit, description and whether the fit can
+// estimate it. Scene parsing, CLI help, the viewer's sliders and the fit
+// vectors all read this table. See docs/theory.md, "Shading model".
+#include <array>
+#include <cstddef>
+#include <span>
+#include <string>
+#include <string_view>
+
+namespace mucosa::shading {
+
+// Shading modes, selectable at run time (same order as kMode* in
+// shaders/common_shading.glsl).
+enum class Mode : int {
+    Noise = 0,         // the paper's method
+    VertexPhong = 1,   // baseline 1
+    Multitexture = 2,  // baseline 2
+    Diffuse = 3,       // no specular (Category 3)
+    Normals = 4,       // debug views
+    Tangents = 5,
+    Uv = 6,
+    Depth = 7,
+};
+inline constexpr int kModeCount = 8;
+
+std::string_view modeName(Mode m) noexcept;                  // "noise", "vertex-phong", ...
+std::string_view modeDescription(Mode m) noexcept;
+// Throws InputError(field, file, ...) listing the known names.
+Mode parseMode(std::string_view name, const std::string& field = "mode", const std::string& file = "");
+std::string modeList();  // "noise, vertex-phong, ..."
+
+enum class Param : int {
+    BaseColor,
+    MucusColor,
+    MucusOpacity,
+    SpecularStrength,
+    Shininess,
+    BumpScale,
+    MapTiling,
+    Ambient,
+    C0,
+    C1,
+    C2,
+    C3,
+    D1,
+    D2,
+    D3,
+    DepthMin,
+    DepthMax,
+    LightIntensity,
+    LightRange,
+};
+inline constexpr std::size_t kParamCount = 19;
+
+struct ParamInfo {
+    Param id;
+    std::string_view name;         // scene-file key and viewer label, snake_case
+    std::string_view group;        // scene-file object: "material", "brdf" or "light"
+    int components;                // 1 (scalar) or 3 (RGB colour)
+    std::array<float, 3> defaults;  // scalars use [0]
+    float min, max;                // inclusive range of every component
+    std::string_view unit;         // "", "mm", "1/uv", ...
+    std::string_view description;
+    bool fittable;                 // estimated by the BRDF fit (paper eq. 8-11)
+};
+
+// The registry, in Param order.
+std::span<const ParamInfo> registry() noexcept;
+const ParamInfo& info(Param p) noexcept;
+// nullptr if unknown.
+const ParamInfo* findParam(std::string_view name) noexcept;
+
+// Values of every registered parameter. Starts at the defaults.
+class ParamSet {
+public:
+    ParamSet();
+    float operator[](Param p) const noexcept { return values_[static_cast<std::size_t>(p)][0]; }
+    const std::array<float, 3>& color(Param p) const noexcept { return values_[static_cast<std::size_t>(p)]; }
+    // Throws InputError(field, file, why) if out of range or not finite;
+    // `field` defaults to "<group>.<name>".
+    void set(Param p, float v, const std::string& file = "", const std::string& field = "");
+    void setColor(Param p, const std::array<float, 3>& rgb, const std::string& file = "",
+                  const std::string& field = "");
+    // For the viewer's sliders: direct access, caller keeps values in range.
+    float* data(Param p) noexcept { return values_[static_cast<std::size_t>(p)].data(); }
+    bool operator==(const ParamSet&) const = default;
+
+private:
+    std::array<std::array<float, 3>, kParamCount> values_{};
+};
+
+// One line per parameter for --help: "name (unit, min..max, default d): description".
+std::string registryHelp();
+
+}  // namespace mucosa::shading

@@ -1,0 +1,69 @@
+#pragma once
+// The C++ reference of the shading model: the same functions as the GLSL
+// (both are shaders/common_shading.glsl), driven by a small software
+// rasteriser that follows OpenGL's rules (pixel centres, perspective-correct
+// interpolation, clipping to the near and far planes, depth test LESS). The
+// parity test compares it with the GPU path pixel by pixel.
+#include <array>
+
+#include <mucosa/image/image.hpp>
+#include <mucosa/mesh/mesh.hpp>
+#include <mucosa/shading/params.hpp>
+
+namespace mucosa::shading {
+
+// 4x4 matrix, column-major (OpenGL's layout): m[col * 4 + row].
+using Mat4 = std::array<float, 16>;
+
+// Everything a frame needs besides the mesh and the textures; the GL renderer
+// (render::Renderer::draw) takes the same struct.
+struct FrameSetup {
+    Mat4 view{};        // world -> eye (rigid)
+    Mat4 projection{};  // eye -> clip
+    std::array<float, 3> eye{};    // camera position, world mm
+    std::array<float, 3> light{};  // point light position, world mm
+    // +1: lit side = the side the normals face; -1: the other side (a mesh
+    // whose normals point out of the airway, seen from inside).
+    float normalSign = 1.0f;
+    Mode mode = Mode::Noise;
+    ParamSet params;
+    int width = 640, height = 480;
+};
+
+enum class Filter {
+    Nearest,    // GL_NEAREST
+    Linear,     // GL_LINEAR, no mipmaps
+    Trilinear,  // GL_LINEAR_MIPMAP_LINEAR (GL only; the reference samples it as Linear)
+};
+enum class Wrap { Repeat, Clamp };
+
+// A texture as both renderers see it. Image rows are in file order: the first
+// row is the top of the picture, v = 1 (docs/theory.md, "Conventions"); the GL
+// renderer uploads rows bottom-up to match.
+struct TextureView {
+    const image::Image8* image = nullptr;  // 1-4 channels; nullptr = the default below
+    Filter filter = Filter::Linear;
+    Wrap wrap = Wrap::Repeat;
+};
+
+struct Textures {
+    TextureView diffuse;      // default: white
+    TextureView reflectance;  // default: flat, rgb = (0.5, 0.5, 1)
+    TextureView highlight;    // default: black (no highlight)
+};
+
+// RGB of `t` at texture coordinates (u, v), as OpenGL samples it
+// (Nearest/Linear), in [0, 1].
+std::array<float, 3> sampleTexture(const TextureView& t, float u, float v, std::array<float, 3> fallback) noexcept;
+
+// The multitexture baseline's highlight texture: a GL_SPHERE_MAP image (1
+// channel) of the Phong lobe (R . L)^n for a light at the eye. Row order as
+// files (first row = t = 1).
+image::Image8 highlightSphereMap(int size, float shininess);
+
+// Renders `mesh` (positions, normals, uvs, tangents all present) into an RGB8
+// image, first row = top, background black. Throws InputError if the mesh
+// lacks an attribute.
+image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures);
+
+}  // namespace mucosa::shading

@@ -1,0 +1,217 @@
+// common_shading.glsl: Mucosa's shading model, written once.
+//
+// This file is compiled twice: as GLSL 3.30 (prepended to every surface_*
+// shader by the renderer) and as C++20 with glm (src/shading/glsl.hpp includes
+// it inside namespace mucosa::shading::glsl). So the GPU and the C++ reference
+// share names, constants and the order of operations by construction
+// (STYLE.md, "CPU and GPU agree by construction"). Keep to the subset both
+// languages accept: float literals with an f suffix, no swizzles (use vec3(v)
+// and .x/.y/.z), no in/out/inout parameters, no overloading on qualifiers.
+// Notation follows docs/theory.md, "Shading model".
+
+// Shading modes (render::Mode, the --mode names, in this order).
+const int kModeNoise = 0;          // the paper's method: per-pixel specular from the reflectance map
+const int kModeVertexPhong = 1;    // baseline 1: per-vertex Phong, Gouraud-interpolated
+const int kModeMultitexture = 2;   // baseline 2: per-vertex light x texture + sphere-mapped highlight texture
+const int kModeDiffuse = 3;        // no specular (the paper's Category 3)
+const int kModeNormals = 4;        // debug: perturbed normal in world space, 0.5 N + 0.5
+const int kModeTangents = 5;       // debug: tangent T in world space, 0.5 T + 0.5
+const int kModeUv = 6;             // debug: fract(u), fract(v)
+const int kModeDepth = 7;          // debug: 1 - r, r = depth ratio of eq. 10
+
+// Below this, a decoded map normal's z is clamped: a map texel with blue <= 0.5
+// (a back-facing normal, impossible in a valid map) must not give NaN.
+const float kMinNormalZ = 0.001f;
+// Guards against division by zero for degenerate inputs (zero-length vectors).
+const float kTiny = 1e-6f;
+
+// Material and light: the parameter registry's values (src/shading/params.cpp),
+// packed by shading::glsl::packMaterial.
+struct Material {
+    vec3 baseColor;          // albedo multiplier of the diffuse texture
+    vec3 mucusColor;         // colour of the mucous layer
+    float mucusOpacity;      // 0 = clear mucus, 1 = opaque
+    float specularStrength;  // k_s
+    float shininess;         // Phong exponent n
+    float bumpScale;         // scales the map normal's tilt (0 = flat)
+    float mapTiling;         // map repeats per unit of texture coordinate
+    float ambient;           // k_a
+    vec4 c;                  // c0..c3 of rho(gamma), paper eq. 9
+    vec3 d;                  // d1..d3 of delta(r), paper eq. 10
+    float depthMin;          // z_min (mm)
+    float depthMax;          // z_max (mm)
+    float lightIntensity;    // I_L
+    float lightRange;        // distance (mm) at which the light falls to half
+};
+
+// Per-frame values (camera and light positions in world space, mm).
+struct Frame {
+    mat4 viewProj;
+    mat4 view;
+    vec3 eye;
+    vec3 light;
+    float normalSign;  // +1, or -1 to view a mesh from the side its normals point away from
+};
+
+// Everything the vertex stage hands the fragment stage (all interpolated
+// perspective-correctly). Only floats: the C++ rasteriser interpolates it as an
+// array.
+struct Varyings {
+    vec3 Lt;             // surface -> light, tangent space (unnormalised)
+    vec3 Vt;             // surface -> eye, tangent space (unnormalised)
+    vec2 uv;             // texture coordinates
+    vec3 T;              // world tangent frame (debug views)
+    vec3 B;
+    vec3 N;
+    float diffuseLight;  // per-vertex modes: I_L att rho delta
+    float specular;      // per-vertex modes: specular (vertex-phong) or highlight weight (multitexture)
+    vec2 sphereUv;       // multitexture: sphere-map coordinates of the reflected view vector
+};
+
+// Paper eq. 1-2 inverted: rgb = 0.5 N + 0.5 -> N; the bump scale tilts the
+// normal (scales the slopes -Hu, -Hv) before renormalising.
+vec3 decodeReflectanceNormal(vec3 rgb, float bumpScale) {
+    vec3 n = rgb * 2.0f - vec3(1.0f);
+    return normalize(vec3(n.x * bumpScale, n.y * bumpScale, max(n.z, kMinNormalZ)));
+}
+
+// Paper eq. 9: rho(gamma) = c0 + c1 gamma + c2 gamma^2 + c3 gamma^3 (Horner).
+float brdfRho(float gamma, vec4 c) {
+    return c.x + gamma * (c.y + gamma * (c.z + gamma * c.w));
+}
+
+// Paper eq. 10: delta(r) = 1 + d1 r + d2 r^2 + d3 r^3 (Horner).
+float depthDelta(float r, vec3 d) {
+    return 1.0f + r * (d.x + r * (d.y + r * d.z));
+}
+
+// Paper eq. 10: r = (z - zmin) / (zmax - zmin), clamped to [0, 1].
+float depthRatio(float z, float zmin, float zmax) {
+    return clamp((z - zmin) / max(zmax - zmin, kTiny), 0.0f, 1.0f);
+}
+
+// Point-light fall-off: 1 / (1 + (dist / range)^2); half intensity at dist = range.
+float lightAttenuation(float dist, float range) {
+    float q = dist / max(range, kTiny);
+    return 1.0f / (1.0f + q * q);
+}
+
+// Paper eq. 11 without the albedo: rho(gamma) delta(r), gamma = cos(V, N),
+// z = distance to the viewpoint.
+float diffuseShading(float gamma, float z, Material m) {
+    return brdfRho(max(gamma, 0.0f), m.c) * depthDelta(depthRatio(z, m.depthMin, m.depthMax), m.d);
+}
+
+// Phong 1975 lobe: (max(R . V, 0))^n, R = L reflected about N.
+float phongLobe(vec3 N, vec3 L, vec3 V, float shininess) {
+    vec3 R = reflect(-L, N);
+    return pow(max(dot(R, V), 0.0f), shininess);
+}
+
+// The mucous layer's colour and transparency (paper, Results): light scattered
+// back by the layer mixes with the tissue beneath.
+vec3 mucusAlbedo(vec3 albedo, Material m) {
+    return mix(albedo, m.mucusColor, m.mucusOpacity);
+}
+
+// Paper eq. 7: to tangent space with R = [T; B; N] (rows).
+vec3 toTangentSpace(vec3 v, vec3 T, vec3 B, vec3 N) {
+    return vec3(dot(T, v), dot(B, v), dot(N, v));
+}
+
+// OpenGL's GL_SPHERE_MAP texture generation (OpenGL 1.x spec, 2.11.4): the
+// eye-space reflection of the view ray, the fixed-function way a highlight
+// texture was placed before programmable shading.
+vec2 sphereMapCoord(vec3 P, vec3 N, Frame f) {
+    vec3 Pe = vec3(f.view * vec4(P, 1.0f));
+    vec3 Ne = normalize(mat3(f.view) * N);
+    vec3 u = Pe / max(length(Pe), kTiny);
+    vec3 r = reflect(u, Ne);
+    float m = 2.0f * sqrt(r.x * r.x + r.y * r.y + (r.z + 1.0f) * (r.z + 1.0f));
+    m = max(m, kTiny);
+    return vec2(r.x / m + 0.5f, r.y / m + 0.5f);
+}
+
+vec4 tissueClipPosition(vec3 P, Frame f) {
+    return f.viewProj * vec4(P, 1.0f);
+}
+
+// Vertex stage. N0 = vertex normal, T0 = tangent (xyz, w = handedness with
+// B = w cross(N, T), glTF's convention), P in world space (mm).
+Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, int mode) {
+    Varyings o;
+    vec3 Ng = normalize(N0);
+    vec3 T = normalize(vec3(T0));
+    vec3 B = T0.w * cross(Ng, T);
+    vec3 N = Ng * f.normalSign;
+    vec3 L = f.light - P;
+    vec3 V = f.eye - P;
+    o.Lt = toTangentSpace(L, T, B, N);
+    o.Vt = toTangentSpace(V, T, B, N);
+    o.uv = uv;
+    o.T = T;
+    o.B = B;
+    o.N = N;
+    o.diffuseLight = 0.0f;
+    o.specular = 0.0f;
+    o.sphereUv = vec2(0.0f);
+    if (mode == kModeVertexPhong || mode == kModeMultitexture) {
+        float dl = max(length(L), kTiny);
+        float dv = max(length(V), kTiny);
+        vec3 Ln = L / dl;
+        vec3 Vn = V / dv;
+        float lightI = m.lightIntensity * lightAttenuation(dl, m.lightRange);
+        o.diffuseLight = lightI * diffuseShading(dot(N, Vn), dv, m);
+        if (mode == kModeVertexPhong) {
+            o.specular = lightI * m.specularStrength * phongLobe(N, Ln, Vn, m.shininess);
+        } else {
+            o.specular = lightI * m.specularStrength;
+            o.sphereUv = sphereMapCoord(P, N, f);
+        }
+    }
+    return o;
+}
+
+// Where the fragment stage samples the reflectance map.
+vec2 reflectanceMapCoord(vec2 uv, Material m) {
+    return uv * m.mapTiling;
+}
+
+// Fragment stage, after the caller sampled the textures: albedoTex at v.uv,
+// mapRgb at reflectanceMapCoord(v.uv), highlight at v.sphereUv. Returns linear
+// display values; the caller clamps to [0, 1].
+vec3 tissueFragment(Varyings v, vec3 albedoTex, vec3 mapRgb, float highlight, Material m, int mode) {
+    vec3 albedo = mucusAlbedo(albedoTex * m.baseColor, m);
+    if (mode == kModeNoise || mode == kModeDiffuse) {
+        float dl = max(length(v.Lt), kTiny);
+        float dv = max(length(v.Vt), kTiny);
+        vec3 L = v.Lt / dl;
+        vec3 V = v.Vt / dv;
+        float lightI = m.lightIntensity * lightAttenuation(dl, m.lightRange);
+        vec3 color = albedo * (m.ambient + lightI * diffuseShading(V.z, dv, m));
+        if (mode == kModeNoise) {
+            vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
+            color = color + vec3(lightI * m.specularStrength * phongLobe(Nm, L, V, m.shininess));
+        }
+        return color;
+    }
+    if (mode == kModeVertexPhong) {
+        return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular);
+    }
+    if (mode == kModeMultitexture) {
+        return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * highlight);
+    }
+    if (mode == kModeNormals) {
+        vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
+        vec3 Nw = normalize(Nm.x * v.T + Nm.y * v.B + Nm.z * v.N);
+        return Nw * 0.5f + vec3(0.5f);
+    }
+    if (mode == kModeTangents) {
+        return normalize(v.T) * 0.5f + vec3(0.5f);
+    }
+    if (mode == kModeUv) {
+        return vec3(fract(v.uv.x), fract(v.uv.y), 0.0f);
+    }
+    float r = depthRatio(length(v.Vt), m.depthMin, m.depthMax);
+    return vec3(1.0f - r);
+}

@@ -1,0 +1,271 @@
+#include <mucosa/render/renderer.hpp>
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/render/context.hpp>
+
+#include "render/embedded_shaders.hpp"
+#include "render/gl.hpp"
+#include "shading/glsl.hpp"
+
+namespace mucosa::render {
+
+namespace {
+
+GLuint compile(GLenum stage, const std::string& source, const std::string& name) {
+    GLuint s = glCreateShader(stage);
+    const char* text = source.c_str();
+    glShaderSource(s, 1, &text, nullptr);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        GLint len = 0;
+        glGetShaderiv(s, GL_INFO_LOG_LENGTH, &len);
+        std::string log(static_cast<std::size_t>(std::max(len, 1)), '\0');
+        glGetShaderInfoLog(s, len, nullptr, log.data());
+        glDeleteShader(s);
+        throw GraphicsError("shader " + name, "", "does not compile: " + log);
+    }
+    return s;
+}
+
+struct Program {
+    GLuint id = 0;
+    // Uniform locations, in the order of kUniformNames.
+    std::vector<GLint> loc;
+};
+
+constexpr std::array<const char*, 24> kUniformNames = {
+    "uFrame.viewProj",       "uFrame.view",          "uFrame.eye",           "uFrame.light",
+    "uFrame.normalSign",     "uMaterial.baseColor",  "uMaterial.mucusColor", "uMaterial.mucusOpacity",
+    "uMaterial.specularStrength", "uMaterial.shininess", "uMaterial.bumpScale", "uMaterial.mapTiling",
+    "uMaterial.ambient",     "uMaterial.c",          "uMaterial.d",          "uMaterial.depthMin",
+    "uMaterial.depthMax",    "uMaterial.lightIntensity", "uMaterial.lightRange", "uDiffuse",
+    "uReflectance",          "uHighlight",           "",                     ""};
+
+enum U {
+    kViewProj, kView, kEye, kLight, kNormalSign, kBaseColor, kMucusColor, kMucusOpacity, kSpecularStrength,
+    kShininess, kBumpScale, kMapTiling, kAmbient, kC, kD, kDepthMin, kDepthMax, kLightIntensity, kLightRange,
+    kDiffuseSampler, kReflectanceSampler, kHighlightSampler
+};
+
+Program link(int mode) {
+    const std::string header = fmt::format("#version 330 core\n#define MUCOSA_MODE {}\n", mode);
+    const std::string common(shaderSource("common_shading.glsl"));
+    const std::string name = fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
+    GLuint vs = compile(GL_VERTEX_SHADER, header + common + std::string(shaderSource("surface_tissue.vert")), name);
+    GLuint fs = compile(GL_FRAGMENT_SHADER, header + common + std::string(shaderSource("surface_tissue.frag")), name);
+    Program p;
+    p.id = glCreateProgram();
+    glAttachShader(p.id, vs);
+    glAttachShader(p.id, fs);
+    glLinkProgram(p.id);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = 0;
+    glGetProgramiv(p.id, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        GLint len = 0;
+        glGetProgramiv(p.id, GL_INFO_LOG_LENGTH, &len);
+        std::string log(static_cast<std::size_t>(std::max(len, 1)), '\0');
+        glGetProgramInfoLog(p.id, len, nullptr, log.data());
+        glDeleteProgram(p.id);
+        throw GraphicsError("shader " + name, "", "does not link: " + log);
+    }
+    for (const char* u : kUniformNames) p.loc.push_back(*u ? glGetUniformLocation(p.id, u) : -1);
+    glUseProgram(p.id);
+    glUniform1i(p.loc[kDiffuseSampler], 0);
+    glUniform1i(p.loc[kReflectanceSampler], 1);
+    glUniform1i(p.loc[kHighlightSampler], 2);
+    return p;
+}
+
+struct Texture {
+    GLuint id = 0;
+    bool user = false;
+};
+
+void upload(GLuint id, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
+    const int w = img.width(), h = img.height(), ch = img.channels();
+    // OpenGL's first row is t = 0, the bottom: upload the file's rows bottom-up
+    // so that v = 1 samples the first row (docs/theory.md, "Conventions").
+    std::vector<std::uint8_t> rows(img.size());
+    for (int y = 0; y < h; ++y)
+        std::copy(img.row(h - 1 - y), img.row(h - 1 - y) + img.rowStride(), rows.begin() + static_cast<std::ptrdiff_t>(y) * static_cast<std::ptrdiff_t>(img.rowStride()));
+    GLenum format = GL_RGB, internal = GL_RGB8;
+    if (ch == 1) format = GL_RED, internal = GL_R8;
+    if (ch == 2) format = GL_RG, internal = GL_RG8;
+    if (ch == 4) format = GL_RGBA, internal = GL_RGBA8;
+    glBindTexture(GL_TEXTURE_2D, id);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, static_cast<GLint>(internal), w, h, 0, format, GL_UNSIGNED_BYTE, rows.data());
+    if (ch == 1) {  // grey: replicate into green and blue as the reference does
+        const GLint swizzle[] = {GL_RED, GL_RED, GL_RED, GL_ONE};
+        glTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_SWIZZLE_RGBA, swizzle);
+    } else if (ch == 2) {
+        const GLint swizzle[] = {GL_RED, GL_RED, GL_RED, GL_GREEN};
+        glTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_SWIZZLE_RGBA, swizzle);
+    }
+    const GLint wrapMode = wrap == shading::Wrap::Repeat ? GL_REPEAT : GL_CLAMP_TO_EDGE;
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, wrapMode);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, wrapMode);
+    GLint minFilter = GL_LINEAR, magFilter = GL_LINEAR;
+    if (filter == shading::Filter::Nearest) minFilter = magFilter = GL_NEAREST;
+    if (filter == shading::Filter::Trilinear) {
+        minFilter = GL_LINEAR_MIPMAP_LINEAR;
+        glGenerateMipmap(GL_TEXTURE_2D);
+    }
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, minFilter);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, magFilter);
+}
+
+image::Image8 solid(std::uint8_t r, std::uint8_t g, std::uint8_t b) {
+    image::Image8 img(1, 1, 3);
+    img.at(0, 0, 0) = r;
+    img.at(0, 0, 1) = g;
+    img.at(0, 0, 2) = b;
+    return img;
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+    std::array<Program, shading::kModeCount> programs;
+    GLuint vao = 0, vbo = 0, ibo = 0;
+    GLsizei indexCount = 0;
+    std::array<Texture, 3> textures;
+    float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
+};
+
+Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
+    for (int m = 0; m < shading::kModeCount; ++m) impl_->programs[static_cast<std::size_t>(m)] = link(m);
+    glGenVertexArrays(1, &impl_->vao);
+    glGenBuffers(1, &impl_->vbo);
+    glGenBuffers(1, &impl_->ibo);
+    for (Texture& t : impl_->textures) glGenTextures(1, &t.id);
+    clearTexture(TextureSlot::Diffuse);
+    clearTexture(TextureSlot::Reflectance);
+    clearTexture(TextureSlot::Highlight);
+}
+
+Renderer::~Renderer() {
+    for (Program& p : impl_->programs) glDeleteProgram(p.id);
+    glDeleteVertexArrays(1, &impl_->vao);
+    glDeleteBuffers(1, &impl_->vbo);
+    glDeleteBuffers(1, &impl_->ibo);
+    for (Texture& t : impl_->textures) glDeleteTextures(1, &t.id);
+}
+
+std::size_t Renderer::triangleCount() const noexcept { return static_cast<std::size_t>(impl_->indexCount / 3); }
+
+void Renderer::setMesh(const mesh::Mesh& mesh) {
+    std::string missing;
+    if (!mesh.hasNormals()) missing += " normals";
+    if (!mesh.hasUvs()) missing += " texture-coordinates";
+    if (!mesh.hasTangents()) missing += " tangents";
+    if (!missing.empty()) throw InputError("mesh", "", "the renderer needs per-vertex" + missing);
+    constexpr int kStride = 12;  // position 3, normal 3, tangent 4, uv 2
+    std::vector<float> data(mesh.vertexCount() * kStride);
+    for (std::size_t i = 0; i < mesh.vertexCount(); ++i) {
+        float* d = data.data() + i * kStride;
+        std::copy(mesh.positions[i].begin(), mesh.positions[i].end(), d);
+        std::copy(mesh.normals[i].begin(), mesh.normals[i].end(), d + 3);
+        std::copy(mesh.tangents[i].begin(), mesh.tangents[i].end(), d + 6);
+        std::copy(mesh.uvs[i].begin(), mesh.uvs[i].end(), d + 10);
+    }
+    glBindVertexArray(impl_->vao);
+    glBindBuffer(GL_ARRAY_BUFFER, impl_->vbo);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(), GL_STATIC_DRAW);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, impl_->ibo);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(mesh.indices.size() * sizeof(std::uint32_t)),
+                 mesh.indices.data(), GL_STATIC_DRAW);
+    const GLsizei stride = kStride * sizeof(float);
+    const int sizes[] = {3, 3, 4, 2}, offsets[] = {0, 3, 6, 10};
+    for (GLuint a = 0; a < 4; ++a) {
+        glEnableVertexAttribArray(a);
+        glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, stride,
+                              reinterpret_cast<const void*>(static_cast<std::uintptr_t>(offsets[a] * sizeof(float))));
+    }
+    glBindVertexArray(0);
+    impl_->indexCount = static_cast<GLsizei>(mesh.indices.size());
+}
+
+void Renderer::setTexture(TextureSlot slot, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
+    if (img.empty() || img.channels() < 1 || img.channels() > 4)
+        throw InputError("texture", "", "needs a non-empty image with 1 to 4 channels");
+    Texture& t = impl_->textures[static_cast<std::size_t>(slot)];
+    upload(t.id, img, filter, wrap);
+    t.user = true;
+}
+
+void Renderer::clearTexture(TextureSlot slot) {
+    Texture& t = impl_->textures[static_cast<std::size_t>(slot)];
+    t.user = false;
+    switch (slot) {
+        case TextureSlot::Diffuse:
+            upload(t.id, solid(255, 255, 255), shading::Filter::Nearest, shading::Wrap::Repeat);
+            break;
+        case TextureSlot::Reflectance:
+            upload(t.id, solid(128, 128, 255), shading::Filter::Nearest, shading::Wrap::Repeat);
+            break;
+        case TextureSlot::Highlight: impl_->highlightShininess = -1.0f; break;
+    }
+}
+
+void Renderer::draw(const shading::FrameSetup& frame) {
+    using namespace shading::glsl;
+    const int mode = static_cast<int>(frame.mode);
+    const Program& p = impl_->programs[static_cast<std::size_t>(mode)];
+    const Material m = packMaterial(frame.params);
+    const Frame f = packFrame(frame);
+
+    Texture& hl = impl_->textures[static_cast<std::size_t>(TextureSlot::Highlight)];
+    if (frame.mode == shading::Mode::Multitexture && !hl.user && impl_->highlightShininess != m.shininess) {
+        upload(hl.id, shading::highlightSphereMap(kHighlightTextureSize, m.shininess), shading::Filter::Linear,
+               shading::Wrap::Clamp);
+        impl_->highlightShininess = m.shininess;
+    }
+
+    glClearColor(0, 0, 0, 1);
+    glClearDepth(1.0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_BLEND);
+    glUseProgram(p.id);
+    glUniformMatrix4fv(p.loc[kViewProj], 1, GL_FALSE, &f.viewProj[0][0]);
+    glUniformMatrix4fv(p.loc[kView], 1, GL_FALSE, &f.view[0][0]);
+    glUniform3f(p.loc[kEye], f.eye.x, f.eye.y, f.eye.z);
+    glUniform3f(p.loc[kLight], f.light.x, f.light.y, f.light.z);
+    glUniform1f(p.loc[kNormalSign], f.normalSign);
+    glUniform3f(p.loc[kBaseColor], m.baseColor.x, m.baseColor.y, m.baseColor.z);
+    glUniform3f(p.loc[kMucusColor], m.mucusColor.x, m.mucusColor.y, m.mucusColor.z);
+    glUniform1f(p.loc[kMucusOpacity], m.mucusOpacity);
+    glUniform1f(p.loc[kSpecularStrength], m.specularStrength);
+    glUniform1f(p.loc[kShininess], m.shininess);
+    glUniform1f(p.loc[kBumpScale], m.bumpScale);
+    glUniform1f(p.loc[kMapTiling], m.mapTiling);
+    glUniform1f(p.loc[kAmbient], m.ambient);
+    glUniform4f(p.loc[kC], m.c.x, m.c.y, m.c.z, m.c.w);
+    glUniform3f(p.loc[kD], m.d.x, m.d.y, m.d.z);
+    glUniform1f(p.loc[kDepthMin], m.depthMin);
+    glUniform1f(p.loc[kDepthMax], m.depthMax);
+    glUniform1f(p.loc[kLightIntensity], m.lightIntensity);
+    glUniform1f(p.loc[kLightRange], m.lightRange);
+    for (GLuint unit = 0; unit < 3; ++unit) {
+        glActiveTexture(GL_TEXTURE0 + unit);
+        glBindTexture(GL_TEXTURE_2D, impl_->textures[unit].id);
+    }
+    glBindVertexArray(impl_->vao);
+    glDrawElements(GL_TRIANGLES, impl_->indexCount, GL_UNSIGNED_INT, nullptr);
+    glBindVertexArray(0);
+}
+
+}  // namespace mucosa::render

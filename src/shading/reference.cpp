@@ -1,0 +1,260 @@
+#include <mucosa/shading/reference.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include <mucosa/core/error.hpp>
+
+#include "glsl.hpp"
+
+namespace mucosa::shading {
+
+namespace {
+
+using glsl::Varyings;
+constexpr int kVaryingFloats = static_cast<int>(sizeof(Varyings) / sizeof(float));
+static_assert(sizeof(Varyings) == 21 * sizeof(float), "Varyings must be tightly packed floats");
+
+struct ClipVertex {
+    glm::vec4 clip;
+    float var[kVaryingFloats];
+};
+
+ClipVertex lerp(const ClipVertex& a, const ClipVertex& b, float t) {
+    ClipVertex r;
+    r.clip = a.clip + (b.clip - a.clip) * t;
+    for (int i = 0; i < kVaryingFloats; ++i) r.var[i] = a.var[i] + (b.var[i] - a.var[i]) * t;
+    return r;
+}
+
+// Sutherland-Hodgman against one clip plane d(v) >= 0 (OpenGL 3.3 core,
+// 13.5: -w <= z <= w).
+template <class Dist>
+std::vector<ClipVertex> clipPolygon(const std::vector<ClipVertex>& in, Dist dist) {
+    std::vector<ClipVertex> out;
+    const std::size_t n = in.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        const ClipVertex& a = in[i];
+        const ClipVertex& b = in[(i + 1) % n];
+        const float da = dist(a.clip), db = dist(b.clip);
+        if (da >= 0) out.push_back(a);
+        if ((da >= 0) != (db >= 0)) out.push_back(lerp(a, b, da / (da - db)));
+    }
+    return out;
+}
+
+struct Target {
+    int width, height;
+    std::vector<float> depth;
+    std::vector<glm::vec3> color;
+};
+
+struct ScreenVertex {
+    float x, y, z, invW;
+    const float* var;
+};
+
+// Edge function of (a, b) at p: positive when p is to the left of a->b.
+inline float edge(float ax, float ay, float bx, float by, float px, float py) {
+    return (bx - ax) * (py - ay) - (by - ay) * (px - ax);
+}
+
+// OpenGL's top-left rule for pixels exactly on an edge (counter-clockwise
+// triangles in window coordinates, y up): a top edge is horizontal with the
+// triangle below it, a left edge goes down.
+inline bool topLeft(float ax, float ay, float bx, float by) {
+    const float dx = bx - ax, dy = by - ay;
+    return (dy == 0 && dx < 0) || dy < 0;
+}
+
+template <class Shade>
+void rasterTriangle(Target& t, ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, Shade shade) {
+    float area = edge(v0.x, v0.y, v1.x, v1.y, v2.x, v2.y);
+    if (area == 0 || !std::isfinite(area)) return;
+    if (area < 0) {  // no culling: make it counter-clockwise
+        std::swap(v1, v2);
+        area = -area;
+    }
+    const float minX = std::min({v0.x, v1.x, v2.x}), maxX = std::max({v0.x, v1.x, v2.x});
+    const float minY = std::min({v0.y, v1.y, v2.y}), maxY = std::max({v0.y, v1.y, v2.y});
+    const int x0 = std::max(0, static_cast<int>(std::floor(minX - 0.5f)));
+    const int x1 = std::min(t.width - 1, static_cast<int>(std::ceil(maxX - 0.5f)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(minY - 0.5f)));
+    const int y1 = std::min(t.height - 1, static_cast<int>(std::ceil(maxY - 0.5f)));
+    const bool tl0 = topLeft(v1.x, v1.y, v2.x, v2.y), tl1 = topLeft(v2.x, v2.y, v0.x, v0.y),
+               tl2 = topLeft(v0.x, v0.y, v1.x, v1.y);
+    float var[kVaryingFloats];
+    for (int y = y0; y <= y1; ++y) {
+        const float py = static_cast<float>(y) + 0.5f;
+        for (int x = x0; x <= x1; ++x) {
+            const float px = static_cast<float>(x) + 0.5f;
+            const float e0 = edge(v1.x, v1.y, v2.x, v2.y, px, py);
+            const float e1 = edge(v2.x, v2.y, v0.x, v0.y, px, py);
+            const float e2 = edge(v0.x, v0.y, v1.x, v1.y, px, py);
+            if (e0 < 0 || e1 < 0 || e2 < 0) continue;
+            if ((e0 == 0 && !tl0) || (e1 == 0 && !tl1) || (e2 == 0 && !tl2)) continue;
+            const float l0 = e0 / area, l1 = e1 / area, l2 = e2 / area;
+            const float z = l0 * v0.z + l1 * v1.z + l2 * v2.z;
+            const std::size_t idx = static_cast<std::size_t>(y) * t.width + x;
+            if (!(z < t.depth[idx]) || z < 0 || z > 1) continue;
+            // Perspective-correct weights (OpenGL 3.3 core, eq. 14.9).
+            const float p0 = l0 * v0.invW, p1 = l1 * v1.invW, p2 = l2 * v2.invW;
+            const float s = p0 + p1 + p2;
+            const float w0 = p0 / s, w1 = p1 / s, w2 = p2 / s;
+            for (int i = 0; i < kVaryingFloats; ++i) var[i] = w0 * v0.var[i] + w1 * v1.var[i] + w2 * v2.var[i];
+            t.depth[idx] = z;
+            t.color[idx] = shade(var);
+        }
+    }
+}
+
+std::uint8_t quantize(float c) {
+    // OpenGL's float -> unsigned normalised conversion (round to nearest).
+    if (!(c > 0.0f)) return 0;
+    if (c >= 1.0f) return 255;
+    return static_cast<std::uint8_t>(std::floor(c * 255.0f + 0.5f));
+}
+
+float texel(const image::Image8& img, int x, int y, int c) {
+    // y counts from the bottom row (OpenGL's t = 0) upward.
+    const int ch = img.channels() >= 3 ? c : 0;
+    return static_cast<float>(img.at(x, img.height() - 1 - y, ch)) / 255.0f;
+}
+
+int wrapIndex(int i, int n, Wrap w) {
+    if (w == Wrap::Clamp) return std::clamp(i, 0, n - 1);
+    const int m = i % n;
+    return m < 0 ? m + n : m;
+}
+
+}  // namespace
+
+std::array<float, 3> sampleTexture(const TextureView& t, float u, float v, std::array<float, 3> fallback) noexcept {
+    if (t.image == nullptr || t.image->empty()) return fallback;
+    const image::Image8& img = *t.image;
+    const int w = img.width(), h = img.height();
+    if (t.wrap == Wrap::Clamp) {
+        u = std::clamp(u, 0.0f, 1.0f);
+        v = std::clamp(v, 0.0f, 1.0f);
+    } else {
+        u = u - std::floor(u);
+        v = v - std::floor(v);
+    }
+    std::array<float, 3> r{};
+    if (t.filter == Filter::Nearest) {
+        const int x = wrapIndex(static_cast<int>(std::floor(u * static_cast<float>(w))), w, t.wrap);
+        const int y = wrapIndex(static_cast<int>(std::floor(v * static_cast<float>(h))), h, t.wrap);
+        for (int c = 0; c < 3; ++c) r[c] = texel(img, x, y, c);
+        return r;
+    }
+    const float fx = u * static_cast<float>(w) - 0.5f, fy = v * static_cast<float>(h) - 0.5f;
+    const float ix = std::floor(fx), iy = std::floor(fy);
+    const float a = fx - ix, b = fy - iy;
+    const int xa = wrapIndex(static_cast<int>(ix), w, t.wrap), xb = wrapIndex(static_cast<int>(ix) + 1, w, t.wrap);
+    const int ya = wrapIndex(static_cast<int>(iy), h, t.wrap), yb = wrapIndex(static_cast<int>(iy) + 1, h, t.wrap);
+    for (int c = 0; c < 3; ++c)
+        r[c] = (1 - a) * (1 - b) * texel(img, xa, ya, c) + a * (1 - b) * texel(img, xb, ya, c) +
+               (1 - a) * b * texel(img, xa, yb, c) + a * b * texel(img, xb, yb, c);
+    return r;
+}
+
+image::Image8 highlightSphereMap(int size, float shininess) {
+    MUCOSA_CHECK(size > 0, "highlight texture size must be positive");
+    image::Image8 img(size, size, 1);
+    for (int row = 0; row < size; ++row) {
+        const int j = size - 1 - row;  // t from the bottom
+        for (int i = 0; i < size; ++i) {
+            // Texel centre -> sphere-map normal n_s -> reflected direction
+            // r = (2 n_z n_x, 2 n_z n_y, 2 n_z^2 - 1) of the view ray (0, 0, -1).
+            const double x = 2.0 * (i + 0.5) / size - 1.0, y = 2.0 * (j + 0.5) / size - 1.0;
+            const double q = x * x + y * y;
+            double value = 0.0;
+            if (q < 1.0) {
+                const double nz = std::sqrt(1.0 - q);
+                const double rDotL = 2.0 * nz * nz - 1.0;  // light at the eye: L = (0, 0, 1)
+                value = rDotL > 0 ? std::pow(rDotL, static_cast<double>(shininess)) : 0.0;
+            }
+            img.at(i, row) = static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.0, 1.0) * 255.0));
+        }
+    }
+    return img;
+}
+
+image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures) {
+    if (!mesh.hasNormals() || !mesh.hasUvs() || !mesh.hasTangents())
+        throw InputError("mesh", "", "the reference renderer needs normals, texture coordinates and tangents");
+    const glsl::Material m = glsl::packMaterial(frame.params);
+    const glsl::Frame f = glsl::packFrame(frame);
+    const int mode = static_cast<int>(frame.mode);
+
+    std::vector<ClipVertex> verts(mesh.vertexCount());
+    for (std::size_t i = 0; i < verts.size(); ++i) {
+        const auto& p = mesh.positions[i];
+        const auto& n = mesh.normals[i];
+        const auto& tg = mesh.tangents[i];
+        const auto& uv = mesh.uvs[i];
+        const glm::vec3 P(p[0], p[1], p[2]);
+        const Varyings v = glsl::tissueVertex(P, glm::vec3(n[0], n[1], n[2]), glm::vec4(tg[0], tg[1], tg[2], tg[3]),
+                                              glm::vec2(uv[0], uv[1]), f, m, mode);
+        verts[i].clip = glsl::tissueClipPosition(P, f);
+        std::memcpy(verts[i].var, &v, sizeof v);
+    }
+
+    Target t{frame.width, frame.height,
+             std::vector<float>(static_cast<std::size_t>(frame.width) * frame.height, 1.0f),
+             std::vector<glm::vec3>(static_cast<std::size_t>(frame.width) * frame.height, glm::vec3(0.0f))};
+    const float W = static_cast<float>(frame.width), H = static_cast<float>(frame.height);
+
+    auto shade = [&](const float* var) {
+        Varyings v;
+        std::memcpy(&v, var, sizeof v);
+        std::array<float, 3> albedo{1, 1, 1}, map{0.5f, 0.5f, 1.0f};
+        float highlight = 0.0f;
+        const bool debug = mode == glsl::kModeNormals || mode == glsl::kModeTangents || mode == glsl::kModeUv ||
+                           mode == glsl::kModeDepth;
+        if (!debug) albedo = sampleTexture(textures.diffuse, v.uv.x, v.uv.y, {1, 1, 1});
+        if (mode == glsl::kModeNoise || mode == glsl::kModeNormals) {
+            const glm::vec2 mc = glsl::reflectanceMapCoord(v.uv, m);
+            map = sampleTexture(textures.reflectance, mc.x, mc.y, {0.5f, 0.5f, 1.0f});
+        }
+        if (mode == glsl::kModeMultitexture)
+            highlight = sampleTexture(textures.highlight, v.sphereUv.x, v.sphereUv.y, {0, 0, 0})[0];
+        const glm::vec3 c = glsl::tissueFragment(v, glm::vec3(albedo[0], albedo[1], albedo[2]),
+                                                 glm::vec3(map[0], map[1], map[2]), highlight, m, mode);
+        return glm::clamp(c, 0.0f, 1.0f);
+    };
+
+    for (std::size_t tri = 0; tri + 2 < mesh.indices.size(); tri += 3) {
+        std::vector<ClipVertex> poly = {verts[mesh.indices[tri]], verts[mesh.indices[tri + 1]],
+                                        verts[mesh.indices[tri + 2]]};
+        const auto inside = [](const ClipVertex& c) { return c.clip.z >= -c.clip.w && c.clip.z <= c.clip.w; };
+        if (!(inside(poly[0]) && inside(poly[1]) && inside(poly[2]))) {
+            poly = clipPolygon(poly, [](const glm::vec4& c) { return c.z + c.w; });
+            if (poly.size() >= 3) poly = clipPolygon(poly, [](const glm::vec4& c) { return c.w - c.z; });
+            if (poly.size() < 3) continue;
+        }
+        std::vector<ScreenVertex> sv(poly.size());
+        for (std::size_t i = 0; i < poly.size(); ++i) {
+            const glm::vec4& c = poly[i].clip;
+            const float invW = 1.0f / c.w;
+            sv[i] = {(c.x * invW * 0.5f + 0.5f) * W, (c.y * invW * 0.5f + 0.5f) * H, c.z * invW * 0.5f + 0.5f, invW,
+                     poly[i].var};
+        }
+        for (std::size_t i = 1; i + 1 < sv.size(); ++i) rasterTriangle(t, sv[0], sv[i], sv[i + 1], shade);
+    }
+
+    image::Image8 out(frame.width, frame.height, 3);
+    for (int y = 0; y < frame.height; ++y)
+        for (int x = 0; x < frame.width; ++x) {
+            const glm::vec3& c = t.color[static_cast<std::size_t>(y) * frame.width + x];
+            const int row = frame.height - 1 - y;  // OpenGL's y is up; files are top-down
+            out.at(x, row, 0) = quantize(c.x);
+            out.at(x, row, 1) = quantize(c.y);
+            out.at(x, row, 2) = quantize(c.z);
+        }
+    return out;
+}
+
+}  // namespace mucosa::shading
