@@ -34,7 +34,10 @@ AtomicFile::AtomicFile(fs::path path) : path_(std::move(path)) {
         throw IoError("output path", path_.string(), "directory '" + dir.string() + "' does not exist");
     if (fs::is_directory(path_, ec))
         throw IoError("output path", path_.string(), "is a directory");
-    std::string templ = (dir / ("." + path_.filename().string() + ".tmp-XXXXXX")).string();
+    std::string name = ".";
+    name += path_.filename().string();
+    name += ".tmp-XXXXXX";
+    std::string templ = (dir / name).string();
     fd_ = ::mkstemp(templ.data());
     if (fd_ < 0) throw IoError("output path", path_.string(), "cannot create a file there (" + errnoText(errno) + ")");
     ::fchmod(fd_, 0644);

@@ -1,0 +1,78 @@
+// mucosa fit: patient-specific texture and BRDF from registered frames.
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/fit/fit.hpp>
+#include <mucosa/mesh/io.hpp>
+
+#include "commands.hpp"
+
+namespace mucosa::cli {
+
+namespace {
+
+struct FitArgs {
+    std::string mesh, frames, out;
+    fit::FitOptions o;
+    bool noRobust = false;
+};
+
+void addFitCommand(CLI::App& app, Global& g) {
+    auto a = std::make_shared<FitArgs>();
+    CLI::App* c = app.add_subcommand("fit", "Fit the paper's BRDF (rho, delta) and a texture atlas to registered frames");
+    c->footer("Example: mucosa fit --mesh airway_uv.glb --frames frames.json -o fit/ --texture-size 1024 --holdout 2");
+    c->add_option("--mesh", a->mesh, "Mesh with texture coordinates (any format `mucosa mesh` reads)")->required();
+    c->add_option("--frames", a->frames, "Frames file (JSON: images, intrinsics, camera_to_world)")->required();
+    c->add_option("-o,--output", a->out, "Output directory")->required();
+    c->add_option("--texture-size", a->o.textureSize, "Texels per side of the albedo atlas [1024]");
+    c->add_option("--holdout", a->o.holdout, "Frames held out and re-rendered for validation (PSNR) [0]");
+    c->add_flag("--no-robust", a->noRobust, "Plain least squares instead of the Cauchy loss (for comparison)");
+    c->add_option("--loss-scale", a->o.cauchyScale, "Residual scale of the Cauchy loss, linear intensity [0.02]");
+    c->callback([a, &g] {
+        a->o.threads = g.threads;
+        a->o.robust = !a->noRobust;
+        const bool tty = ::isatty(STDERR_FILENO) != 0;
+        const auto start = std::chrono::steady_clock::now();
+        if (!g.quiet)
+            a->o.progress = [tty, start](const std::string& stage, double fraction) {
+                const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                std::fprintf(stderr, tty ? "\r[fit %3.0f%%] %-48s %6.1f s" : "[fit %3.0f%%] %s (%.1f s)\n",
+                             100.0 * fraction, stage.c_str(), s);
+                if (tty && fraction >= 1.0) std::fprintf(stderr, "\n");
+                std::fflush(stderr);
+            };
+        const fit::FrameSet frames = fit::readFrames(a->frames);
+        mesh::Mesh m = mesh::load(a->mesh);
+        fit::FitResult r;
+        try {
+            r = fit::fitFrames(m, frames, a->o);
+        } catch (const InputError& e) {
+            // Errors about the mesh name the mesh file.
+            if (e.subject() == "mesh" && e.file().empty()) throw InputError("mesh", a->mesh, e.reason());
+            if (e.file().empty()) throw InputError(e.subject(), a->frames, e.reason());
+            throw;
+        }
+        fit::writeFitOutputs(r, a->out);
+        const auto& b = r.brdf;
+        info(g, fmt::format("rho(gamma) = {:.4f} + {:.4f} g + {:.4f} g^2 + {:.4f} g^3", b.c[0], b.c[1], b.c[2], b.c[3]));
+        info(g, fmt::format("delta(r) = 1 + {:.4f} r + {:.4f} r^2 + {:.4f} r^3, z in [{:.2f}, {:.2f}] mm", b.d[0], b.d[1],
+                            b.d[2], b.zmin, b.zmax));
+        info(g, fmt::format("{} samples in the solve, rms {:.4f}; texture covers {:.1f} % of the atlas", b.samples, b.rms,
+                            100.0 * r.coveredFraction));
+        for (const auto& h : r.holdout)
+            info(g, fmt::format("held-out frame {} ({}): PSNR {:.2f} dB over {} pixels ({} masked)", h.frame, h.image,
+                                h.psnr, h.compared, h.masked));
+        info(g, fmt::format("wrote {}/{{brdf.json, texture.png, coverage.png, report.html}}", a->out));
+    });
+}
+
+}  // namespace
+
+MUCOSA_REGISTER_COMMAND(70, addFitCommand);
+
+}  // namespace mucosa::cli

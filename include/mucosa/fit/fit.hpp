@@ -1,0 +1,117 @@
+#pragma once
+// `mucosa fit`: patient-specific texture and shading from registered frames.
+//  1. back-project every frame onto the mesh through a depth pass, collecting
+//     per pixel gamma = cos(V, N), the distance z to the viewpoint and the
+//     linear intensity (backproject.hpp);
+//  2. fit the seven parameters of rho(gamma) * delta(r) jointly with a per-texel
+//     albedo, with a robust (Cauchy) loss so that specular highlights and
+//     disocclusions are outliers (Ceres; solve.cpp);
+//  3. divide the shading out, blend frames weighted by gamma and distance, fill
+//     unseen texels by push-pull inpainting (texture.cpp).
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <mucosa/fit/brdf.hpp>
+#include <mucosa/fit/frames.hpp>
+#include <mucosa/image/image.hpp>
+#include <mucosa/mesh/mesh.hpp>
+
+namespace mucosa::fit {
+
+// One observation of a surface point.
+struct Sample {
+    float u = 0, v = 0;      // texture coordinates (OpenGL convention)
+    float gamma = 0, z = 0;  // cos(V, N) and distance to the viewpoint (mm)
+    std::array<float, 3> I{};  // linear intensity, 0..1
+    std::uint32_t frame = 0;
+};
+
+struct BackprojectStats {
+    std::size_t pixels = 0, hits = 0, backFacing = 0, saturated = 0, grazing = 0, samples = 0;
+};
+
+using Progress = std::function<void(const std::string& stage, double fraction)>;
+
+enum class Solver {
+    Schur,  // specialised Levenberg-Marquardt with Schur elimination (default, fast)
+    Ceres,  // Ceres Solver, DENSE_SCHUR: the general-purpose reference
+};
+
+struct FitOptions {
+    Solver solver = Solver::Schur;
+    int textureSize = 1024;              // output atlas, texels per side
+    int holdout = 0;                     // frames held out for validation (evenly spaced)
+    bool robust = true;                  // Cauchy loss; off: plain least squares
+    double cauchyScale = 0.02;           // residual scale of the loss, linear intensity
+    double minGamma = 0.1;               // grazing views are dropped
+    double saturation = 0.99;            // pixels at or above this (before linearising) are dropped
+    int fitGrid = 128;                   // albedo grid of the joint solve (coarser than the atlas)
+    std::size_t maxSolveSamples = 300000;  // samples the joint solve uses at most
+    std::size_t minSamples = 2000;       // fewer usable samples is an error
+    int threads = 0;
+    std::uint64_t seed = 1;
+    Progress progress;                   // optional
+};
+
+struct HoldoutResult {
+    std::size_t frame = 0;
+    std::string image;
+    double psnr = 0;          // dB over compared pixels
+    std::size_t compared = 0, masked = 0;
+};
+
+struct FitResult {
+    BrdfParams brdf;
+    image::ImageF texture;    // 3 channels, linear albedo; first row = top (v = 1)
+    image::ImageF coverage;   // 1 channel, blend weight per texel (0 = filled by inpainting)
+    std::array<float, 2> uvMin{0, 0}, uvMax{1, 1};  // the atlas spans this UV rectangle
+    double coveredFraction = 0;
+    std::vector<BackprojectStats> perFrame;
+    std::vector<HoldoutResult> holdout;
+    std::size_t solveSamples = 0, solveTexels = 0;
+    std::array<double, 2> zObserved{0, 0};  // 1st and 99th percentile of sample distances (mm)
+    int solverIterations = 0;
+    double solveSeconds = 0, totalSeconds = 0;
+    // Binned data for the report: mean shading-normalised intensity per bin.
+    std::vector<std::array<double, 3>> rhoBins, deltaBins;  // (x, mean, count)
+};
+
+// Back-projects one frame (image already decoded and linearised, 3 channels).
+// `saturated` (optional, 1 channel) marks pixels at or above the saturation level.
+std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, const image::ImageF& linear,
+                                const image::Image8* saturated, const FitOptions& options, std::uint32_t frameIndex,
+                                BackprojectStats* stats);
+
+// Reads, checks and linearises a frame's image (8/16-bit grey or RGB PNG).
+image::ImageF loadFrameImage(const Frame& frame, double gamma, image::Image8* saturatedMask = nullptr,
+                             double saturation = 0.99);
+
+// The joint robust solve on samples (zmin/zmax from the data).
+BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& options, FitResult* diagnostics = nullptr);
+
+// Albedo atlas from samples and fitted shading; push-pull fills the rest.
+void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, const FitOptions& options,
+                  FitResult& result);
+
+// Push-pull inpainting (Gortler et al. 1996, "The Lumigraph", pull-push):
+// texels with weight 0 take the weighted average of coarser levels.
+void pushPull(image::ImageF& color, const image::ImageF& weight);
+
+// Everything: checks, back-projection, solve, texture, hold-out validation.
+FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& frames, const FitOptions& options);
+
+// Writes OUTDIR/brdf.json, texture.png, coverage.png, report.html, rho.svg,
+// delta.svg, report.json (all atomically; the directory is created).
+void writeFitOutputs(const FitResult& result, const std::filesystem::path& dir);
+
+// Renders what the fitted model predicts for a frame (texture x rho x delta),
+// linear, 3 channels; pixels that see nothing are 0 and flagged in `seen`.
+image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const BrdfParams& brdf,
+                               const image::ImageF& texture, std::array<float, 2> uvMin, std::array<float, 2> uvMax,
+                               std::vector<std::uint8_t>* seen = nullptr, int threads = 0);
+
+}  // namespace mucosa::fit

@@ -1,0 +1,50 @@
+#pragma once
+// Registered endoscope frames (issue 6, "Input"): images with pinhole
+// intrinsics (OpenCV axes: x right, y down, z forward; pixel centres at
+// integer coordinates), optional radial distortion k1, k2, and a row-major 4x4
+// camera_to_world in the mesh's units. The light is a point at `lightOffset`
+// in camera coordinates (0 = at the camera).
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace mucosa::fit {
+
+using Mat4 = std::array<std::array<double, 4>, 4>;
+using Vec3d = std::array<double, 3>;
+
+struct Intrinsics {
+    int width = 0, height = 0;
+    double fx = 0, fy = 0, cx = 0, cy = 0;
+    double k1 = 0, k2 = 0;  // radial distortion (Brown-Conrady, OpenCV's k1, k2)
+};
+
+struct Frame {
+    std::filesystem::path image;  // resolved against the frames file's folder
+    Intrinsics K;
+    Mat4 cameraToWorld{};
+};
+
+struct FrameSet {
+    std::string units = "mm";
+    double gamma = 1.0;      // linear = (value / max) ^ gamma
+    Vec3d lightOffset{0, 0, 0};
+    std::vector<Frame> frames;
+};
+
+// Throws InputError naming the file and the field (e.g. "frames[2].intrinsics.fx").
+FrameSet readFrames(const std::filesystem::path& path);
+void writeFrames(const std::filesystem::path& path, const FrameSet& set);
+
+// Camera centre in world coordinates and world -> camera transform.
+Vec3d cameraCentre(const Mat4& cameraToWorld) noexcept;
+Mat4 invertRigid(const Mat4& m) noexcept;
+Vec3d transformPoint(const Mat4& m, const Vec3d& p) noexcept;
+Vec3d transformDirection(const Mat4& m, const Vec3d& d) noexcept;
+
+// Normalised image coordinates (x/z, y/z) -> distorted pixel, and back.
+std::array<double, 2> project(const Intrinsics& K, double xn, double yn) noexcept;
+std::array<double, 2> unproject(const Intrinsics& K, double px, double py) noexcept;
+
+}  // namespace mucosa::fit

@@ -1,0 +1,120 @@
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/fit/fit.hpp>
+#include <mucosa/image/png.hpp>
+
+#include "surface.hpp"
+
+namespace mucosa::fit {
+
+image::ImageF loadFrameImage(const Frame& frame, double gamma, image::Image8* saturatedMask, double saturation) {
+    const image::PngImage png = image::readPng(frame.image);
+    const image::Image16& px = png.pixels;
+    if (px.width() != frame.K.width || px.height() != frame.K.height)
+        throw InputError("image size", frame.image.string(),
+                         fmt::format("is {}x{} but the frame's intrinsics say {}x{}", px.width(), px.height(),
+                                     frame.K.width, frame.K.height));
+    const double maxv = png.bitDepth == 16 ? 65535.0 : 255.0;
+    image::ImageF out(px.width(), px.height(), 3);
+    if (saturatedMask) *saturatedMask = image::Image8(px.width(), px.height(), 1);
+    const int colour = px.channels() >= 3 ? 3 : 1;
+    for (int y = 0; y < px.height(); ++y)
+        for (int x = 0; x < px.width(); ++x) {
+            bool sat = false;
+            for (int c = 0; c < 3; ++c) {
+                const double v = px.at(x, y, colour == 3 ? c : 0) / maxv;
+                sat = sat || v >= saturation;
+                out.at(x, y, c) = static_cast<float>(gamma == 1.0 ? v : std::pow(v, gamma));
+            }
+            if (saturatedMask) saturatedMask->at(x, y) = sat ? 1 : 0;
+        }
+    return out;
+}
+
+std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, const image::ImageF& linear,
+                                const image::Image8* saturatedMask, const FitOptions& o, std::uint32_t frameIndex,
+                                BackprojectStats* stats) {
+    const Mat4 W = invertRigid(frame.cameraToWorld);
+    const Vec3d eye = cameraCentre(frame.cameraToWorld);
+    const GBuffer g = rasterize(mesh, frame.K, W, 0.05, o.threads);
+    BackprojectStats st;
+    std::vector<Sample> out;
+    out.reserve(g.hits());
+    for (int py = 0; py < frame.K.height; ++py)
+        for (int px = 0; px < frame.K.width; ++px) {
+            ++st.pixels;
+            int gx, gy;
+            if (!detail::gbufferPixel(frame.K, px, py, gx, gy)) continue;
+            const std::size_t gi = static_cast<std::size_t>(gy) * g.width + gx;
+            if (g.triangle[gi] < 0) continue;
+            ++st.hits;
+            const auto s = detail::surfaceAt(mesh, g.triangle[gi], g.b1[gi], g.b2[gi]);
+            double gamma, z;
+            detail::viewTerms(s, eye, gamma, z);
+            if (gamma <= 0) {
+                ++st.backFacing;
+                continue;
+            }
+            if (gamma < o.minGamma) {
+                ++st.grazing;
+                continue;
+            }
+            Sample smp;
+            for (int c = 0; c < 3; ++c) smp.I[c] = linear.at(px, py, c);
+            if (saturatedMask && saturatedMask->at(px, py)) {
+                ++st.saturated;
+                continue;
+            }
+            smp.u = static_cast<float>(s.u);
+            smp.v = static_cast<float>(s.v);
+            smp.gamma = static_cast<float>(gamma);
+            smp.z = static_cast<float>(z);
+            smp.frame = frameIndex;
+            out.push_back(smp);
+        }
+    st.samples = out.size();
+    if (stats) *stats = st;
+    return out;
+}
+
+image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const BrdfParams& brdf,
+                               const image::ImageF& tex, std::array<float, 2> uvMin, std::array<float, 2> uvMax,
+                               std::vector<std::uint8_t>* seen, int threads) {
+    const Mat4 W = invertRigid(frame.cameraToWorld);
+    const Vec3d eye = cameraCentre(frame.cameraToWorld);
+    const GBuffer g = rasterize(mesh, frame.K, W, 0.05, threads);
+    image::ImageF out(frame.K.width, frame.K.height, 3);
+    if (seen) seen->assign(static_cast<std::size_t>(frame.K.width) * frame.K.height, 0);
+    const int tw = tex.width(), th = tex.height();
+    for (int py = 0; py < frame.K.height; ++py)
+        for (int px = 0; px < frame.K.width; ++px) {
+            int gx, gy;
+            if (!detail::gbufferPixel(frame.K, px, py, gx, gy)) continue;
+            const std::size_t gi = static_cast<std::size_t>(gy) * g.width + gx;
+            if (g.triangle[gi] < 0) continue;
+            const auto s = detail::surfaceAt(mesh, g.triangle[gi], g.b1[gi], g.b2[gi]);
+            double gamma, z;
+            detail::viewTerms(s, eye, gamma, z);
+            if (gamma <= 0) continue;
+            // Bilinear texture lookup; first row of the atlas is the top (v max).
+            const double fu = (s.u - uvMin[0]) / (uvMax[0] - uvMin[0]) * tw - 0.5;
+            const double fv = (1.0 - (s.v - uvMin[1]) / (uvMax[1] - uvMin[1])) * th - 0.5;
+            const int x0 = std::clamp(static_cast<int>(std::floor(fu)), 0, tw - 1);
+            const int y0 = std::clamp(static_cast<int>(std::floor(fv)), 0, th - 1);
+            const int x1 = std::min(x0 + 1, tw - 1), y1 = std::min(y0 + 1, th - 1);
+            const double ax = std::clamp(fu - x0, 0.0, 1.0), ay = std::clamp(fv - y0, 0.0, 1.0);
+            const double shade = brdf.shading(gamma, z);
+            for (int c = 0; c < 3; ++c) {
+                const double a = (1 - ay) * ((1 - ax) * tex.at(x0, y0, c) + ax * tex.at(x1, y0, c)) +
+                                 ay * ((1 - ax) * tex.at(x0, y1, c) + ax * tex.at(x1, y1, c));
+                out.at(px, py, c) = static_cast<float>(a * shade);
+            }
+            if (seen) (*seen)[static_cast<std::size_t>(py) * frame.K.width + px] = 1;
+        }
+    return out;
+}
+
+}  // namespace mucosa::fit

@@ -1,0 +1,126 @@
+#include <mucosa/fit/fit.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/memory.hpp>
+
+namespace mucosa::fit {
+
+namespace {
+
+std::vector<std::size_t> holdoutFrames(std::size_t n, int k) {
+    std::vector<std::size_t> out;
+    if (k <= 0) return out;
+    for (int i = 0; i < k; ++i) out.push_back((static_cast<std::size_t>(2 * i + 1) * n) / static_cast<std::size_t>(2 * k));
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+}
+
+}  // namespace
+
+FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOptions& o) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (!mesh.hasUvs())
+        throw InputError("mesh", "", "has no texture coordinates: prepare it with `mucosa mesh IN -o OUT --uv centerline`");
+    if (!mesh.hasNormals()) throw InputError("mesh", "", "has no normals");
+    if (o.textureSize < 8 || o.textureSize > 16384)
+        throw InputError("texture size", "", fmt::format("must be in 8..16384, got {}", o.textureSize));
+    if (o.holdout < 0 || static_cast<std::size_t>(o.holdout) >= set.frames.size())
+        throw InputError("holdout", "",
+                         fmt::format("must leave at least one frame to fit: {} of {} frames", o.holdout, set.frames.size()));
+    // Memory: samples (one per pixel at most) and the atlas.
+    std::uint64_t pixels = 0;
+    for (const Frame& f : set.frames) pixels += static_cast<std::uint64_t>(f.K.width) * f.K.height;
+    requireMemory(saturatingMul(pixels, sizeof(Sample) + 24) +
+                      saturatingMul(static_cast<std::uint64_t>(o.textureSize) * o.textureSize, 64),
+                  "the fit");
+
+    const auto held = holdoutFrames(set.frames.size(), o.holdout);
+    FitResult r;
+    r.perFrame.resize(set.frames.size());
+    std::vector<Sample> samples;
+    for (std::size_t i = 0; i < set.frames.size(); ++i) {
+        const Frame& f = set.frames[i];
+        if (o.progress) o.progress(fmt::format("back-projecting frame {}/{}", i + 1, set.frames.size()),
+                                   static_cast<double>(i) / set.frames.size());
+        const bool isHeld = std::find(held.begin(), held.end(), i) != held.end();
+        image::Image8 sat;
+        const image::ImageF img = loadFrameImage(f, set.gamma, &sat, o.saturation);
+        BackprojectStats st;
+        std::vector<Sample> s = backproject(mesh, f, img, &sat, o, static_cast<std::uint32_t>(i), &st);
+        r.perFrame[i] = st;
+        if (st.hits == 0)
+            throw InputError("frame", f.image.string(), "never sees the mesh (check camera_to_world and the units)");
+        if (st.backFacing > st.hits / 2)
+            throw InputError("frame", f.image.string(),
+                             fmt::format("sees the back of the surface at {:.0f} % of its pixels: the camera is "
+                                         "outside-in or the normals point the wrong way (try `mucosa mesh --flip`)",
+                                         100.0 * st.backFacing / st.hits));
+        if (!isHeld) samples.insert(samples.end(), s.begin(), s.end());
+    }
+    // The atlas spans the UV rectangle of the mesh (texture coordinates outside
+    // [0, 1], as centreline UVs along a long airway, are not wrapped).
+    float umin = mesh.uvs[0][0], umax = umin, vmin = mesh.uvs[0][1], vmax = vmin;
+    for (const auto& uv : mesh.uvs) {
+        umin = std::min(umin, uv[0]);
+        umax = std::max(umax, uv[0]);
+        vmin = std::min(vmin, uv[1]);
+        vmax = std::max(vmax, uv[1]);
+    }
+    if (umin >= 0 && vmin >= 0 && umax <= 1 && vmax <= 1) {
+        r.uvMin = {0, 0};
+        r.uvMax = {1, 1};
+    } else {
+        r.uvMin = {umin, vmin};
+        r.uvMax = {umax, vmax};
+    }
+    if (o.progress) o.progress("fitting rho(gamma) and delta(r)", 0.5);
+    r.brdf = solveBrdf(samples, o, &r);
+    if (o.progress) o.progress("building the texture", 0.8);
+    buildTexture(samples, r.brdf, o, r);
+
+    for (std::size_t i : held) {
+        const Frame& f = set.frames[i];
+        if (o.progress) o.progress(fmt::format("validating on held-out frame {}", i), 0.9);
+        image::Image8 sat;
+        const image::ImageF real = loadFrameImage(f, set.gamma, &sat, o.saturation);
+        std::vector<std::uint8_t> seen;
+        const image::ImageF pred = renderPrediction(mesh, f, r.brdf, r.texture, r.uvMin, r.uvMax, &seen, o.threads);
+        HoldoutResult h;
+        h.frame = i;
+        h.image = f.image.filename().string();
+        double se = 0;
+        for (int y = 0; y < f.K.height; ++y)
+            for (int x = 0; x < f.K.width; ++x) {
+                const std::size_t pi = static_cast<std::size_t>(y) * f.K.width + x;
+                if (!seen[pi]) continue;
+                double e2 = 0, lumReal = 0, lumPred = 0;
+                for (int c = 0; c < 3; ++c) {
+                    const double e = real.at(x, y, c) - pred.at(x, y, c);
+                    e2 += e * e;
+                    lumReal += real.at(x, y, c);
+                    lumPred += pred.at(x, y, c);
+                }
+                // Highlights (and saturation) are masked: the model has no specular term.
+                if (sat.at(x, y) || lumReal > 1.25 * lumPred + 0.09) {
+                    ++h.masked;
+                    continue;
+                }
+                se += e2;
+                h.compared += 3;
+            }
+        h.psnr = h.compared ? 10.0 * std::log10(1.0 / std::max(1e-12, se / static_cast<double>(h.compared))) : 0.0;
+        h.compared /= 3;
+        r.holdout.push_back(h);
+    }
+    r.totalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (o.progress) o.progress("done", 1.0);
+    return r;
+}
+
+}  // namespace mucosa::fit

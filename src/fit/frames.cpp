@@ -1,0 +1,178 @@
+#include <mucosa/fit/frames.hpp>
+
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+
+namespace mucosa::fit {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+double number(const json& j, const char* key, const std::string& where, const std::string& file, bool required,
+              double fallback = 0) {
+    if (!j.contains(key)) {
+        if (required) throw InputError("field '" + where + key + "'", file, "is missing");
+        return fallback;
+    }
+    if (!j[key].is_number()) throw InputError("field '" + where + key + "'", file, "must be a number");
+    const double v = j[key].get<double>();
+    if (!std::isfinite(v)) throw InputError("field '" + where + key + "'", file, "must be finite");
+    return v;
+}
+
+}  // namespace
+
+FrameSet readFrames(const fs::path& path) {
+    const std::string file = path.string();
+    json j;
+    try {
+        j = json::parse(readTextFile(path));
+    } catch (const json::parse_error& e) {
+        throw InputError("JSON", file, fmt::format("parse error at byte {}", e.byte));
+    }
+    if (!j.is_object()) throw InputError("frames file", file, "must be a JSON object");
+    FrameSet set;
+    if (j.contains("units")) {
+        if (!j["units"].is_string()) throw InputError("field 'units'", file, "must be a string");
+        set.units = j["units"].get<std::string>();
+        if (set.units != "mm")
+            throw InputError("field 'units'", file, "'" + set.units + "' is not supported: give poses in mm");
+    }
+    set.gamma = number(j, "gamma", "", file, false, 1.0);
+    if (!(set.gamma > 0)) throw InputError("field 'gamma'", file, "must be positive");
+    if (j.contains("light")) {
+        const json& l = j["light"];
+        if (!l.is_object()) throw InputError("field 'light'", file, "must be an object");
+        if (l.contains("offset")) {
+            if (!l["offset"].is_array() || l["offset"].size() != 3)
+                throw InputError("field 'light.offset'", file, "must be 3 numbers (camera coordinates)");
+            for (int i = 0; i < 3; ++i) {
+                if (!l["offset"][i].is_number()) throw InputError("field 'light.offset'", file, "must be numbers");
+                set.lightOffset[i] = l["offset"][i].get<double>();
+            }
+        }
+    }
+    if (!j.contains("frames") || !j["frames"].is_array() || j["frames"].empty())
+        throw InputError("field 'frames'", file, "must be a non-empty array");
+    const fs::path dir = path.parent_path();
+    for (std::size_t i = 0; i < j["frames"].size(); ++i) {
+        const json& f = j["frames"][i];
+        const std::string where = fmt::format("frames[{}].", i);
+        if (!f.is_object()) throw InputError("field '" + where.substr(0, where.size() - 1) + "'", file, "must be an object");
+        Frame fr;
+        if (!f.contains("image") || !f["image"].is_string())
+            throw InputError("field '" + where + "image'", file, "must be a file name");
+        fr.image = dir / f["image"].get<std::string>();
+        if (!f.contains("intrinsics") || !f["intrinsics"].is_object())
+            throw InputError("field '" + where + "intrinsics'", file, "is missing");
+        const json& k = f["intrinsics"];
+        const std::string kw = where + "intrinsics.";
+        const double w = number(k, "width", kw, file, true), h = number(k, "height", kw, file, true);
+        if (w < 1 || h < 1 || w > 65536 || h > 65536 || w != std::floor(w) || h != std::floor(h))
+            throw InputError("field '" + kw + "width/height'", file, "must be whole numbers in 1..65536");
+        fr.K.width = static_cast<int>(w);
+        fr.K.height = static_cast<int>(h);
+        fr.K.fx = number(k, "fx", kw, file, true);
+        fr.K.fy = number(k, "fy", kw, file, true);
+        fr.K.cx = number(k, "cx", kw, file, true);
+        fr.K.cy = number(k, "cy", kw, file, true);
+        fr.K.k1 = number(k, "k1", kw, file, false);
+        fr.K.k2 = number(k, "k2", kw, file, false);
+        if (!(fr.K.fx > 0) || !(fr.K.fy > 0))
+            throw InputError("field '" + kw + "fx'", file, "focal lengths must be positive");
+        if (!f.contains("camera_to_world") || !f["camera_to_world"].is_array() || f["camera_to_world"].size() != 4)
+            throw InputError("field '" + where + "camera_to_world'", file, "must be a row-major 4x4 matrix");
+        for (int r = 0; r < 4; ++r) {
+            const json& row = f["camera_to_world"][r];
+            if (!row.is_array() || row.size() != 4)
+                throw InputError("field '" + where + "camera_to_world'", file, "must be a row-major 4x4 matrix");
+            for (int c = 0; c < 4; ++c) {
+                if (!row[c].is_number())
+                    throw InputError("field '" + where + "camera_to_world'", file, "must hold numbers");
+                fr.cameraToWorld[r][c] = row[c].get<double>();
+            }
+        }
+        // Rigid: orthonormal rotation with det +1, last row 0 0 0 1.
+        const Mat4& M = fr.cameraToWorld;
+        double worst = 0;
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) {
+                double dot = 0;
+                for (int r = 0; r < 3; ++r) dot += M[r][a] * M[r][b];
+                worst = std::max(worst, std::fabs(dot - (a == b ? 1.0 : 0.0)));
+            }
+        const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                           M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                           M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
+        if (worst > 1e-3 || det < 0 || M[3][0] != 0 || M[3][1] != 0 || M[3][2] != 0 || M[3][3] != 1)
+            throw InputError("field '" + where + "camera_to_world'", file,
+                             "is not a rigid transform (rotation must be orthonormal with det +1, last row 0 0 0 1)");
+        set.frames.push_back(std::move(fr));
+    }
+    return set;
+}
+
+void writeFrames(const fs::path& path, const FrameSet& set) {
+    json j{{"units", set.units}, {"gamma", set.gamma}, {"light", {{"offset", set.lightOffset}}}, {"frames", json::array()}};
+    for (const Frame& f : set.frames) {
+        json m = json::array();
+        for (const auto& row : f.cameraToWorld) m.push_back(row);
+        json k{{"width", f.K.width}, {"height", f.K.height}, {"fx", f.K.fx}, {"fy", f.K.fy}, {"cx", f.K.cx}, {"cy", f.K.cy}};
+        if (f.K.k1 != 0 || f.K.k2 != 0) {
+            k["k1"] = f.K.k1;
+            k["k2"] = f.K.k2;
+        }
+        j["frames"].push_back(json{{"image", f.image.filename().string()}, {"intrinsics", k}, {"camera_to_world", m}});
+    }
+    writeFileAtomic(path, j.dump(2) + "\n");
+}
+
+Vec3d cameraCentre(const Mat4& m) noexcept { return {m[0][3], m[1][3], m[2][3]}; }
+
+Mat4 invertRigid(const Mat4& m) noexcept {
+    Mat4 r{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) r[i][j] = m[j][i];
+    for (int i = 0; i < 3; ++i) r[i][3] = -(r[i][0] * m[0][3] + r[i][1] * m[1][3] + r[i][2] * m[2][3]);
+    r[3] = {0, 0, 0, 1};
+    return r;
+}
+
+Vec3d transformPoint(const Mat4& m, const Vec3d& p) noexcept {
+    return {m[0][0] * p[0] + m[0][1] * p[1] + m[0][2] * p[2] + m[0][3],
+            m[1][0] * p[0] + m[1][1] * p[1] + m[1][2] * p[2] + m[1][3],
+            m[2][0] * p[0] + m[2][1] * p[1] + m[2][2] * p[2] + m[2][3]};
+}
+
+Vec3d transformDirection(const Mat4& m, const Vec3d& d) noexcept {
+    return {m[0][0] * d[0] + m[0][1] * d[1] + m[0][2] * d[2], m[1][0] * d[0] + m[1][1] * d[1] + m[1][2] * d[2],
+            m[2][0] * d[0] + m[2][1] * d[1] + m[2][2] * d[2]};
+}
+
+std::array<double, 2> project(const Intrinsics& K, double xn, double yn) noexcept {
+    // Brown-Conrady radial distortion (OpenCV's k1, k2).
+    const double r2 = xn * xn + yn * yn;
+    const double s = 1.0 + K.k1 * r2 + K.k2 * r2 * r2;
+    return {K.fx * xn * s + K.cx, K.fy * yn * s + K.cy};
+}
+
+std::array<double, 2> unproject(const Intrinsics& K, double px, double py) noexcept {
+    const double xd = (px - K.cx) / K.fx, yd = (py - K.cy) / K.fy;
+    double x = xd, y = yd;
+    for (int i = 0; i < 20; ++i) {  // fixed-point inversion, as OpenCV's undistortPoints
+        const double r2 = x * x + y * y;
+        const double s = 1.0 + K.k1 * r2 + K.k2 * r2 * r2;
+        x = xd / s;
+        y = yd / s;
+    }
+    return {x, y};
+}
+
+}  // namespace mucosa::fit

@@ -1,0 +1,12 @@
+find_package(Ceres CONFIG REQUIRED)
+find_package(Eigen3 CONFIG REQUIRED)
+target_sources(mucosa PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/brdf.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/frames.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/raster.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/backproject.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/solve.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/texture.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/fit.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/report.cpp)
+target_link_libraries(mucosa PRIVATE Ceres::ceres Eigen3::Eigen)

@@ -1,0 +1,47 @@
+#pragma once
+// Synthetic ground truth for the fit: a tube with known albedo, rendered with
+// known rho and delta from off-axis, tilted endoscope poses, plus specular
+// glints and sensor noise.
+#include <array>
+#include <filesystem>
+#include <vector>
+
+#include <mucosa/fit/brdf.hpp>
+#include <mucosa/fit/frames.hpp>
+#include <mucosa/image/image.hpp>
+#include <mucosa/mesh/mesh.hpp>
+
+namespace mucosa::test {
+
+// Tube along +z, radius R, length L, normals pointing into the lumen, UVs
+// u = angle / 2 pi, v = z / L (the seam duplicated).
+mesh::Mesh makeTube(double R, double L, int around, int along);
+
+// Known albedo at (u, v): smooth tinted pattern with detail.
+std::array<double, 3> trueAlbedo(double u, double v);
+
+struct Truth {
+    std::array<double, 4> c{0.25, 0.9, -0.3, 0.15};  // rho(1) = 1
+    std::array<double, 3> d{-0.9, 0.45, -0.08};      // delta over s = (z - Z0)/(Z1 - Z0)
+    double Z0 = 2.0, Z1 = 45.0;
+    double rho(double g) const { return c[0] + g * (c[1] + g * (c[2] + g * c[3])); }
+    double delta(double z) const {
+        const double s = (z - Z0) / (Z1 - Z0);
+        return 1.0 + s * (d[0] + s * (d[1] + s * d[2]));
+    }
+};
+
+struct SyntheticOptions {
+    int frames = 12;
+    int size = 320;
+    double specular = 0.7;  // glint strength (0: none)
+    double noise = 0.004;   // sensor noise sigma
+    unsigned seed = 7;
+};
+
+// Renders the frames as 16-bit PNGs into `dir` and returns the frame set
+// (also written as dir/frames.json).
+fit::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const SyntheticOptions& o,
+                              const std::filesystem::path& dir);
+
+}  // namespace mucosa::test
