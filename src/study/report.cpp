@@ -207,7 +207,7 @@ std::string fig6Svg(const Analysis& a) {
 // Fig. 7: ROC of each synthetic category against the real frames, one panel per group.
 std::string fig7Svg(const Analysis& a) {
     const double panel = 260, pad = 45, top = 30;
-    const double W = static_cast<double>(a.groups.size()) * (panel + pad) + pad + 170, H = panel + top + 60;
+    const double W = static_cast<double>(a.groups.size()) * (panel + pad) + pad + 200, H = panel + top + 60;
     std::string s = fmt::format(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" viewBox=\"0 0 {} {}\" "
         "font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n",
@@ -258,9 +258,10 @@ std::string fig7Svg(const Analysis& a) {
         if (c == kReferenceCategory) continue;
         std::string aucs;
         for (const auto& g : a.groups)
-            if (auto it = g.roc.find(c); it != g.roc.end()) aucs += fmt::format(" {:.2f}", it->second.auc);
+            if (auto it = g.roc.find(c); it != g.roc.end())
+                aucs += fmt::format("{}{:.2f}", aucs.empty() ? " " : ", ", it->second.auc);
         s += fmt::format("<line x1=\"{}\" x2=\"{}\" y1=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"3\"/><text x=\"{}\" "
-                         "y=\"{}\">{}</text><text x=\"{}\" y=\"{}\" font-size=\"10\" fill=\"#555\">AUC{}</text>\n",
+                         "y=\"{}\">{}</text><text x=\"{}\" y=\"{}\" font-size=\"10\" fill=\"#555\">AUC by panel:{}</text>\n",
                          lx, lx + 18, top + 20 + 34 * row, top + 20 + 34 * row, categoryColour(c), lx + 24,
                          top + 24 + 34 * row, categoryLabel(c), lx + 24, top + 37 + 34 * row, aucs);
         ++row;

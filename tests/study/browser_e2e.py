@@ -151,6 +151,6 @@ if rows != expected:
     for a, b in zip(rows + [None] * 20, expected):
         print("  db", a, "\n  ex", b)
     sys.exit(1)
-big = [f for f in os.listdir(shots) if os.path.getsize(os.path.join(shots, f)) > 150 * 1024]
+big = [f for f in os.listdir(shots) if f.startswith("study_") and os.path.getsize(os.path.join(shots, f)) > 150 * 1024]
 print(f"browser e2e passed: {len(rows)} answers stored exactly once; screenshots in {shots}"
       + (f" (over 150 KB: {big})" if big else ""))

@@ -51,6 +51,9 @@
   async function render(s) {
     state = s;
     progress(s);
+    // A button keeps focus after a click; Enter or Space would then answer the
+    // next screen by accident.
+    if (document.activeElement && document.activeElement !== document.body) document.activeElement.blur();
     if (s.done) { show('done'); localStorage.removeItem(KEY); return; }
     const sc = s.screen;
     ready = false;
