@@ -11,6 +11,7 @@
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/repair.hpp>
 #include <mucosa/mesh/tangents.hpp>
+#include <mucosa/mesh/uv.hpp>
 
 #include "commands.hpp"
 
@@ -117,7 +118,9 @@ void convert(const MeshArgs& a, const Global& g) {
     }
     if (a.uv == "centerline") {
         progress("centreline UVs");
-        throw InputError("--uv", "", "centreline UVs are not implemented yet");
+        const mesh::CenterlineUvReport r = mesh::computeCenterlineUvs(m);
+        info(g, fmt::format("centreline UVs: {} pieces, {} branches, tile {:.2f} mm, {} seam vertices", r.pieces,
+                            r.centerline.branches.size(), r.tileLength, r.seamVertices));
         tangentsStale = true;
     }
     if (m.hasUvs() && !a.noTangents && tangentsStale) {
