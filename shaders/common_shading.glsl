@@ -65,7 +65,7 @@ struct Varyings {
     vec3 N;
     float diffuseLight;  // per-vertex modes: I_L att rho delta
     float specular;      // per-vertex modes: specular (vertex-phong) or highlight weight (multitexture)
-    vec2 sphereUv;       // multitexture: sphere-map coordinates of the reflected view vector
+    vec2 sphereUv;       // multitexture: highlight-texture coordinates (highlightCoord)
 };
 
 // Paper eq. 1-2 inverted: rgb = 0.5 N + 0.5 -> N; the bump scale tilts the
@@ -119,14 +119,19 @@ vec3 toTangentSpace(vec3 v, vec3 T, vec3 B, vec3 N) {
     return vec3(dot(T, v), dot(B, v), dot(N, v));
 }
 
-// OpenGL's GL_SPHERE_MAP texture generation (OpenGL 1.x spec, 2.11.4): the
-// eye-space reflection of the view ray, the fixed-function way a highlight
-// texture was placed before programmable shading.
-vec2 sphereMapCoord(vec3 P, vec3 N, Frame f) {
-    vec3 Pe = vec3(f.view * vec4(P, 1.0f));
-    vec3 Ne = normalize(mat3(f.view) * N);
-    vec3 u = Pe / max(length(Pe), kTiny);
-    vec3 r = reflect(u, Ne);
+// The multitexture baseline's texture coordinates: OpenGL's GL_SPHERE_MAP
+// formula (OpenGL 1.x spec, 2.11.4) applied to the reflected light direction
+// R = reflect(-L, N), expressed in a frame whose pole is V (the direction to
+// the eye) instead of the eye-space z axis. The highlight texture is then the
+// Phong lobe (R . V)^n and lands where a Phong highlight would; computed per
+// vertex and interpolated linearly, it gives the faceted, polygonal highlights
+// of fixed-function multi-texturing on coarse meshes (the paper's Fig. 2).
+vec2 highlightCoord(vec3 N, vec3 L, vec3 V, Frame f) {
+    vec3 R = reflect(-L, N);
+    vec3 right = vec3(f.view[0][0], f.view[1][0], f.view[2][0]);  // camera +x in world space
+    vec3 x = normalize(right - V * dot(right, V));
+    vec3 y = cross(V, x);
+    vec3 r = vec3(dot(R, x), dot(R, y), dot(R, V));
     float m = 2.0f * sqrt(r.x * r.x + r.y * r.y + (r.z + 1.0f) * (r.z + 1.0f));
     m = max(m, kTiny);
     return vec2(r.x / m + 0.5f, r.y / m + 0.5f);
@@ -166,7 +171,7 @@ Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, in
             o.specular = lightI * m.specularStrength * phongLobe(N, Ln, Vn, m.shininess);
         } else {
             o.specular = lightI * m.specularStrength;
-            o.sphereUv = sphereMapCoord(P, N, f);
+            o.sphereUv = highlightCoord(N, Ln, Vn, f);
         }
     }
     return o;

@@ -81,10 +81,7 @@ HeadlessContext::HeadlessContext() {
     auto attempt = [&](EGLDisplay candidate, const char* name) {
         if (!initialise(candidate)) return false;
         c = createCoreContext(candidate, why);
-        if (c == EGL_NO_CONTEXT) {
-            eglTerminate(candidate);
-            return false;
-        }
+        if (c == EGL_NO_CONTEXT) return false;
         d = candidate;
         platform_ = name;
         return true;
@@ -110,10 +107,11 @@ HeadlessContext::HeadlessContext() {
 }
 
 HeadlessContext::~HeadlessContext() {
+    // The display is not terminated: EGL hands every caller the same display
+    // for a platform, and terminating it would break other live contexts.
     auto d = static_cast<EGLDisplay>(display_);
     eglMakeCurrent(d, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     eglDestroyContext(d, static_cast<EGLContext>(context_));
-    eglTerminate(d);
 }
 
 void HeadlessContext::makeCurrent() {

@@ -56,9 +56,9 @@ struct Textures {
 // (Nearest/Linear), in [0, 1].
 std::array<float, 3> sampleTexture(const TextureView& t, float u, float v, std::array<float, 3> fallback) noexcept;
 
-// The multitexture baseline's highlight texture: a GL_SPHERE_MAP image (1
-// channel) of the Phong lobe (R . L)^n for a light at the eye. Row order as
-// files (first row = t = 1).
+// The multitexture baseline's highlight texture: a sphere-map image (1
+// channel) of the Phong lobe (R . V)^n around the pole V (see highlightCoord
+// in shaders/common_shading.glsl). Row order as files (first row = t = 1).
 image::Image8 highlightSphereMap(int size, float shininess);
 
 // Renders `mesh` (positions, normals, uvs, tangents all present) into an RGB8

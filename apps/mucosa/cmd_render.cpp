@@ -1,0 +1,112 @@
+// mucosa render: frames of a scene, headless (EGL), to PNG files.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/render/offscreen.hpp>
+
+#include "scene_options.hpp"
+
+namespace mucosa::cli {
+
+namespace {
+
+struct RenderArgs {
+    SceneOptions scene;
+    std::string output;
+    int frames = 0;
+    bool overwrite = false;
+    bool reference = false;
+};
+
+void run(const RenderArgs& a, const Global& g) {
+    namespace fs = std::filesystem;
+    render::Scene scene = resolveScene(a.scene);
+    const int frames = a.frames > 0 ? a.frames : scene.frames;
+    const fs::path out = a.output;
+    if (out.extension() != ".png") throw InputError("--output", out.string(), "must end in .png");
+    requireWritable(out);
+    std::vector<fs::path> names;
+    for (int i = 0; i < frames; ++i) names.push_back(frames == 1 ? out : render::frameName(out, i));
+    // A sequence is resumable: frames already on disk are kept (the writes are
+    // atomic, so a file that exists is complete).
+    int existing = 0;
+    if (frames > 1 && !a.overwrite)
+        for (const fs::path& p : names) existing += fs::exists(p);
+    if (frames > 1 && existing == frames) {
+        info(g, fmt::format("all {} frames exist ({} ...); nothing to do (--overwrite renders them again)", frames,
+                            names.front().string()));
+        return;
+    }
+    const render::SceneAssets assets = render::loadAssets(scene, g.threads);
+    for (const std::string& n : assets.notes) info(g, n);
+    const std::vector<camera::Pose> poses = render::cameraPoses(scene, assets, frames);
+    std::unique_ptr<render::OffscreenSession> session;
+    if (!a.reference) {
+        session = std::make_unique<render::OffscreenSession>(scene, assets, scene.width, scene.height);
+        info(g, "GL_RENDERER: " + session->glRendererName());
+    }
+    const shading::Textures refTextures = render::referenceTextures(scene, assets);
+    const bool tty = isatty(2) && !g.quiet;
+    const auto t0 = std::chrono::steady_clock::now();
+    int written = 0, skipped = 0;
+    for (int i = 0; i < frames; ++i) {
+        const fs::path& name = names[static_cast<std::size_t>(i)];
+        if (frames > 1 && !a.overwrite && fs::exists(name)) {
+            ++skipped;
+            continue;
+        }
+        const image::Image8 img =
+            a.reference ? shading::renderReference(assets.mesh,
+                                                   render::frameSetup(scene, poses[static_cast<std::size_t>(i)],
+                                                                      scene.width, scene.height),
+                                                   refTextures)
+                        : session->render(poses[static_cast<std::size_t>(i)]);
+        image::writePng(name, img);
+        ++written;
+        if (frames > 1 && !g.quiet) {
+            const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            const std::string line = fmt::format("frame {}/{} {} ({:.1f} frames/s)", i + 1, frames,
+                                                 name.filename().string(), written / std::max(s, 1e-9));
+            if (tty)
+                std::fprintf(stderr, "\r%s\x1b[K", line.c_str());
+            else if ((i + 1) % std::max(1, frames / 10) == 0 || i + 1 == frames)
+                std::fprintf(stderr, "%s\n", line.c_str());
+        }
+    }
+    if (tty && frames > 1) std::fprintf(stderr, "\n");
+    if (frames == 1)
+        info(g, fmt::format("wrote {} ({}x{}, mode {})", out.string(), scene.width, scene.height,
+                            shading::modeName(scene.mode)));
+    else
+        info(g, fmt::format("wrote {} frames {} .. {} ({}x{}, mode {}){}", written, names.front().string(),
+                            names.back().string(), scene.width, scene.height, shading::modeName(scene.mode),
+                            skipped ? fmt::format(", kept {} existing", skipped) : ""));
+}
+
+void addRenderCommand(CLI::App& app, Global& g) {
+    auto a = std::make_shared<RenderArgs>();
+    CLI::App* c = app.add_subcommand("render", "Render a scene headless (EGL) to PNG: one frame or a camera path");
+    c->footer("Examples:\n  mucosa render -o frame.png\n  mucosa render scene.json -o fly.png --frames 120 "
+              "--mode vertex-phong --size 1280x1024");
+    addSceneOptions(c, a->scene);
+    c->add_option("-o,--output", a->output, "Output PNG; with --frames N: out_0000.png ... out_<N-1>.png")->required();
+    c->add_option("--frames", a->frames, "Frames along the camera path [the scene's frames, 1]")
+        ->check(CLI::Range(1, 1000000));
+    c->add_flag("--overwrite", a->overwrite, "Render frames that already exist again (default: skip them, resume)");
+    c->add_flag("--reference", a->reference, "Use the C++ reference renderer (no OpenGL; slow)");
+    c->callback([a, &g] { run(*a, g); });
+}
+
+}  // namespace
+
+MUCOSA_REGISTER_COMMAND(40, addRenderCommand);
+
+}  // namespace mucosa::cli

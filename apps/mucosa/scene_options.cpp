@@ -1,0 +1,74 @@
+#include "scene_options.hpp"
+
+#include <charconv>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/shading/params.hpp>
+
+namespace mucosa::cli {
+
+void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
+    c->add_option("scene", o.sceneFile, "Scene file (.json, see README \"Scene files\"); default: the airway phantom");
+    c->add_option("--mode", o.mode, "Shading mode: " + shading::modeList() + " [noise]");
+    if (withSize) c->add_option("--size", o.size, "Frame size WxH [640x480, or the scene's resolution]");
+    c->add_option("--set", o.sets,
+                  "Override a parameter, e.g. --set material.shininess=80 (repeatable). Parameters:\n" +
+                      shading::registryHelp());
+}
+
+std::pair<int, int> parseSize(const std::string& text) {
+    const auto x = text.find('x');
+    int w = 0, h = 0;
+    auto num = [](std::string_view s, int& v) {
+        const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+        return r.ec == std::errc() && r.ptr == s.data() + s.size();
+    };
+    if (x == std::string::npos || !num(std::string_view(text).substr(0, x), w) ||
+        !num(std::string_view(text).substr(x + 1), h) || w < 16 || h < 16 || w > 8192 || h > 8192)
+        throw InputError("--size", "", "'" + text + "' is not WxH with 16..8192 pixels per side (e.g. 640x480)");
+    return {w, h};
+}
+
+render::Scene resolveScene(const SceneOptions& o) {
+    render::Scene s = o.sceneFile.empty() ? render::defaultScene() : render::loadScene(o.sceneFile);
+    if (!o.mode.empty()) s.mode = shading::parseMode(o.mode, "--mode");
+    if (!o.size.empty()) std::tie(s.width, s.height) = parseSize(o.size);
+    for (const std::string& kv : o.sets) {
+        const auto eq = kv.find('=');
+        if (eq == std::string::npos) throw InputError("--set", "", "'" + kv + "' is not group.name=value");
+        std::string key = kv.substr(0, eq);
+        const std::string value = kv.substr(eq + 1);
+        const auto dot = key.find('.');
+        const std::string name = dot == std::string::npos ? key : key.substr(dot + 1);
+        const shading::ParamInfo* pi = shading::findParam(name);
+        if (pi == nullptr || (dot != std::string::npos && key.substr(0, dot) != pi->group))
+            throw InputError("--set", "", "unknown parameter '" + key + "' (see mucosa render --help)");
+        std::vector<float> v;
+        std::size_t pos = 0;
+        while (pos <= value.size()) {
+            const auto comma = value.find(',', pos);
+            const std::string part = value.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+            float f = 0;
+            const auto r = std::from_chars(part.data(), part.data() + part.size(), f);
+            if (part.empty() || r.ec != std::errc() || r.ptr != part.data() + part.size())
+                throw InputError("--set " + key, "", "'" + value + "' is not a number (colours: r,g,b)");
+            v.push_back(f);
+            if (comma == std::string::npos) break;
+            pos = comma + 1;
+        }
+        const std::string field = "--set " + std::string(pi->group) + "." + std::string(pi->name);
+        if (pi->components == 3) {
+            if (v.size() != 3) throw InputError(field, "", "needs three numbers r,g,b");
+            s.params.setColor(pi->id, {v[0], v[1], v[2]}, "", field);
+        } else {
+            if (v.size() != 1) throw InputError(field, "", "needs one number");
+            s.params.set(pi->id, v[0], "", field);
+        }
+    }
+    return s;
+}
+
+}  // namespace mucosa::cli

@@ -1,0 +1,31 @@
+#pragma once
+// Options shared by render, compare and view: the scene file and overrides
+// (--mode, --size, --set group.name=value from the parameter registry).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <mucosa/render/scene.hpp>
+
+#include "commands.hpp"
+
+namespace mucosa::cli {
+
+struct SceneOptions {
+    std::string sceneFile;
+    std::string mode;
+    std::string size;
+    std::vector<std::string> sets;
+};
+
+// Adds [scene.json], --mode, --size, --set to `c`.
+void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize = true);
+
+// Loads the scene (or the default one) and applies the overrides; InputError
+// names the option on bad values.
+render::Scene resolveScene(const SceneOptions& o);
+
+// "640x480" -> (640, 480); InputError("--size", ...) otherwise.
+std::pair<int, int> parseSize(const std::string& text);
+
+}  // namespace mucosa::cli

@@ -1,0 +1,89 @@
+#pragma once
+// Scene files (README, "Scene files"): mesh, diffuse texture or colour,
+// reflectance map (a file, or map parameters generated on load), material
+// (every registry parameter), camera (a pose or a path), light, resolution.
+// Without a file: the airway phantom with the 'bronchial' preset.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <mucosa/camera/camera.hpp>
+#include <mucosa/image/image.hpp>
+#include <mucosa/mesh/mesh.hpp>
+#include <mucosa/reflectance/map.hpp>
+#include <mucosa/shading/reference.hpp>
+
+namespace mucosa::render {
+
+struct MeshSpec {
+    // "phantom" (built in), "tube" (a curved analytic tube), or "file".
+    std::string kind = "phantom";
+    std::filesystem::path file;  // kind == "file"
+    int phantomGenerations = 3;
+    std::uint64_t phantomSeed = 1;
+    double phantomResolution = 2.0;  // grid cells per mm
+};
+
+struct PathSpec {
+    // "none" (one pose), "poses" (key poses interpolated), "centreline" (fly-through).
+    std::string kind = "centreline";
+    std::vector<camera::Pose> poses;
+    std::filesystem::path centrelineFile;  // empty: the mesh's own (phantom/tube)
+    int branch = -1;                       // centreline branch to fly to; -1 = the longest path
+    camera::FlyThrough fly;
+};
+
+struct Scene {
+    std::filesystem::path file;  // the scene file, or empty for the default scene
+    MeshSpec mesh;
+    std::optional<std::filesystem::path> diffuse;         // subject texture; else base_color alone
+    std::optional<std::filesystem::path> reflectanceMap;  // a map PNG; else generated from mapParams
+    reflectance::MapParams mapParams;
+    shading::Filter filter = shading::Filter::Trilinear;
+    shading::Mode mode = shading::Mode::Noise;
+    shading::ParamSet params;
+    float normalSign = 1.0f;  // "lit_side": "front" (+1) or "back" (-1)
+    camera::Lens lens;
+    camera::TipLight light;
+    std::optional<camera::Pose> pose;  // a fixed pose (overrides the path's first pose)
+    PathSpec path;
+    int width = 640, height = 480;
+    int frames = 1;
+};
+
+// The built-in default: the phantom, 'bronchial' map (1024 texels), flying
+// down the centreline.
+Scene defaultScene();
+
+// Parses a scene file. Relative paths are resolved against the file's folder.
+// Throws InputError(field, file, why) naming the field ("material.shininess",
+// "camera.pose.position", "mode", ...) for anything wrong, including unknown keys.
+Scene loadScene(const std::filesystem::path& path);
+Scene parseScene(const std::string& jsonText, const std::filesystem::path& fileForErrors);
+
+// What a scene needs at render time, loaded/generated once.
+struct SceneAssets {
+    mesh::Mesh mesh;  // with normals, uvs and tangents
+    std::vector<mesh::Vec3> centreline;  // the fly-through polyline (mm); may be empty
+    image::Image8 diffuse;                // empty: none
+    image::Image8 reflectanceMap;
+    // The multitexture baseline's highlight texture for the scene's shininess
+    // (what Renderer generates; kept here for the C++ reference).
+    image::Image8 highlight;
+    std::vector<std::string> notes;       // what was loaded/generated, for the CLI to report
+};
+
+SceneAssets loadAssets(const Scene& scene, int threads = 0);
+
+// Camera poses for `frames` frames (scene.pose alone when frames == 1 and a
+// pose is given; else along the path).
+std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& assets, int frames);
+
+// The per-frame values both renderers take.
+shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int width, int height);
+
+// Texture bindings for the C++ reference (views into `assets`).
+shading::Textures referenceTextures(const Scene& scene, const SceneAssets& assets);
+
+}  // namespace mucosa::render

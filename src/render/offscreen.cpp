@@ -1,0 +1,57 @@
+#include <mucosa/render/offscreen.hpp>
+
+#include <fmt/format.h>
+
+#include "render/gl.hpp"
+
+namespace mucosa::render {
+
+OffscreenSession::OffscreenSession(const Scene& scene, const SceneAssets& assets, int width, int height)
+    : scene_(scene), width_(width), height_(height) {
+    context_ = std::make_unique<HeadlessContext>();
+    renderer_ = std::make_unique<Renderer>();
+    framebuffer_ = std::make_unique<Framebuffer>(width, height);
+    rendererName_ = glRenderer();
+    renderer_->setMesh(assets.mesh);
+    if (!assets.diffuse.empty())
+        renderer_->setTexture(TextureSlot::Diffuse, assets.diffuse, scene.filter, shading::Wrap::Repeat);
+    renderer_->setTexture(TextureSlot::Reflectance, assets.reflectanceMap, scene.filter, shading::Wrap::Repeat);
+}
+
+OffscreenSession::~OffscreenSession() {
+    context_->makeCurrent();
+    framebuffer_.reset();
+    renderer_.reset();
+}
+
+void OffscreenSession::setReflectanceMap(const image::Image8& map) {
+    renderer_->setTexture(TextureSlot::Reflectance, map, scene_.filter, shading::Wrap::Repeat);
+}
+
+void OffscreenSession::draw(const camera::Pose& pose, shading::Mode mode) {
+    shading::FrameSetup f = frameSetup(scene_, pose, width_, height_);
+    f.mode = mode;
+    framebuffer_->bind();
+    renderer_->draw(f);
+}
+
+void OffscreenSession::finish() { glFinish(); }
+
+image::Image8 OffscreenSession::render(const camera::Pose& pose, std::optional<shading::Mode> mode,
+                                       const shading::ParamSet* params) {
+    shading::FrameSetup f = frameSetup(scene_, pose, width_, height_);
+    if (mode) f.mode = *mode;
+    if (params) f.params = *params;
+    framebuffer_->bind();
+    renderer_->draw(f);
+    return framebuffer_->readRgb();
+}
+
+std::filesystem::path frameName(const std::filesystem::path& output, int index) {
+    std::filesystem::path p = output;
+    const std::string ext = output.has_extension() ? output.extension().string() : ".png";
+    p.replace_filename(fmt::format("{}_{:04d}{}", output.stem().string(), index, ext));
+    return p;
+}
+
+}  // namespace mucosa::render

@@ -1,0 +1,437 @@
+#include <mucosa/render/scene.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/mesh/io.hpp>
+#include <mucosa/mesh/tangents.hpp>
+#include <mucosa/reflectance/normal_map.hpp>
+#include <mucosa/render/primitives.hpp>
+#include <mucosa/render/renderer.hpp>
+
+// The phantom and centreline arrive with the mesh module's issue; until they
+// do, the default scene is the analytic tube.
+#if __has_include(<mucosa/mesh/phantom.hpp>) && __has_include(<mucosa/mesh/centerline.hpp>)
+#include <mucosa/mesh/centerline.hpp>
+#include <mucosa/mesh/phantom.hpp>
+#define MUCOSA_HAVE_PHANTOM 1
+#else
+#define MUCOSA_HAVE_PHANTOM 0
+#endif
+
+namespace mucosa::render {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// The default tube (used when the phantom is not available, or asked for).
+constexpr float kTubeRadius = 7.0f, kTubeLength = 150.0f;
+constexpr int kTubeAround = 24, kTubeAlong = 60;
+
+struct Parser {
+    std::string file;
+    fs::path dir;
+
+    static std::string typeName(const json& j) {
+        if (j.is_null()) return "null";
+        if (j.is_boolean()) return "a boolean";
+        if (j.is_number()) return "a number";
+        if (j.is_string()) return "a string";
+        if (j.is_array()) return "an array";
+        return "an object";
+    }
+    [[noreturn]] void fail(const std::string& field, const std::string& why) const { throw InputError(field, file, why); }
+
+    void object(const json& j, const std::string& field) const {
+        if (!j.is_object()) fail(field, "must be an object, not " + typeName(j));
+    }
+    void known(const json& j, const std::string& prefix, std::initializer_list<std::string_view> keys) const {
+        for (auto it = j.begin(); it != j.end(); ++it)
+            if (std::find(keys.begin(), keys.end(), it.key()) == keys.end()) {
+                std::string list;
+                for (std::string_view k : keys) list += (list.empty() ? "" : ", ") + std::string(k);
+                fail(prefix + it.key(), "unknown key (known here: " + list + ")");
+            }
+    }
+    double number(const json& j, const std::string& field) const {
+        if (!j.is_number()) fail(field, "must be a number, not " + typeName(j));
+        const double v = j.get<double>();
+        if (!std::isfinite(v)) fail(field, "must be finite");
+        return v;
+    }
+    float positive(const json& j, const std::string& field) const {
+        const double v = number(j, field);
+        if (!(v > 0)) fail(field, fmt::format("must be positive, not {}", v));
+        return static_cast<float>(v);
+    }
+    int integer(const json& j, const std::string& field, int lo, int hi) const {
+        if (!j.is_number_integer()) fail(field, "must be an integer, not " + typeName(j));
+        const auto v = j.get<std::int64_t>();
+        if (v < lo || v > hi) fail(field, fmt::format("{} is out of range [{}, {}]", v, lo, hi));
+        return static_cast<int>(v);
+    }
+    bool boolean(const json& j, const std::string& field) const {
+        if (!j.is_boolean()) fail(field, "must be true or false, not " + typeName(j));
+        return j.get<bool>();
+    }
+    std::string string(const json& j, const std::string& field) const {
+        if (!j.is_string()) fail(field, "must be a string, not " + typeName(j));
+        return j.get<std::string>();
+    }
+    fs::path path(const json& j, const std::string& field) const {
+        const std::string s = string(j, field);
+        if (s.empty()) fail(field, "must not be empty");
+        const fs::path p(s);
+        return p.is_absolute() || dir.empty() ? p : dir / p;
+    }
+    std::array<float, 3> vec3(const json& j, const std::string& field) const {
+        if (!j.is_array() || j.size() != 3) fail(field, "must be an array of 3 numbers");
+        std::array<float, 3> r{};
+        for (std::size_t i = 0; i < 3; ++i) r[i] = static_cast<float>(number(j[i], fmt::format("{}[{}]", field, i)));
+        return r;
+    }
+
+    camera::Pose pose(const json& j, const std::string& f) const {
+        object(j, f);
+        known(j, f + ".", {"position", "look_at", "forward", "up"});
+        if (!j.contains("position")) fail(f + ".position", "is missing");
+        camera::Pose p;
+        p.position = vec3(j["position"], f + ".position");
+        if (j.contains("up")) p.up = vec3(j["up"], f + ".up");
+        if (j.contains("look_at") == j.contains("forward")) fail(f, "needs exactly one of look_at and forward");
+        if (j.contains("look_at")) {
+            const auto t = vec3(j["look_at"], f + ".look_at");
+            if (t == p.position) fail(f + ".look_at", "must differ from position");
+            p = camera::lookAt(p.position, t, p.up);
+        } else {
+            p.forward = vec3(j["forward"], f + ".forward");
+            if (p.forward == camera::Vec3{0, 0, 0}) fail(f + ".forward", "must not be zero");
+        }
+        return p;
+    }
+
+    void registryGroup(const json& j, const std::string& group, shading::ParamSet& params,
+                       std::initializer_list<std::string_view> extra = {}) const {
+        object(j, group);
+        for (auto it = j.begin(); it != j.end(); ++it) {
+            const std::string field = group + "." + it.key();
+            if (std::find(extra.begin(), extra.end(), it.key()) != extra.end()) continue;
+            const shading::ParamInfo* pi = shading::findParam(it.key());
+            if (pi == nullptr || pi->group != group) {
+                std::string list;
+                for (const auto& q : shading::registry())
+                    if (q.group == group) list += (list.empty() ? "" : ", ") + std::string(q.name);
+                for (std::string_view k : extra) list += ", " + std::string(k);
+                fail(field, "unknown parameter (known here: " + list + ")");
+            }
+            if (pi->components == 3)
+                params.setColor(pi->id, vec3(it.value(), field), file, field);
+            else
+                params.set(pi->id, static_cast<float>(number(it.value(), field)), file, field);
+        }
+    }
+
+    reflectance::MapParams mapParams(const json& j, const std::string& f) const {
+        object(j, f);
+        known(j, f + ".", {"preset", "size", "frequency", "octaves", "lacunarity", "gain", "seed", "z", "strength",
+                           "turbulence", "tileable"});
+        reflectance::MapParams p = reflectance::findPreset("bronchial").params;
+        if (j.contains("preset")) {
+            const std::string name = string(j["preset"], f + ".preset");
+            try {
+                p = reflectance::findPreset(name).params;
+            } catch (const InputError& e) {
+                fail(f + ".preset", e.reason());
+            }
+        }
+        if (j.contains("size")) p.size = integer(j["size"], f + ".size", 8, 8192);
+        if (j.contains("frequency")) p.noise.frequency = number(j["frequency"], f + ".frequency");
+        if (j.contains("octaves")) p.noise.octaves = integer(j["octaves"], f + ".octaves", 1, 32);
+        if (j.contains("lacunarity")) p.noise.lacunarity = number(j["lacunarity"], f + ".lacunarity");
+        if (j.contains("gain")) p.noise.gain = number(j["gain"], f + ".gain");
+        if (j.contains("seed")) p.noise.seed = static_cast<std::uint64_t>(integer(j["seed"], f + ".seed", 0, 1 << 30));
+        if (j.contains("z")) p.noise.z = number(j["z"], f + ".z");
+        if (j.contains("strength")) p.strength = number(j["strength"], f + ".strength");
+        if (j.contains("turbulence")) p.noise.turbulence = boolean(j["turbulence"], f + ".turbulence");
+        if (j.contains("tileable")) p.noise.tileable = boolean(j["tileable"], f + ".tileable");
+        p.bits = 8;
+        try {
+            reflectance::validate(p);
+        } catch (const InputError& e) {
+            fail(f + "." + e.subject(), e.reason());
+        }
+        return p;
+    }
+};
+
+#if MUCOSA_HAVE_PHANTOM
+std::vector<mesh::Vec3> longestPath(const mesh::Centerline& c, int branch, const std::string& file) {
+    if (c.branches.empty()) throw InputError("camera.path.centreline", file, "the centreline has no branches");
+    if (branch >= static_cast<int>(c.branches.size()))
+        throw InputError("camera.path.branch", file,
+                         fmt::format("{} is out of range (the centreline has {} branches)", branch, c.branches.size()));
+    if (branch >= 0) return mesh::pathToBranch(c, branch);
+    std::vector<mesh::Vec3> best;
+    float bestLen = -1;
+    for (std::size_t b = 0; b < c.branches.size(); ++b) {
+        auto p = mesh::pathToBranch(c, static_cast<int>(b));
+        const float len = camera::pathLength(p);
+        if (len > bestLen) bestLen = len, best = std::move(p);
+    }
+    return best;
+}
+#endif
+
+}  // namespace
+
+Scene defaultScene() {
+    Scene s;
+    s.mapParams = reflectance::findPreset("bronchial").params;
+    s.mapParams.bits = 8;
+#if !MUCOSA_HAVE_PHANTOM
+    s.mesh.kind = "tube";
+#endif
+    s.path.kind = "centreline";
+    s.path.fly.frames = 120;
+    return s;
+}
+
+Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
+    const Parser P{fileForErrors.string(), fileForErrors.parent_path()};
+    json j;
+    try {
+        j = json::parse(text);
+    } catch (const json::parse_error& e) {
+        throw InputError("JSON", P.file, e.what());
+    }
+    P.object(j, "scene");
+    P.known(j, "", {"mesh", "lit_side", "diffuse", "reflectance_map", "filter", "mode", "material", "brdf", "light",
+                    "camera", "resolution", "frames"});
+    Scene s = defaultScene();
+    s.file = fileForErrors;
+    if (!j.contains("mesh")) P.fail("mesh", "is missing (a file, \"phantom\" or \"tube\")");
+    const json& m = j["mesh"];
+    if (m.is_string()) {
+        const std::string v = m.get<std::string>();
+        if (v == "phantom" || v == "tube") {
+            s.mesh.kind = v;
+        } else {
+            s.mesh.kind = "file";
+            s.mesh.file = P.path(m, "mesh");
+        }
+    } else if (m.is_object()) {
+        P.known(m, "mesh.", {"file", "phantom", "tube"});
+        if (m.size() != 1) P.fail("mesh", "needs exactly one of file, phantom, tube");
+        if (m.contains("file")) {
+            s.mesh.kind = "file";
+            s.mesh.file = P.path(m["file"], "mesh.file");
+        } else if (m.contains("tube")) {
+            s.mesh.kind = "tube";
+        } else {
+            const json& ph = m["phantom"];
+            P.object(ph, "mesh.phantom");
+            P.known(ph, "mesh.phantom.", {"generations", "seed", "resolution"});
+            s.mesh.kind = "phantom";
+            if (ph.contains("generations"))
+                s.mesh.phantomGenerations = P.integer(ph["generations"], "mesh.phantom.generations", 0, 7);
+            if (ph.contains("seed"))
+                s.mesh.phantomSeed = static_cast<std::uint64_t>(P.integer(ph["seed"], "mesh.phantom.seed", 0, 1 << 30));
+            if (ph.contains("resolution")) s.mesh.phantomResolution = P.positive(ph["resolution"], "mesh.phantom.resolution");
+        }
+    } else {
+        P.fail("mesh", "must be a file name, \"phantom\", \"tube\" or an object, not " + Parser::typeName(m));
+    }
+    if (j.contains("lit_side")) {
+        const std::string v = P.string(j["lit_side"], "lit_side");
+        if (v != "front" && v != "back") P.fail("lit_side", "must be \"front\" or \"back\", not '" + v + "'");
+        s.normalSign = v == "front" ? 1.0f : -1.0f;
+    }
+    if (j.contains("diffuse")) s.diffuse = P.path(j["diffuse"], "diffuse");
+    if (j.contains("reflectance_map")) {
+        const json& r = j["reflectance_map"];
+        if (r.is_string())
+            s.reflectanceMap = P.path(r, "reflectance_map");
+        else
+            s.mapParams = P.mapParams(r, "reflectance_map");
+    }
+    if (j.contains("filter")) {
+        const std::string v = P.string(j["filter"], "filter");
+        if (v == "nearest") s.filter = shading::Filter::Nearest;
+        else if (v == "linear") s.filter = shading::Filter::Linear;
+        else if (v == "trilinear") s.filter = shading::Filter::Trilinear;
+        else P.fail("filter", "must be nearest, linear or trilinear, not '" + v + "'");
+    }
+    if (j.contains("mode")) s.mode = shading::parseMode(P.string(j["mode"], "mode"), "mode", P.file);
+    if (j.contains("material")) P.registryGroup(j["material"], "material", s.params);
+    if (j.contains("brdf")) P.registryGroup(j["brdf"], "brdf", s.params);
+    if (j.contains("light")) {
+        P.registryGroup(j["light"], "light", s.params, {"offset_mm"});
+        if (j["light"].contains("offset_mm")) s.light.offset = P.vec3(j["light"]["offset_mm"], "light.offset_mm");
+    }
+    if (j.contains("resolution")) {
+        const json& r = j["resolution"];
+        if (!r.is_array() || r.size() != 2) P.fail("resolution", "must be [width, height]");
+        s.width = P.integer(r[0], "resolution[0]", 16, 8192);
+        s.height = P.integer(r[1], "resolution[1]", 16, 8192);
+    }
+    if (j.contains("frames")) s.frames = P.integer(j["frames"], "frames", 1, 1000000);
+    if (j.contains("camera")) {
+        const json& c = j["camera"];
+        P.object(c, "camera");
+        P.known(c, "camera.", {"fov_deg", "near_mm", "far_mm", "pose", "path"});
+        if (c.contains("fov_deg")) s.lens.fovDeg = static_cast<float>(P.number(c["fov_deg"], "camera.fov_deg"));
+        if (c.contains("near_mm")) s.lens.nearMm = static_cast<float>(P.number(c["near_mm"], "camera.near_mm"));
+        if (c.contains("far_mm")) s.lens.farMm = static_cast<float>(P.number(c["far_mm"], "camera.far_mm"));
+        try {
+            camera::validate(s.lens);
+        } catch (const InputError& e) {
+            P.fail(e.subject(), e.reason());
+        }
+        if (c.contains("pose")) {
+            s.pose = P.pose(c["pose"], "camera.pose");
+            s.path.kind = "none";
+        }
+        if (c.contains("path")) {
+            const json& p = c["path"];
+            P.object(p, "camera.path");
+            P.known(p, "camera.path.", {"poses", "centreline", "branch", "speed_mm", "start_mm", "look_ahead_mm"});
+            if (p.contains("poses") == p.contains("centreline"))
+                P.fail("camera.path", "needs exactly one of poses and centreline");
+            if (p.contains("poses")) {
+                const json& list = p["poses"];
+                if (!list.is_array() || list.empty()) P.fail("camera.path.poses", "must be a non-empty array of poses");
+                s.path.kind = "poses";
+                for (std::size_t i = 0; i < list.size(); ++i)
+                    s.path.poses.push_back(P.pose(list[i], fmt::format("camera.path.poses[{}]", i)));
+            } else {
+                s.path.kind = "centreline";
+                const std::string v = P.string(p["centreline"], "camera.path.centreline");
+                if (v != "auto") s.path.centrelineFile = P.path(p["centreline"], "camera.path.centreline");
+                if (p.contains("branch")) s.path.branch = P.integer(p["branch"], "camera.path.branch", 0, 1 << 20);
+                if (p.contains("speed_mm")) s.path.fly.speedMm = P.positive(p["speed_mm"], "camera.path.speed_mm");
+                if (p.contains("start_mm")) {
+                    s.path.fly.startMm = static_cast<float>(P.number(p["start_mm"], "camera.path.start_mm"));
+                    if (s.path.fly.startMm < 0) P.fail("camera.path.start_mm", "must be >= 0");
+                }
+                if (p.contains("look_ahead_mm"))
+                    s.path.fly.lookAheadMm = P.positive(p["look_ahead_mm"], "camera.path.look_ahead_mm");
+            }
+        }
+    }
+    return s;
+}
+
+Scene loadScene(const fs::path& path) {
+    if (!fs::exists(path)) throw IoError("scene file", path.string(), "does not exist");
+    return parseScene(readTextFile(path), path);
+}
+
+SceneAssets loadAssets(const Scene& scene, int threads) {
+    SceneAssets a;
+    const std::string file = scene.file.string();
+    if (scene.mesh.kind == "phantom") {
+#if MUCOSA_HAVE_PHANTOM
+        mesh::PhantomParams pp;
+        pp.generations = scene.mesh.phantomGenerations;
+        pp.seed = scene.mesh.phantomSeed;
+        pp.resolution = scene.mesh.phantomResolution;
+        mesh::Phantom ph = mesh::makePhantom(pp, threads);
+        a.mesh = std::move(ph.mesh);
+        a.centreline = longestPath(ph.centerline, scene.path.branch, file);
+        a.notes.push_back(fmt::format("phantom: {} generations, {} triangles", pp.generations, a.mesh.triangleCount()));
+#else
+        throw InputError("mesh", file, "this build has no airway phantom (mesh module); use \"tube\" or a file");
+#endif
+    } else if (scene.mesh.kind == "tube") {
+        a.mesh = makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
+        a.centreline = tubeCenterline(kTubeLength, 64);
+        a.notes.push_back(fmt::format("tube: radius {} mm, length {} mm, {} triangles", kTubeRadius, kTubeLength,
+                                      a.mesh.triangleCount()));
+    } else {
+        mesh::LoadInfo info;
+        a.mesh = mesh::load(scene.mesh.file, {}, &info);
+        for (const std::string& w : info.warnings) a.notes.push_back("mesh: " + w);
+        if (!a.mesh.hasUvs())
+            throw InputError("mesh", scene.mesh.file.string(),
+                             "has no texture coordinates (the reflectance map needs them; add UVs with mucosa mesh)");
+        if (!a.mesh.hasTangents()) {
+            const mesh::TangentReport r = mesh::computeTangents(a.mesh, threads);
+            a.notes.push_back(fmt::format("tangents computed ({} degenerate-UV triangles, {} mirrored vertices)",
+                                          r.degenerateUvTriangles, r.mirroredVertices));
+        }
+        a.notes.push_back(fmt::format("mesh: {} ({} triangles)", scene.mesh.file.string(), a.mesh.triangleCount()));
+    }
+    if (scene.path.kind == "centreline" && !scene.path.centrelineFile.empty()) {
+#if MUCOSA_HAVE_PHANTOM
+        a.centreline = longestPath(mesh::readCenterlineJson(scene.path.centrelineFile), scene.path.branch,
+                                   scene.path.centrelineFile.string());
+#else
+        throw InputError("camera.path.centreline", file, "this build cannot read centreline files");
+#endif
+    }
+    if (scene.diffuse) a.diffuse = image::to8(image::readPng(*scene.diffuse));
+    if (scene.reflectanceMap) {
+        a.reflectanceMap = image::to8(image::readPng(*scene.reflectanceMap));
+        if (a.reflectanceMap.channels() < 3)
+            throw InputError("reflectance_map", scene.reflectanceMap->string(), "must be an RGB image");
+        a.notes.push_back("reflectance map: " + scene.reflectanceMap->string());
+    } else {
+        const image::ImageF h = reflectance::heightField(scene.mapParams, threads);
+        a.reflectanceMap = reflectance::encodeNormals8(
+            h, scene.mapParams.strength, scene.mapParams.noise.tileable ? reflectance::Edges::Wrap : reflectance::Edges::Clamp,
+            threads);
+        a.notes.push_back(fmt::format("reflectance map generated: '{}' preset, frequency {}, {}x{}",
+                                      scene.mapParams.preset.empty() ? "custom" : scene.mapParams.preset,
+                                      scene.mapParams.noise.frequency, scene.mapParams.size, scene.mapParams.size));
+    }
+    a.highlight = shading::highlightSphereMap(kHighlightTextureSize, scene.params[shading::Param::Shininess]);
+    return a;
+}
+
+std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& assets, int frames) {
+    if (frames < 1) throw InputError("frames", "", "must be at least 1");
+    if (scene.path.kind == "none" || (scene.pose && frames == 1)) {
+        if (scene.pose) return std::vector<camera::Pose>(static_cast<std::size_t>(frames), *scene.pose);
+    }
+    if (scene.path.kind == "poses") return camera::interpolatePoses(scene.path.poses, frames);
+    if (assets.centreline.size() < 2)
+        throw InputError("camera.path", scene.file.string(),
+                         "the mesh has no centreline to fly along: give camera.pose or camera.path");
+    camera::FlyThrough fly = scene.path.fly;
+    fly.frames = frames;
+    return camera::flyThrough(assets.centreline, fly);
+}
+
+shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int width, int height) {
+    shading::FrameSetup f;
+    f.view = camera::viewMatrix(pose);
+    f.projection = camera::projectionMatrix(scene.lens, width, height);
+    f.eye = pose.position;
+    f.light = camera::lightPosition(pose, scene.light);
+    f.normalSign = scene.normalSign;
+    f.mode = scene.mode;
+    f.params = scene.params;
+    f.width = width;
+    f.height = height;
+    return f;
+}
+
+shading::Textures referenceTextures(const Scene& scene, const SceneAssets& assets) {
+    shading::Textures t;
+    const shading::Filter f = scene.filter == shading::Filter::Trilinear ? shading::Filter::Linear : scene.filter;
+    if (!assets.diffuse.empty()) t.diffuse = {&assets.diffuse, f, shading::Wrap::Repeat};
+    t.reflectance = {&assets.reflectanceMap, f, shading::Wrap::Repeat};
+    t.highlight = {&assets.highlight, shading::Filter::Linear, shading::Wrap::Clamp};  // as Renderer uploads it
+    return t;
+}
+
+}  // namespace mucosa::render

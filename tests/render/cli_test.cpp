@@ -1,0 +1,72 @@
+// mucosa render / compare end to end: frame sequences are numbered, resumable
+// (existing frames are kept unless --overwrite), the sheet is written.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include <mucosa/image/png.hpp>
+
+#include "test_support.hpp"
+
+namespace mucosa {
+namespace {
+
+TEST(RenderCli, FrameSequenceIsNumberedAndResumable) {
+    test::TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [96, 72]})";
+    const std::string base = "render '" + (dir / "tube.json").string() + "' -o '" + (dir / "fly.png").string() + "' --frames 4";
+    auto r = test::runCli(base);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    for (int i = 0; i < 4; ++i) EXPECT_TRUE(std::filesystem::exists(dir / ("fly_000" + std::to_string(i) + ".png")));
+    EXPECT_NE(r.out.find("wrote 4 frames"), std::string::npos) << r.out;
+    const auto img = image::readPng(dir / "fly_0002.png");
+    EXPECT_EQ(img.pixels.width(), 96);
+    EXPECT_EQ(img.pixels.height(), 72);
+
+    // Resume: a missing frame is rendered, the others are kept.
+    std::filesystem::remove(dir / "fly_0001.png");
+    const auto before = std::filesystem::last_write_time(dir / "fly_0003.png");
+    r = test::runCli(base);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("wrote 1 frames"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("kept 3 existing"), std::string::npos) << r.out;
+    EXPECT_TRUE(std::filesystem::exists(dir / "fly_0001.png"));
+    EXPECT_EQ(std::filesystem::last_write_time(dir / "fly_0003.png"), before);
+
+    r = test::runCli(base);
+    EXPECT_NE(r.out.find("nothing to do"), std::string::npos) << r.out;
+    r = test::runCli(base + " --overwrite");
+    EXPECT_NE(r.out.find("wrote 4 frames"), std::string::npos) << r.out;
+}
+
+TEST(RenderCli, EveryModeAndTheReferenceRenderFromTheCli) {
+    test::TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [64, 48]})";
+    for (const char* mode : {"noise", "vertex-phong", "multitexture", "diffuse", "normals", "tangents", "uv", "depth"}) {
+        const auto out = dir / (std::string(mode) + ".png");
+        const auto r = test::runCli("render '" + (dir / "tube.json").string() + "' --mode " + mode + " -o '" +
+                                    out.string() + "' --set material.shininess=60");
+        EXPECT_EQ(r.exitCode, 0) << mode << ": " << r.err;
+        EXPECT_TRUE(std::filesystem::exists(out)) << mode;
+    }
+    const auto r = test::runCli("render '" + (dir / "tube.json").string() + "' --reference -o '" +
+                                (dir / "ref.png").string() + "'");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    const auto bad = test::runCli("render --set material.shininess=abc -o '" + (dir / "x.png").string() + "'");
+    EXPECT_EQ(bad.exitCode, 1);
+    EXPECT_NE(bad.err.find("error: --set material.shininess"), std::string::npos) << bad.err;
+}
+
+TEST(RenderCli, CompareWritesTheLabelledSheet) {
+    test::TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube"})";
+    const auto out = dir / "sheet.png";
+    const auto r = test::runCli("compare '" + (dir / "tube.json").string() + "' --tile 160x120 -o '" + out.string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const auto img = image::readPng(out);
+    EXPECT_GT(img.pixels.width(), 4 * 160);
+    EXPECT_GT(img.pixels.height(), 4 * 120);
+}
+
+}  // namespace
+}  // namespace mucosa

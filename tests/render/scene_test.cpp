@@ -1,0 +1,101 @@
+// Scene files: a good one parses; bad ones give one clear error naming the field.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/render/scene.hpp>
+
+#include "test_support.hpp"
+
+namespace mucosa {
+namespace {
+
+std::string subjectOf(const std::string& json) {
+    try {
+        render::parseScene(json, "scene.json");
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.file(), "scene.json");
+        return e.subject();
+    }
+    return "<no error>";
+}
+
+TEST(RenderScene, FullSceneParses) {
+    const render::Scene s = render::parseScene(R"({
+      "mesh": "tube", "lit_side": "front", "filter": "linear", "mode": "vertex-phong",
+      "reflectance_map": {"preset": "fine", "frequency": 32, "size": 256},
+      "material": {"shininess": 80, "base_color": [0.7, 0.4, 0.4], "mucus_opacity": 0.3},
+      "brdf": {"c0": 0.1, "c1": 0.9, "d1": -0.2},
+      "light": {"intensity": 2, "range_mm": 40, "offset_mm": [2, 0, 0]},
+      "camera": {"fov_deg": 100, "near_mm": 1, "far_mm": 300,
+                 "path": {"poses": [{"position": [0, 0, 0], "look_at": [0, 0, -10]},
+                                    {"position": [0, 0, -20], "forward": [0, 0, -1], "up": [0, 1, 0]}]}},
+      "resolution": [320, 240], "frames": 12})",
+                                               "dir/scene.json");
+    EXPECT_EQ(s.mesh.kind, "tube");
+    EXPECT_EQ(s.mode, shading::Mode::VertexPhong);
+    EXPECT_EQ(s.filter, shading::Filter::Linear);
+    EXPECT_FLOAT_EQ(s.params[shading::Param::Shininess], 80.0f);
+    EXPECT_FLOAT_EQ(s.params.color(shading::Param::BaseColor)[0], 0.7f);
+    EXPECT_FLOAT_EQ(s.params[shading::Param::C0], 0.1f);
+    EXPECT_FLOAT_EQ(s.params[shading::Param::LightRange], 40.0f);
+    EXPECT_FLOAT_EQ(s.light.offset[0], 2.0f);
+    EXPECT_DOUBLE_EQ(s.mapParams.noise.frequency, 32.0);
+    EXPECT_EQ(s.mapParams.size, 256);
+    EXPECT_EQ(s.path.kind, "poses");
+    EXPECT_EQ(s.path.poses.size(), 2u);
+    EXPECT_EQ(s.width, 320);
+    EXPECT_EQ(s.frames, 12);
+}
+
+TEST(RenderScene, MapFileIsResolvedAgainstTheSceneFolder) {
+    const render::Scene s = render::parseScene(R"({"mesh": "airway.glb", "reflectance_map": "maps/m.png"})",
+                                               "/data/scenes/a.json");
+    EXPECT_EQ(s.mesh.kind, "file");
+    EXPECT_EQ(s.mesh.file, std::filesystem::path("/data/scenes/airway.glb"));
+    EXPECT_EQ(*s.reflectanceMap, std::filesystem::path("/data/scenes/maps/m.png"));
+}
+
+TEST(RenderScene, BadScenesNameTheField) {
+    EXPECT_EQ(subjectOf(R"({"mode": "noise"})"), "mesh");                                  // missing mesh
+    EXPECT_EQ(subjectOf(R"({"mesh": 3})"), "mesh");                                        // wrong type
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "mode": "shiny"})"), "mode");                  // unknown mode
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "mode": 2})"), "mode");                        // wrong type
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"shininess": 0}})"), "material.shininess");  // range
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"shininess": "high"}})"), "material.shininess");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"shinyness": 5}})"), "material.shinyness");  // typo
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"base_color": [1, 2]}})"), "material.base_color");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"base_color": [1, 0, 2]}})"), "material.base_color");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "light": {"intensity": -1}})"), "light.intensity");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "camera": {"fov_deg": 200}})"), "camera.fov_deg");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "camera": {"pose": {"position": [0, 0]}}})"), "camera.pose.position");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "camera": {"pose": {"position": [0, 0, 0]}}})"), "camera.pose");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "resolution": [0, 10]})"), "resolution[0]");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "reflectance_map": {"preset": "velvet"}})"), "reflectance_map.preset");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "reflectance_map": {"octaves": 99}})"), "reflectance_map.octaves");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "colour": 1})"), "colour");  // unknown key
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube",)"), "JSON");
+}
+
+TEST(RenderScene, CliReportsOneErrorLineNamingTheField) {
+    test::TempDir dir;
+    const auto scene = dir / "bad.json";
+    std::ofstream(scene) << R"({"mesh": "tube", "material": {"shininess": 1e9}})";
+    const auto r = test::runCli("render '" + scene.string() + "' -o '" + (dir / "out.png").string() + "'");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("error: material.shininess in " + scene.string()), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "out.png"));
+
+    const auto missing = test::runCli("render '" + (dir / "nope.json").string() + "' -o '" + (dir / "o.png").string() + "'");
+    EXPECT_EQ(missing.exitCode, 1);
+    EXPECT_NE(missing.err.find("error: scene file"), std::string::npos) << missing.err;
+
+    const auto mode = test::runCli("render --mode glossy -o '" + (dir / "o.png").string() + "'");
+    EXPECT_EQ(mode.exitCode, 1);
+    EXPECT_NE(mode.err.find("error: --mode"), std::string::npos) << mode.err;
+}
+
+}  // namespace
+}  // namespace mucosa
