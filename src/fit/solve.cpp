@@ -113,7 +113,7 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
         return cost;
     };
     double cost = totalCost(cd, albedo);
-    double lambda = 1e-4;
+    double lambda = 1e-6;
     int iterations = 0;
     for (int it = 0; it < 60; ++it) {
         iterations = it + 1;
@@ -343,8 +343,10 @@ BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, Fi
         std::vector<float> zs;
         zs.reserve(usable.size());
         for (std::size_t i : usable) zs.push_back(samples[i].z);
-        std::sort(zs.begin(), zs.end());
-        diag->zObserved = {zs[zs.size() / 100], zs[zs.size() * 99 / 100]};
+        std::nth_element(zs.begin(), zs.begin() + static_cast<std::ptrdiff_t>(zs.size() / 100), zs.end());
+        const float lo = zs[zs.size() / 100];
+        std::nth_element(zs.begin(), zs.begin() + static_cast<std::ptrdiff_t>(zs.size() * 99 / 100), zs.end());
+        diag->zObserved = {lo, zs[zs.size() * 99 / 100]};
         diag->solveSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         diag->rhoBins.clear();
         diag->deltaBins.clear();

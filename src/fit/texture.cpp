@@ -87,10 +87,12 @@ void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, co
     r.texture = image::ImageF(N, N, 3);
     r.coverage = image::ImageF(N, N, 1);
     std::vector<double> acc(static_cast<std::size_t>(N) * N * 3, 0.0), wsum(static_cast<std::size_t>(N) * N, 0.0);
-    auto estimate = [&](const Sample& s, int k) {
-        const double shade = brdf.shading(s.gamma, s.z);
-        return shade > 1e-4 ? s.I[k] / shade : 0.0;
-    };
+    std::vector<float> invShade(samples.size());
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const double shade = brdf.shading(samples[i].gamma, samples[i].z);
+        invShade[i] = shade > 1e-4 ? static_cast<float>(1.0 / shade) : 0.0f;
+    }
+    auto estimate = [&](const Sample& s, int k) { return static_cast<double>(s.I[k] * invShade[&s - samples.data()]); };
     auto weightOf = [&](const Sample& s) { return s.gamma * (1.0 - 0.5 * std::clamp(brdf.r(s.z), 0.0, 1.0)); };
     // Pass 1: a robust first estimate per texel (weighted mean).
     for (const Sample& s : samples) {

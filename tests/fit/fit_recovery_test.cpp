@@ -1,5 +1,6 @@
 // Parameter recovery on synthetic ground truth (issue 6, "Validation").
 #include <cmath>
+#include <cstdlib>
 
 #include <gtest/gtest.h>
 
@@ -69,6 +70,8 @@ TEST_F(FitRecovery, RecoversRhoDeltaAndTextureWithTheRobustLoss) {
     fit::FitOptions o;
     o.textureSize = 256;
     const fit::FitResult r = fit::fitFrames(*tube_, *frames_, o);
+    // MUCOSA_FIT_EXAMPLE_DIR=path keeps the outputs (README pictures).
+    if (const char* keep = std::getenv("MUCOSA_FIT_EXAMPLE_DIR")) fit::writeFitOutputs(r, keep);
     const Errors e = compare(r, truth_);
     std::printf("robust fit (%d solver iterations): max |rho error| %.4f over gamma in [0.3, 1], max delta error %.2f %% over z in [%.1f, %.1f] mm, texture PSNR %.1f dB, "
                 "covered %.1f %%, %zu samples, %.2f s solve\n",

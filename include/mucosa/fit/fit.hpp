@@ -50,7 +50,7 @@ struct FitOptions {
     double minGamma = 0.1;               // grazing views are dropped
     double saturation = 0.99;            // pixels at or above this (before linearising) are dropped
     int fitGrid = 128;                   // albedo grid of the joint solve (coarser than the atlas)
-    std::size_t maxSolveSamples = 300000;  // samples the joint solve uses at most
+    std::size_t maxSolveSamples = 150000;  // samples the joint solve uses at most (random subset)
     std::size_t minSamples = 2000;       // fewer usable samples is an error
     int threads = 0;
     std::uint64_t seed = 1;
