@@ -307,6 +307,13 @@ StudyServer::StudyServer(Plan plan, ServeOptions options) {
     impl_ = std::make_unique<Impl>(std::move(plan), std::move(options));
     const int threads = impl_->options.threads > 0 ? impl_->options.threads : 64;
     impl_->http.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<std::size_t>(threads)); };
+    // httplib's default also sets SO_REUSEPORT, which lets a second `serve`
+    // (with another database!) share the port and receive half the answers.
+    // SO_REUSEADDR alone still allows a quick restart after a kill.
+    impl_->http.set_socket_options([](socket_t sock) {
+        int yes = 1;
+        setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+    });
     impl_->http.set_payload_max_length(kMaxBody);
     impl_->http.set_keep_alive_timeout(2);  // idle browsers must not hold worker threads
     impl_->http.set_read_timeout(10);

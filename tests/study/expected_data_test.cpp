@@ -185,6 +185,42 @@ TEST_F(studyExpectedA, StudyMannWhitneyMatchesScipyOnRocSamples) {
         }
 }
 
+TEST_F(studyExpectedA, StudyAgreesWithR) {
+    // R 4.2.2 rows of the same file (crosscheck.R): friedman.test on observer
+    // means; wilcox.test(x, y, paired=TRUE, exact=FALSE, correct=FALSE), whose
+    // statistic V is W+; wilcox.test(pos, neg, exact=FALSE, correct=TRUE), W = U of pos.
+    const auto ratings = readRatingsCsv(test::testdata("study/ratings_A_main.csv"));
+    int checked = 0;
+    for (const json& row : expected_["R_crosscheck"]["rows"]) {
+        const std::string g = row["group"], test = row["test"], variant = row["variant"], cmp = row["comparison"];
+        const double rStat = row["R_statistic"], rP = row["R_pvalue"];
+        if (test == "friedman_observer_means") {
+            const FriedmanResult& f = *group(g).friedman.result;
+            EXPECT_NEAR(f.chi2, rStat, kStatTol);
+            expectP(rP, f.p, "R friedman " + g);
+            ++checked;
+        } else if (test == "wilcoxon_observer_means" && variant == "wilcox_approx") {
+            const WilcoxonResult& w = *group(g).wilcoxon.at(cmp[1] - '0').result;
+            EXPECT_NEAR(w.wPlus, rStat, kStatTol);
+            expectP(rP, w.p, "R wilcoxon " + g + " " + cmp);
+            ++checked;
+        } else if (test == "mann_whitney") {
+            const int c = cmp[1] - '0';
+            std::vector<double> pos, neg;
+            for (const auto& r : ratings) {
+                if (g != "all" && r.group != g) continue;
+                if (r.category == c) pos.push_back(r.score);
+                if (r.category == 5) neg.push_back(r.score);
+            }
+            const auto m = mannWhitney(pos, neg);
+            EXPECT_NEAR(m->U, rStat, kStatTol);
+            expectP(rP, m->p, "R mann-whitney " + g + " " + cmp);
+            ++checked;
+        }
+    }
+    EXPECT_EQ(checked, 3 + 12 + 12);
+}
+
 TEST_F(studyExpectedA, StudyStatsJsonHasTheDocumentedFields) {
     const json j = json::parse(statsJson(analysis_, "ratings_A_main.csv"));
     for (const char* g : kGroupNames) {

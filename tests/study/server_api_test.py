@@ -93,6 +93,12 @@ try:
     s, st = fx.request(B, "POST", "/api/session", {"observer": "X4", "group": "naive"})
     check(s == 409 and "slots" in st["error"], "a 4th observer on a 3-slot plan -> 409 naming the slots")
 
+    # --- a second server on the same port must not share it (SO_REUSEPORT would)
+    r = fx.run(cli, "study", "serve", plan_path, "--db", os.path.join(work, "second.sqlite"), "--port",
+               B.rsplit(":", 1)[1], check=False)
+    check(r.returncode != 0 and r.stderr.startswith("error: ") and "cannot listen" in r.stderr,
+          "a second server on a port in use is refused: " + r.stderr.strip())
+
     # --- SIGKILL mid-study: nothing acknowledged is lost, nothing asked twice
     srv.kill()
     port = B.rsplit(":", 1)[1]
