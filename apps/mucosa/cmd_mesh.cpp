@@ -2,6 +2,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include <fmt/format.h>
 
@@ -84,8 +85,11 @@ void convert(const MeshArgs& a, const Global& g) {
     mesh::outputFormat(a.output);  // refuse a bad extension before any work
     requireWritable(a.output);
     const auto t0 = std::chrono::steady_clock::now();
+    // Progress on stderr only for inputs big enough to take a while.
+    std::error_code ec;
+    bool verbose = std::filesystem::file_size(a.positional[0], ec) > (64u << 20) && !ec;
     auto progress = [&](const std::string& stage) {
-        if (g.quiet) return;
+        if (g.quiet || !verbose) return;
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::fprintf(stderr, "[%6.2f s] %s\n", s, stage.c_str());
     };
@@ -94,6 +98,7 @@ void convert(const MeshArgs& a, const Global& g) {
     mesh::LoadInfo li;
     progress("reading " + a.positional[0]);
     mesh::Mesh m = mesh::load(a.positional[0], lo, &li);
+    verbose = verbose || m.triangleCount() > 1000000;
     for (const std::string& w : li.warnings) warn(w);
     info(g, fmt::format("read {}: {} vertices, {} triangles, x{} to mm ({})", a.positional[0], m.vertexCount(),
                         m.triangleCount(), li.scaleToMillimetres, li.unitReason));

@@ -188,7 +188,8 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     std::size_t nonFinite = 0;
     for (const Vec3& p : mesh.positions) nonFinite += finite(p) ? 0 : 1;
     if (nonFinite > 0 && !options.allowNonFinite)
-        throw InputError("mesh", name, fmt::format("{} vertices have non-finite (NaN/Inf) coordinates", nonFinite));
+        throw InputError("mesh", name, fmt::format("non-finite (NaN/Inf) coordinates at {} of {} vertices", nonFinite,
+                                                   mesh.positions.size()));
 
     // Units.
     double scale = 1.0;
