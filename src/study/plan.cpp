@@ -56,11 +56,15 @@ json trialJson(const Trial& t) {
     return j;
 }
 
-json imagesJson(const std::vector<Image>& images) {
+// `base` empty: no file names (what the fingerprint covers, so a study folder
+// can move without orphaning its database); otherwise files relative to it.
+json imagesJson(const std::vector<Image>& images, const fs::path& base = {}) {
     json a = json::array();
-    for (const Image& im : images)
-        a.push_back({{"id", im.id}, {"file", im.file.string()}, {"category", im.category},
-                     {"patient", im.patient}, {"pose", im.pose}});
+    for (const Image& im : images) {
+        json j{{"id", im.id}, {"category", im.category}, {"patient", im.patient}, {"pose", im.pose}};
+        if (!base.empty()) j["file"] = im.file.lexically_relative(base).generic_string();
+        a.push_back(std::move(j));
+    }
     return a;
 }
 
@@ -249,10 +253,14 @@ Plan makePlan(std::vector<Image> images, const PlanOptions& o) {
 }
 
 void writePlan(const Plan& plan, const fs::path& path) {
-    const json images = imagesJson(plan.images), observers = observersJson(plan.observers);
+    // Files are stored relative to the plan, so the study folder (plan,
+    // images, database) can be moved or copied to another machine as a whole.
+    const fs::path base = fs::absolute(path).parent_path().lexically_normal();
+    const json observers = observersJson(plan.observers);
+    const json images = imagesJson(plan.images, base);
     json j{{"format", kPlanFormat},
            {"version", kPlanVersion},
-           {"fingerprint", fingerprintOf(images, observers)},
+           {"fingerprint", fingerprintOf(imagesJson(plan.images), observers)},
            {"options",
             {{"observers", plan.options.observers},
              {"seed", plan.options.seed},
@@ -284,10 +292,12 @@ Plan readPlan(const fs::path& path) {
         plan.options.seriesLength = o.at("series_length").get<int>();
         plan.options.likertLimit = o.at("likert_limit").get<int>();
         plan.options.twoafcPerComparison = o.at("twoafc_per_comparison").get<int>();
+        const fs::path base = fs::absolute(path).parent_path();
         for (const json& e : j.at("images")) {
             Image im;
             im.id = e.at("id").get<std::string>();
-            im.file = e.at("file").get<std::string>();
+            im.file = fs::path(e.at("file").get<std::string>());
+            if (im.file.is_relative()) im.file = (base / im.file).lexically_normal();
             im.category = e.at("category").get<int>();
             im.patient = e.at("patient").get<std::string>();
             im.pose = e.at("pose").get<std::string>();

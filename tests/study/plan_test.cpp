@@ -112,6 +112,9 @@ TEST(studyPlan, WritesAndReadsBack) {
     const Plan back = readPlan(dir / "study.json");
     EXPECT_EQ(back.fingerprint, plan.fingerprint);
     EXPECT_EQ(back.observers.size(), 3u);
+    // Files are relative to the plan: a moved study folder still finds its images.
+    EXPECT_EQ(back.images[0].file, plan.images[0].file);
+    EXPECT_EQ(test::readBytes(dir / "study.json").find("\"file\": \"/"), std::string::npos);
     // A hand-edited plan is refused rather than silently served.
     std::string text = test::readBytes(dir / "study.json");
     text.replace(text.find("\"likert\""), 8, "\"twoafc\"");

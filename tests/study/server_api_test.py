@@ -143,6 +143,22 @@ if ok:
     ok = n == sum(1 for t in trials if t["kind"] == "likert") and stats["all"]["observers"] == ["N01"]
 check(ok, "analyze reads the database: every Likert answer, the right observer " + r.stderr.strip()[:200])
 
+# The study folder (plan, images, database) moves as a whole: files are relative.
+moved = work + "_moved"
+shutil.rmtree(moved, ignore_errors=True)
+shutil.copytree(work, moved, ignore=shutil.ignore_patterns("report", "*.sqlite-*"))
+shutil.rmtree(work + "_gone", ignore_errors=True)
+os.rename(work, work + "_gone")  # the old location no longer exists
+try:
+    srv = fx.Server(cli, os.path.join(moved, "study.json"), os.path.join(moved, "answers.sqlite"))
+    s, st = fx.request(srv.base, "GET", "/api/state?observer=N01")
+    s2, body = fx.request(srv.base, "GET", "/image/0")
+    check(s == 200 and st["done"] and s2 == 200 and len(body) > 100,
+          "a moved study folder serves its images and resumes its database")
+finally:
+    srv.stop()
+    os.rename(work + "_gone", work)
+
 if failures:
     print(f"{len(failures)} check(s) failed")
     sys.exit(1)

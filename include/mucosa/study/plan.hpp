@@ -56,7 +56,8 @@ struct Plan {
     std::vector<Image> images;
     PlanOptions options;
     std::vector<ObserverPlan> observers;  // slot i is given to the i-th observer who signs in
-    std::string fingerprint;              // hash of images + trials; ties an answers database to its plan
+    std::string fingerprint;              // hash of image ids/categories/views + trials (not file
+                                          // locations); ties an answers database to its plan
 };
 
 // Builds a reproducible plan (same manifest, options and seed -> same plan on
@@ -64,7 +65,8 @@ struct Plan {
 // Throws InputError saying why a manifest cannot satisfy the protocol.
 Plan makePlan(std::vector<Image> images, const PlanOptions& options);
 
-void writePlan(const Plan& plan, const std::filesystem::path& path);  // atomic
+// Atomic; image files are stored relative to the plan's folder.
+void writePlan(const Plan& plan, const std::filesystem::path& path);
 Plan readPlan(const std::filesystem::path& path);
 
 const char* trialKindName(TrialKind kind);
