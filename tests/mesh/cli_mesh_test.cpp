@@ -44,6 +44,18 @@ TEST(MeshCli, ConvertsFlipsAndWritesTangents) {
     EXPECT_EQ(mesh::analyse(m).badTangents, 0u);
 }
 
+TEST(MeshCli, InfoCountsNonFiniteValuesAndUnitOverride) {
+    TempDir dir;
+    std::ofstream(dir / "nan.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv inf 2 0\nf 1 2 3\nf 2 4 3\n";
+    const auto r = runCli("mesh info '" + (dir / "nan.obj").string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.out.find("0 non-finite values"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("non-finite values"), std::string::npos) << r.out;
+    const auto mm = runCli("mesh info --unit mm '" + testdata("airway/vh_m_airway_lumen.obj").string() + "'");
+    ASSERT_EQ(mm.exitCode, 0) << mm.err;
+    EXPECT_NE(mm.out.find("x1 to millimetres (as requested)"), std::string::npos) << mm.out;
+}
+
 TEST(MeshCli, BadInputsGiveOneErrorLineAndNoOutput) {
     TempDir dir;
     std::ofstream(dir / "nan.obj") << "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n";

@@ -18,66 +18,6 @@ Mesh texturedAirway() {
     return m;
 }
 
-// The Khronos validator's accessor rules, checked on our own output:
-// POSITION has min/max equal to the data, NORMAL unit, TANGENT xyz unit with
-// w = +-1, indices in range, views 4-byte aligned and inside the buffer.
-void checkGltfRules(const Glb& g, std::size_t expectVertices) {
-    const auto& j = g.json;
-    ASSERT_EQ(j["asset"]["version"], "2.0");
-    ASSERT_EQ(j["buffers"].size(), 1u);
-    ASSERT_EQ(j["buffers"][0]["byteLength"].get<std::size_t>(), g.bin.size());
-    for (const auto& v : j["bufferViews"]) {
-        EXPECT_EQ(v["byteOffset"].get<std::size_t>() % 4, 0u);
-        EXPECT_LE(v["byteOffset"].get<std::size_t>() + v["byteLength"].get<std::size_t>(), g.bin.size());
-    }
-    const auto& prim = j["meshes"][0]["primitives"][0];
-    const auto& attr = prim["attributes"];
-    for (const char* name : {"POSITION", "NORMAL", "TEXCOORD_0", "TANGENT"}) ASSERT_TRUE(attr.contains(name)) << name;
-    for (const auto& [name, a] : attr.items()) EXPECT_EQ(j["accessors"][a.get<int>()]["count"].get<std::size_t>(), expectVertices);
-
-    const int pa = attr["POSITION"];
-    const auto P = accessorFloats(g, pa);
-    const auto& acc = j["accessors"][pa];
-    ASSERT_TRUE(acc.contains("min") && acc.contains("max"));
-    for (int k = 0; k < 3; ++k) {
-        float lo = INFINITY, hi = -INFINITY;
-        for (std::size_t v = 0; v < expectVertices; ++v) lo = std::min(lo, P[3 * v + k]), hi = std::max(hi, P[3 * v + k]);
-        EXPECT_EQ(acc["min"][k].get<float>(), lo);
-        EXPECT_EQ(acc["max"][k].get<float>(), hi);
-    }
-    const auto N = accessorFloats(g, attr["NORMAL"]);
-    for (std::size_t v = 0; v < expectVertices; ++v) {
-        const double l = std::sqrt(double(N[3 * v]) * N[3 * v] + double(N[3 * v + 1]) * N[3 * v + 1] +
-                                   double(N[3 * v + 2]) * N[3 * v + 2]);
-        ASSERT_NEAR(l, 1.0, 5e-4) << "normal " << v;
-    }
-    const auto T = accessorFloats(g, attr["TANGENT"]);
-    for (std::size_t v = 0; v < expectVertices; ++v) {
-        const double l = std::sqrt(double(T[4 * v]) * T[4 * v] + double(T[4 * v + 1]) * T[4 * v + 1] +
-                                   double(T[4 * v + 2]) * T[4 * v + 2]);
-        ASSERT_NEAR(l, 1.0, 5e-4) << "tangent " << v;
-        ASSERT_TRUE(T[4 * v + 3] == 1.0f || T[4 * v + 3] == -1.0f) << "tangent w " << v;
-    }
-    const auto& ia = j["accessors"][prim["indices"].get<int>()];
-    const auto& iv = j["bufferViews"][ia["bufferView"].get<int>()];
-    const std::size_t count = ia["count"];
-    ASSERT_EQ(count % 3, 0u);
-    for (std::size_t i = 0; i < count; ++i) {
-        std::uint32_t idx = 0;
-        const std::size_t at = iv["byteOffset"].get<std::size_t>();
-        if (ia["componentType"] == 5123) {
-            std::uint16_t s;
-            std::memcpy(&s, g.bin.data() + at + 2 * i, 2);
-            idx = s;
-        } else {
-            ASSERT_EQ(ia["componentType"], 5125);
-            std::memcpy(&idx, g.bin.data() + at + 4 * i, 4);
-        }
-        ASSERT_LT(idx, expectVertices);
-    }
-    EXPECT_EQ(prim.value("mode", 4), 4);
-}
-
 TEST(MeshIo, GlbOutputFollowsAccessorRules) {
     TempDir dir;
     const Mesh m = texturedAirway();

@@ -125,6 +125,23 @@ TEST(Phantom, CoarseAndSmallVariantsAreWatertight) {
     }
 }
 
+TEST(Phantom, GlbWithThirtyTwoBitIndicesFollowsAccessorRules) {
+    TempDir dir;
+    const Mesh& m = defaultPhantom().mesh;
+    ASSERT_GT(m.vertexCount(), 65535u);
+    mesh::save(m, dir / "phantom.glb");
+    const Glb g = parseGlb(readBytes(dir / "phantom.glb"));
+    checkGltfRules(g, m.vertexCount());
+    EXPECT_EQ(g.json["accessors"][g.json["meshes"][0]["primitives"][0]["indices"].get<int>()]["componentType"], 5125);
+}
+
+TEST(Phantom, RefusesAGridThatCannotFitBeforeAllocating) {
+    mesh::PhantomParams p;
+    p.generations = 7;
+    p.resolution = 16;  // billions of samples
+    EXPECT_THROW(mesh::makePhantom(p), ResourceError);
+}
+
 TEST(Phantom, RefusesParametersOutOfRange) {
     mesh::PhantomParams p;
     p.generations = 99;
