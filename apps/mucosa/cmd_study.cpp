@@ -82,6 +82,7 @@ void runAnalyze(const AnalyzeArgs& a, const Global& g) {
     if (!a.twoafc.empty()) data.choices = study::readTwoAfcCsv(a.twoafc);
     const study::Analysis an = study::analyze(data);
     study::writeReport(an, a.output, a.input);
+    study::writeCsv(data, a.output);
     for (const auto& w : an.warnings) warn(w);
     for (const auto& gr : an.groups) {
         std::string line = fmt::format("{}: {} observers", gr.group, gr.observers.size());
@@ -91,7 +92,8 @@ void runAnalyze(const AnalyzeArgs& a, const Global& g) {
         for (const auto& [c, r] : gr.roc) line += fmt::format(", AUC {} = {:.3f}", c, r.auc);
         info(g, line);
     }
-    info(g, fmt::format("wrote {}/stats.json, report.html, fig6_scores.svg, fig7_roc.svg", a.output));
+    info(g, fmt::format("wrote {}/stats.json, report.html, fig6_scores.svg, fig7_roc.svg, ratings.csv{}", a.output,
+                        data.choices.empty() ? "" : ", pairs.csv"));
 }
 
 void addStudyCommand(CLI::App& app, Global& g) {

@@ -373,4 +373,30 @@ void writeReport(const Analysis& a, const fs::path& dir, const std::string& sour
     writeFileAtomic(dir / "report.html", reportHtml(a, source, fig6, fig7));
 }
 
+namespace {
+// RFC 4180: quote a field holding a comma, quote or line break.
+std::string csvField(const std::string& v) {
+    if (v.find_first_of(",\"\r\n") == std::string::npos) return v;
+    std::string q = "\"";
+    for (char c : v) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+}
+}  // namespace
+
+void writeCsv(const StudyData& data, const fs::path& dir) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec || !fs::is_directory(dir)) throw IoError("output folder", dir.string(), "cannot be created");
+    std::string r = "observer,group,category,image_id,score\n";
+    for (const Rating& x : data.ratings)
+        r += fmt::format("{},{},{},{},{}\n", csvField(x.observer), x.group, x.category, csvField(x.imageId), x.score);
+    writeFileAtomic(dir / "ratings.csv", r);
+    if (data.choices.empty()) return;
+    std::string p = "observer,group,left_category,right_category,chosen_category\n";
+    for (const Choice& c : data.choices)
+        p += fmt::format("{},{},{},{},{}\n", csvField(c.observer), c.group, c.leftCategory, c.rightCategory,
+                         c.chosenCategory);
+    writeFileAtomic(dir / "pairs.csv", p);
+}
+
 }  // namespace mucosa::study

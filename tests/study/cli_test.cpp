@@ -71,7 +71,7 @@ TEST(studyCli, AnalyzeWritesTheReport) {
     const auto r = runCli("study analyze '" + testdata("study/ratings_A_main.csv").string() + "' -o '" +
                           (dir / "report").string() + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    for (const char* f : {"stats.json", "report.html", "fig6_scores.svg", "fig7_roc.svg"})
+    for (const char* f : {"stats.json", "report.html", "fig6_scores.svg", "fig7_roc.svg", "ratings.csv"})
         EXPECT_TRUE(std::filesystem::exists(dir / "report" / f)) << f;
     const json s = json::parse(readBytes(dir / "report" / "stats.json"));
     EXPECT_NEAR(s["all"]["friedman"]["chi2"].get<double>(), 88.14814814814815, 1e-9);

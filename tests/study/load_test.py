@@ -111,6 +111,27 @@ for oid, (slot, answers) in sorted(given.items()):
 expected_total = n_obs * len(plan["observers"][0]["trials"])
 if stored != expected_total or len(given) != n_obs:
     failures.append(f"stored {stored} answers of {len(given)} observers, expected {expected_total} of {n_obs}")
+# The database analyses, and its CSV export analyses to the same numbers.
+import json  # noqa: E402
+r1 = fx.run(cli, "study", "analyze", db, "-o", os.path.join(work, "from_db"), check=False)
+r2 = fx.run(cli, "study", "analyze", os.path.join(work, "from_db", "ratings.csv"), "--twoafc",
+            os.path.join(work, "from_db", "pairs.csv"), "-o", os.path.join(work, "from_csv"), check=False)
+if r1.returncode or r2.returncode:
+    failures.append(f"analyze failed: {r1.stderr} {r2.stderr}")
+else:
+    def load(folder):
+        with open(os.path.join(work, folder, "stats.json")) as f:
+            j = json.load(f)
+        j["meta"].pop("source")
+        return j
+    a, b = load("from_db"), load("from_csv")
+    if a != b:
+        failures.append("stats from the database and from its CSV export differ")
+    n_likert = sum(a["all"]["categories"][c]["n_ratings"] for c in a["all"]["categories"])
+    n_afc = sum(v["n"] for v in a["all"]["twoafc"].values())
+    if n_likert != n_obs * 10 or n_afc != n_obs * 6 or a["all"]["n_observers"] != n_obs:
+        failures.append(f"analysis of the load database counts {n_likert} ratings, {n_afc} choices")
+
 latencies.sort()
 print(f"load: {n_obs} concurrent observers, {stored} answers stored of {expected_total} given, "
       f"{retries[0]} retried requests, {elapsed:.1f} s wall, {stored / elapsed:.0f} answers/s, "
