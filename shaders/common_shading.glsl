@@ -63,8 +63,8 @@ struct Varyings {
     vec3 T;              // world tangent frame (debug views)
     vec3 B;
     vec3 N;
-    float diffuseLight;  // per-vertex modes: I_L att rho delta
-    float specular;      // per-vertex modes: specular (vertex-phong) or highlight weight (multitexture)
+    float diffuseLight;  // I_L att rho delta (per vertex in every mode)
+    float specular;      // I_L att k_s, times the Phong lobe in vertex-phong
     vec2 sphereUv;       // multitexture: highlight-texture coordinates (highlightCoord)
 };
 
@@ -160,19 +160,21 @@ Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, in
     o.diffuseLight = 0.0f;
     o.specular = 0.0f;
     o.sphereUv = vec2(0.0f);
-    if (mode == kModeVertexPhong || mode == kModeMultitexture) {
-        float dl = max(length(L), kTiny);
-        float dv = max(length(V), kTiny);
-        vec3 Ln = L / dl;
-        vec3 Vn = V / dv;
-        float lightI = m.lightIntensity * lightAttenuation(dl, m.lightRange);
-        o.diffuseLight = lightI * diffuseShading(dot(N, Vn), dv, m);
-        if (mode == kModeVertexPhong) {
-            o.specular = lightI * m.specularStrength * phongLobe(N, Ln, Vn, m.shininess);
-        } else {
-            o.specular = lightI * m.specularStrength;
-            o.sphereUv = highlightCoord(N, Ln, Vn, f);
-        }
+    // The diffuse term (paper eq. 11) and the light's fall-off are per vertex
+    // in every mode: the modes differ only in how the highlight is made, and
+    // the per-pixel work of the method is the specular term alone.
+    float dl = max(length(L), kTiny);
+    float dv = max(length(V), kTiny);
+    vec3 Ln = L / dl;
+    vec3 Vn = V / dv;
+    float lightI = m.lightIntensity * lightAttenuation(dl, m.lightRange);
+    o.diffuseLight = lightI * diffuseShading(dot(N, Vn), dv, m);
+    o.specular = lightI * m.specularStrength;
+    if (mode == kModeVertexPhong) {
+        o.specular = o.specular * phongLobe(N, Ln, Vn, m.shininess);
+    }
+    if (mode == kModeMultitexture) {
+        o.sphereUv = highlightCoord(N, Ln, Vn, f);
     }
     return o;
 }
@@ -187,18 +189,15 @@ vec2 reflectanceMapCoord(vec2 uv, Material m) {
 // display values; the caller clamps to [0, 1].
 vec3 tissueFragment(Varyings v, vec3 albedoTex, vec3 mapRgb, float highlight, Material m, int mode) {
     vec3 albedo = mucusAlbedo(albedoTex * m.baseColor, m);
-    if (mode == kModeNoise || mode == kModeDiffuse) {
-        float dl = max(length(v.Lt), kTiny);
-        float dv = max(length(v.Vt), kTiny);
-        vec3 L = v.Lt / dl;
-        vec3 V = v.Vt / dv;
-        float lightI = m.lightIntensity * lightAttenuation(dl, m.lightRange);
-        vec3 color = albedo * (m.ambient + lightI * diffuseShading(V.z, dv, m));
-        if (mode == kModeNoise) {
-            vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
-            color = color + vec3(lightI * m.specularStrength * phongLobe(Nm, L, V, m.shininess));
-        }
-        return color;
+    if (mode == kModeNoise) {
+        // Per pixel: the map's normal and the Phong lobe (paper, "Lighting in
+        // tangent space"), with L and V interpolated in tangent space.
+        vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
+        float spec = phongLobe(Nm, normalize(v.Lt), normalize(v.Vt), m.shininess);
+        return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * spec);
+    }
+    if (mode == kModeDiffuse) {
+        return albedo * (m.ambient + v.diffuseLight);
     }
     if (mode == kModeVertexPhong) {
         return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular);

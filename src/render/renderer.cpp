@@ -1,6 +1,8 @@
 #include <mucosa/render/renderer.hpp>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -133,12 +135,88 @@ image::Image8 solid(std::uint8_t r, std::uint8_t g, std::uint8_t b) {
     return img;
 }
 
+// Triangles are sorted into spatial chunks at upload; each frame draws only the
+// chunks whose bounding box meets the view frustum (an airway seen from inside
+// shows a small part of the tree). Conservative, so the image is unchanged.
+struct Chunk {
+    std::array<float, 3> lo, hi;
+    GLsizei first = 0, count = 0;  // in indices
+};
+
+bool outsideFrustum(const Chunk& c, const glm::mat4& viewProj) {
+    int outside[6] = {0, 0, 0, 0, 0, 0};
+    for (int k = 0; k < 8; ++k) {
+        const glm::vec4 p = viewProj * glm::vec4(k & 1 ? c.hi[0] : c.lo[0], k & 2 ? c.hi[1] : c.lo[1],
+                                                 k & 4 ? c.hi[2] : c.lo[2], 1.0f);
+        outside[0] += p.x < -p.w;
+        outside[1] += p.x > p.w;
+        outside[2] += p.y < -p.w;
+        outside[3] += p.y > p.w;
+        outside[4] += p.z < -p.w;
+        outside[5] += p.z > p.w;
+    }
+    for (int i = 0; i < 6; ++i)
+        if (outside[i] == 8) return true;
+    return false;
+}
+
+std::vector<Chunk> buildChunks(const mesh::Mesh& mesh, std::vector<std::uint32_t>& sorted) {
+    std::array<float, 3> lo{1e30f, 1e30f, 1e30f}, hi{-1e30f, -1e30f, -1e30f};
+    for (const auto& p : mesh.positions)
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    const std::size_t tris = mesh.triangleCount();
+    // About 2000 triangles per chunk, cells as cubes.
+    const int cellsWanted = static_cast<int>(std::clamp<std::size_t>(tris / 2000, 1, 4096));
+    const float ext[3] = {std::max(hi[0] - lo[0], 1e-3f), std::max(hi[1] - lo[1], 1e-3f), std::max(hi[2] - lo[2], 1e-3f)};
+    const float cell = std::cbrt(ext[0] * ext[1] * ext[2] / static_cast<float>(cellsWanted));
+    int n[3];
+    for (int k = 0; k < 3; ++k) n[k] = std::clamp(static_cast<int>(std::ceil(ext[k] / cell)), 1, 64);
+    std::vector<std::uint32_t> cellOf(tris);
+    for (std::size_t t = 0; t < tris; ++t) {
+        int idx[3];
+        for (int k = 0; k < 3; ++k) {
+            const float c = (mesh.positions[mesh.indices[3 * t]][k] + mesh.positions[mesh.indices[3 * t + 1]][k] +
+                             mesh.positions[mesh.indices[3 * t + 2]][k]) / 3.0f;
+            idx[k] = std::clamp(static_cast<int>((c - lo[k]) / ext[k] * static_cast<float>(n[k])), 0, n[k] - 1);
+        }
+        cellOf[t] = static_cast<std::uint32_t>((idx[2] * n[1] + idx[1]) * n[0] + idx[0]);
+    }
+    std::vector<std::uint32_t> order(tris);
+    for (std::size_t t = 0; t < tris; ++t) order[t] = static_cast<std::uint32_t>(t);
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return cellOf[a] < cellOf[b]; });
+    sorted.resize(mesh.indices.size());
+    std::vector<Chunk> chunks;
+    for (std::size_t i = 0; i < tris; ++i) {
+        const std::uint32_t t = order[i];
+        if (chunks.empty() || cellOf[order[i - 1]] != cellOf[t]) {
+            Chunk c;
+            c.lo = {1e30f, 1e30f, 1e30f};
+            c.hi = {-1e30f, -1e30f, -1e30f};
+            c.first = static_cast<GLsizei>(3 * i);
+            chunks.push_back(c);
+        }
+        Chunk& c = chunks.back();
+        for (int v = 0; v < 3; ++v) {
+            const std::uint32_t vi = mesh.indices[3 * t + v];
+            sorted[3 * i + v] = vi;
+            for (int k = 0; k < 3; ++k)
+                c.lo[k] = std::min(c.lo[k], mesh.positions[vi][k]), c.hi[k] = std::max(c.hi[k], mesh.positions[vi][k]);
+        }
+        c.count += 3;
+    }
+    return chunks;
+}
+
 }  // namespace
 
 struct Renderer::Impl {
     std::array<Program, shading::kModeCount> programs;
     GLuint vao = 0, vbo = 0, ibo = 0;
     GLsizei indexCount = 0;
+    std::vector<Chunk> chunks;
+    std::vector<const void*> drawOffsets;
+    std::vector<GLsizei> drawCounts;
+    std::size_t lastDrawnTriangles = 0;
     std::array<Texture, 3> textures;
     float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
 };
@@ -163,6 +241,7 @@ Renderer::~Renderer() {
 }
 
 std::size_t Renderer::triangleCount() const noexcept { return static_cast<std::size_t>(impl_->indexCount / 3); }
+std::size_t Renderer::lastDrawnTriangles() const noexcept { return impl_->lastDrawnTriangles; }
 
 void Renderer::setMesh(const mesh::Mesh& mesh) {
     std::string missing;
@@ -182,9 +261,11 @@ void Renderer::setMesh(const mesh::Mesh& mesh) {
     glBindVertexArray(impl_->vao);
     glBindBuffer(GL_ARRAY_BUFFER, impl_->vbo);
     glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data.size() * sizeof(float)), data.data(), GL_STATIC_DRAW);
+    std::vector<std::uint32_t> sorted;
+    impl_->chunks = buildChunks(mesh, sorted);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, impl_->ibo);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(mesh.indices.size() * sizeof(std::uint32_t)),
-                 mesh.indices.data(), GL_STATIC_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sorted.size() * sizeof(std::uint32_t)),
+                 sorted.data(), GL_STATIC_DRAW);
     const GLsizei stride = kStride * sizeof(float);
     const int sizes[] = {3, 3, 4, 2}, offsets[] = {0, 3, 6, 10};
     for (GLuint a = 0; a < 4; ++a) {
@@ -263,8 +344,28 @@ void Renderer::draw(const shading::FrameSetup& frame) {
         glActiveTexture(GL_TEXTURE0 + unit);
         glBindTexture(GL_TEXTURE_2D, impl_->textures[unit].id);
     }
+    impl_->drawOffsets.clear();
+    impl_->drawCounts.clear();
+    std::size_t drawn = 0;
+    for (const Chunk& c : impl_->chunks) {
+        if (outsideFrustum(c, f.viewProj)) continue;
+        // Merge with the previous range when contiguous.
+        if (!impl_->drawCounts.empty() &&
+            reinterpret_cast<std::uintptr_t>(impl_->drawOffsets.back()) / sizeof(std::uint32_t) +
+                    static_cast<std::uintptr_t>(impl_->drawCounts.back()) ==
+                static_cast<std::uintptr_t>(c.first))
+            impl_->drawCounts.back() += c.count;
+        else {
+            impl_->drawOffsets.push_back(reinterpret_cast<const void*>(static_cast<std::uintptr_t>(c.first) * sizeof(std::uint32_t)));
+            impl_->drawCounts.push_back(c.count);
+        }
+        drawn += static_cast<std::size_t>(c.count / 3);
+    }
+    impl_->lastDrawnTriangles = drawn;
     glBindVertexArray(impl_->vao);
-    glDrawElements(GL_TRIANGLES, impl_->indexCount, GL_UNSIGNED_INT, nullptr);
+    if (!impl_->drawCounts.empty())
+        glMultiDrawElements(GL_TRIANGLES, impl_->drawCounts.data(), GL_UNSIGNED_INT, impl_->drawOffsets.data(),
+                            static_cast<GLsizei>(impl_->drawCounts.size()));
     glBindVertexArray(0);
 }
 

@@ -36,6 +36,7 @@ namespace {
 // The default tube (used when the phantom is not available, or asked for).
 constexpr float kTubeRadius = 7.0f, kTubeLength = 150.0f;
 constexpr int kTubeAround = 24, kTubeAlong = 60;
+constexpr int kTissueTextureSize = 512;
 
 struct Parser {
     std::string file;
@@ -202,6 +203,11 @@ Scene defaultScene() {
 #endif
     s.path.kind = "centreline";
     s.path.fly.frames = 120;
+    s.generatedDiffuse = true;
+    // The phantom at 1 grid cell per mm (~150 k triangles): real-time on a
+    // CPU rasteriser, and the light has faded to ~5 % at the far plane.
+    s.mesh.phantomResolution = 1.0;
+    s.lens.farMm = 160.0f;
     return s;
 }
 
@@ -255,7 +261,15 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         if (v != "front" && v != "back") P.fail("lit_side", "must be \"front\" or \"back\", not '" + v + "'");
         s.normalSign = v == "front" ? 1.0f : -1.0f;
     }
-    if (j.contains("diffuse")) s.diffuse = P.path(j["diffuse"], "diffuse");
+    if (j.contains("diffuse")) {
+        s.generatedDiffuse = false;
+        if (j["diffuse"].is_string() && j["diffuse"].get<std::string>() == "generated")
+            s.generatedDiffuse = true;
+        else if (j["diffuse"].is_string() && j["diffuse"].get<std::string>() == "none")
+            s.diffuse.reset();
+        else
+            s.diffuse = P.path(j["diffuse"], "diffuse");
+    }
     if (j.contains("reflectance_map")) {
         const json& r = j["reflectance_map"];
         if (r.is_string())
@@ -378,7 +392,10 @@ SceneAssets loadAssets(const Scene& scene, int threads) {
         throw InputError("camera.path.centreline", file, "this build cannot read centreline files");
 #endif
     }
-    if (scene.diffuse) a.diffuse = image::to8(image::readPng(*scene.diffuse));
+    if (scene.diffuse)
+        a.diffuse = image::to8(image::readPng(*scene.diffuse));
+    else if (scene.generatedDiffuse)
+        a.diffuse = tissueTexture(kTissueTextureSize);
     if (scene.reflectanceMap) {
         a.reflectanceMap = image::to8(image::readPng(*scene.reflectanceMap));
         if (a.reflectanceMap.channels() < 3)

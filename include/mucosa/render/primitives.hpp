@@ -2,6 +2,9 @@
 // Analytic meshes with exact normals, UVs and tangents (OpenGL UVs, +v up;
 // tangent w with B = w cross(N, T) along +v): test scenes for the renderer and
 // its parity test, and the fallback scene when no mesh is given.
+#include <cstdint>
+
+#include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
 
 namespace mucosa::render {
@@ -23,5 +26,10 @@ mesh::Mesh makeTube(float radius, float length, int around, int along);
 
 // The tube's centreline (for fly-throughs), `samples` points from start to end.
 std::vector<mesh::Vec3> tubeCenterline(float length, int samples);
+
+// A tileable subject texture for scenes without a real one: mottled tissue
+// with faint, darker vessels (fractal noise, turbulence for the vessels),
+// roughly neutral so material.base_color sets the hue. RGB, size x size.
+image::Image8 tissueTexture(int size, std::uint64_t seed = 7);
 
 }  // namespace mucosa::render

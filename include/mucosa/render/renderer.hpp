@@ -37,6 +37,8 @@ public:
     void draw(const shading::FrameSetup& frame);
 
     std::size_t triangleCount() const noexcept;
+    // Triangles in the chunks the last draw() did not cull (frustum culling).
+    std::size_t lastDrawnTriangles() const noexcept;
 
 private:
     struct Impl;

@@ -22,7 +22,7 @@ struct MeshSpec {
     std::filesystem::path file;  // kind == "file"
     int phantomGenerations = 3;
     std::uint64_t phantomSeed = 1;
-    double phantomResolution = 2.0;  // grid cells per mm
+    double phantomResolution = 1.0;  // grid cells per mm
 };
 
 struct PathSpec {
@@ -37,7 +37,8 @@ struct PathSpec {
 struct Scene {
     std::filesystem::path file;  // the scene file, or empty for the default scene
     MeshSpec mesh;
-    std::optional<std::filesystem::path> diffuse;         // subject texture; else base_color alone
+    std::optional<std::filesystem::path> diffuse;         // subject texture file
+    bool generatedDiffuse = false;                        // "diffuse": "generated" (render::tissueTexture)
     std::optional<std::filesystem::path> reflectanceMap;  // a map PNG; else generated from mapParams
     reflectance::MapParams mapParams;
     shading::Filter filter = shading::Filter::Trilinear;
