@@ -120,8 +120,9 @@ void addStudyCommand(CLI::App& app, Global& g) {
 
     auto sv = std::make_shared<ServeArgs>();
     CLI::App* serve = study->add_subcommand("serve", "Run the study in a browser; answers go to SQLite as given");
-    serve->footer("Example: mucosa study serve study.json --db answers.sqlite --port 8080\n"
-                  "Observers open http://HOST:PORT/, enter an id and group; reloading resumes.");
+    serve->footer(
+        "Example: mucosa study serve study.json --db answers.sqlite --port 8080\n"
+        "Observers open http://HOST:PORT/, enter an id and group; reloading resumes.");
     serve->add_option("plan", sv->plan, "Study plan from `mucosa study plan`")->required();
     serve->add_option("--db", sv->o.db, "Answers database (SQLite; created if missing, resumed if present)")
         ->required();
@@ -133,13 +134,14 @@ void addStudyCommand(CLI::App& app, Global& g) {
     auto an = std::make_shared<AnalyzeArgs>();
     CLI::App* analyze = study->add_subcommand("analyze", "Statistics, HTML report and figures from the answers");
     analyze->alias("analyse");
-    analyze->footer("Example: mucosa study analyze answers.sqlite -o report/\n"
-                    "         mucosa study analyze ratings.csv --twoafc pairs.csv -o report/");
+    analyze->footer(
+        "Example: mucosa study analyze answers.sqlite -o report/\n"
+        "         mucosa study analyze ratings.csv --twoafc pairs.csv -o report/");
     analyze->add_option("input", an->input, "answers.sqlite (from study serve) or ratings.csv")->required();
-    analyze->add_option("--twoafc", an->twoafc, "2AFC choices CSV (observer,group,left_category,right_category,"
-                                                "chosen_category); replaces the database's 2AFC answers");
-    analyze->add_option("-o,--output", an->output, "Report folder (stats.json, report.html, SVG figures)")
-        ->required();
+    analyze->add_option("--twoafc", an->twoafc,
+                        "2AFC choices CSV (observer,group,left_category,right_category,"
+                        "chosen_category); replaces the database's 2AFC answers");
+    analyze->add_option("-o,--output", an->output, "Report folder (stats.json, report.html, SVG figures)")->required();
     analyze->callback([an, &g] { runAnalyze(*an, g); });
 }
 

@@ -97,8 +97,9 @@ CsvTable readCsv(const fs::path& path, const std::vector<std::string>& required)
             continue;
         }
         if (fields.size() < t.columns.size())
-            throw InputError("CSV", t.file,
-                             fmt::format("line {}: {} fields, the header has {}", lineNo, fields.size(), t.columns.size()));
+            throw InputError(
+                "CSV", t.file,
+                fmt::format("line {}: {} fields, the header has {}", lineNo, fields.size(), t.columns.size()));
         t.rows.emplace_back(lineNo, std::move(fields));
     }
     if (header) throw InputError("CSV", t.file, "is empty (no header line)");
@@ -118,8 +119,7 @@ std::string parseGroup(std::string g, const std::string& file, int line) {
     std::transform(g.begin(), g.end(), g.begin(), [](unsigned char c) { return std::tolower(c); });
     for (const char* known : kGroups)
         if (g == known) return g;
-    throw InputError("group", file,
-                     fmt::format("line {}: unknown group '{}' (expected naive or expert)", line, g));
+    throw InputError("group", file, fmt::format("line {}: unknown group '{}' (expected naive or expert)", line, g));
 }
 
 std::string parseObserver(const std::string& o, const std::string& file, int line) {
@@ -131,8 +131,8 @@ std::string parseObserver(const std::string& o, const std::string& file, int lin
 
 std::vector<Rating> readRatingsCsv(const fs::path& path) {
     const CsvTable t = readCsv(path, {"observer", "group", "category", "image_id", "score"});
-    const std::size_t cObs = t.columns.at("observer"), cGroup = t.columns.at("group"),
-                      cCat = t.columns.at("category"), cImg = t.columns.at("image_id"), cScore = t.columns.at("score");
+    const std::size_t cObs = t.columns.at("observer"), cGroup = t.columns.at("group"), cCat = t.columns.at("category"),
+                      cImg = t.columns.at("image_id"), cScore = t.columns.at("score");
     std::vector<Rating> out;
     out.reserve(t.rows.size());
     for (const auto& [line, f] : t.rows) {
@@ -204,18 +204,20 @@ StudyData readAnswersDb(const fs::path& path) {
         const auto* p = sqlite3_column_text(st, i);
         return p ? std::string(reinterpret_cast<const char*>(p)) : std::string();
     };
-    query("SELECT a.observer, o.grp, a.category, a.image_id, a.score FROM answers a JOIN observers o "
-          "ON o.observer = a.observer WHERE a.kind = 'likert' ORDER BY o.slot, a.trial",
-          [&](sqlite3_stmt* st) {
-              data.ratings.push_back(Rating{text(st, 0), text(st, 1), text(st, 3), sqlite3_column_int(st, 2),
-                                            sqlite3_column_int(st, 4)});
-          });
-    query("SELECT a.observer, o.grp, a.left_category, a.right_category, a.chosen_category FROM answers a JOIN "
-          "observers o ON o.observer = a.observer WHERE a.kind = 'twoafc' ORDER BY o.slot, a.trial",
-          [&](sqlite3_stmt* st) {
-              data.choices.push_back(Choice{text(st, 0), text(st, 1), sqlite3_column_int(st, 2),
-                                            sqlite3_column_int(st, 3), sqlite3_column_int(st, 4)});
-          });
+    query(
+        "SELECT a.observer, o.grp, a.category, a.image_id, a.score FROM answers a JOIN observers o "
+        "ON o.observer = a.observer WHERE a.kind = 'likert' ORDER BY o.slot, a.trial",
+        [&](sqlite3_stmt* st) {
+            data.ratings.push_back(
+                Rating{text(st, 0), text(st, 1), text(st, 3), sqlite3_column_int(st, 2), sqlite3_column_int(st, 4)});
+        });
+    query(
+        "SELECT a.observer, o.grp, a.left_category, a.right_category, a.chosen_category FROM answers a JOIN "
+        "observers o ON o.observer = a.observer WHERE a.kind = 'twoafc' ORDER BY o.slot, a.trial",
+        [&](sqlite3_stmt* st) {
+            data.choices.push_back(Choice{text(st, 0), text(st, 1), sqlite3_column_int(st, 2),
+                                          sqlite3_column_int(st, 3), sqlite3_column_int(st, 4)});
+        });
     sqlite3_close(db);
     if (data.ratings.empty()) throw InputError("answers database", file, "holds no Likert ratings yet");
     return data;

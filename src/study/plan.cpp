@@ -31,9 +31,8 @@ std::string scalarText(const json& v) {
 }
 
 bool validId(const std::string& s) {
-    return !s.empty() && s.size() <= 200 && std::none_of(s.begin(), s.end(), [](char c) {
-        return static_cast<unsigned char>(c) < 0x20;
-    });
+    return !s.empty() && s.size() <= 200 &&
+           std::none_of(s.begin(), s.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; });
 }
 
 std::uint64_t fnv1a(const std::string& s) {
@@ -86,16 +85,19 @@ std::string fingerprintOf(const json& images, const json& observers) {
 
 const char* trialKindName(TrialKind kind) {
     switch (kind) {
-        case TrialKind::Calibration: return "calibration";
-        case TrialKind::Likert: return "likert";
-        case TrialKind::TwoAfc: return "twoafc";
+        case TrialKind::Calibration:
+            return "calibration";
+        case TrialKind::Likert:
+            return "likert";
+        case TrialKind::TwoAfc:
+            return "twoafc";
     }
     return "?";
 }
 
 int ObserverPlan::likertCount() const {
-    return static_cast<int>(std::count_if(trials.begin(), trials.end(),
-                                          [](const Trial& t) { return t.kind == TrialKind::Likert; }));
+    return static_cast<int>(
+        std::count_if(trials.begin(), trials.end(), [](const Trial& t) { return t.kind == TrialKind::Likert; }));
 }
 
 std::vector<Image> readManifest(const fs::path& path) {
@@ -133,9 +135,9 @@ std::vector<Image> readManifest(const fs::path& path) {
         im.file = im.file.lexically_normal();
         if (!e["category"].is_number_integer() || e["category"].get<long long>() < kMinCategory ||
             e["category"].get<long long>() > kMaxCategory)
-            throw InputError("manifest", file,
-                             fmt::format("image '{}': \"category\" must be an integer 1-5 (got {})", im.id,
-                                         e["category"].dump()));
+            throw InputError(
+                "manifest", file,
+                fmt::format("image '{}': \"category\" must be an integer 1-5 (got {})", im.id, e["category"].dump()));
         im.category = e["category"].get<int>();
         im.patient = scalarText(e["patient"]);
         im.pose = scalarText(e["pose"]);
@@ -144,7 +146,8 @@ std::vector<Image> readManifest(const fs::path& path) {
                              fmt::format("image '{}': \"patient\" and \"pose\" must be strings or integers", im.id));
         std::error_code ec;
         if (!fs::is_regular_file(im.file, ec))
-            throw InputError("manifest", file, fmt::format("image '{}': file {} does not exist", im.id, im.file.string()));
+            throw InputError("manifest", file,
+                             fmt::format("image '{}': file {} does not exist", im.id, im.file.string()));
         images.push_back(std::move(im));
     }
     return images;
@@ -196,7 +199,8 @@ Plan makePlan(std::vector<Image> images, const PlanOptions& o) {
         cal.left = c1[rng.below(c1.size())];
         std::vector<int> samePose;
         for (int i : c5)
-            if (plan.images[static_cast<std::size_t>(i)].viewKey() == plan.images[static_cast<std::size_t>(cal.left)].viewKey())
+            if (plan.images[static_cast<std::size_t>(i)].viewKey() ==
+                plan.images[static_cast<std::size_t>(cal.left)].viewKey())
                 samePose.push_back(i);
         cal.right = samePose.empty() ? c5[rng.below(c5.size())] : samePose[rng.below(samePose.size())];
         op.trials.push_back(cal);
@@ -231,7 +235,8 @@ Plan makePlan(std::vector<Image> images, const PlanOptions& o) {
                     const int ia = as[next++ % as.size()];
                     std::vector<int> partners;
                     for (int ib : byCategory[b])
-                        if (plan.images[static_cast<std::size_t>(ib)].viewKey() != plan.images[static_cast<std::size_t>(ia)].viewKey())
+                        if (plan.images[static_cast<std::size_t>(ib)].viewKey() !=
+                            plan.images[static_cast<std::size_t>(ia)].viewKey())
                             partners.push_back(ib);
                     if (partners.empty()) continue;
                     const int ib = partners[rng.below(partners.size())];

@@ -39,7 +39,9 @@ const char* const kConventions[] = {
     "use_continuity=True), U of the naive sample; on observer means and on single ratings",
 };
 
-ordered_json optionalNumber(const std::optional<double>& v) { return v ? ordered_json(*v) : ordered_json(nullptr); }
+ordered_json optionalNumber(const std::optional<double>& v) {
+    return v ? ordered_json(*v) : ordered_json(nullptr);
+}
 
 template <class R>
 void addExclusions(ordered_json& j, const Outcome<R>& o) {
@@ -50,7 +52,10 @@ void addExclusions(ordered_json& j, const Outcome<R>& o) {
 ordered_json mannWhitneyJson(const Outcome<MannWhitneyResult>& o) {
     ordered_json j;
     if (o.result) {
-        j = {{"U", o.result->U}, {"z", o.result->z}, {"p", o.result->p}, {"n_naive", o.result->n1},
+        j = {{"U", o.result->U},
+             {"z", o.result->z},
+             {"p", o.result->p},
+             {"n_naive", o.result->n1},
              {"n_expert", o.result->n2}};
     } else {
         j = {{"U", nullptr}, {"p", nullptr}, {"reason", o.why}};
@@ -64,18 +69,28 @@ ordered_json groupJson(const GroupAnalysis& g) {
     j["n_observers"] = g.observers.size();
     ordered_json cats = ordered_json::object();
     for (const auto& [c, s] : g.categories)
-        cats[std::to_string(c)] = {{"n_ratings", s.nRatings}, {"mean", s.mean}, {"sd", optionalNumber(s.sd)},
-                                   {"n_observers", s.nObservers}};
+        cats[std::to_string(c)] = {
+            {"n_ratings", s.nRatings}, {"mean", s.mean}, {"sd", optionalNumber(s.sd)}, {"n_observers", s.nObservers}};
     j["categories"] = cats;
 
     ordered_json f;
     if (g.friedman.result) {
         const FriedmanResult& r = *g.friedman.result;
-        f = {{"chi2", r.chi2}, {"df", r.df}, {"p", r.p}, {"n_blocks", r.nBlocks}, {"kendalls_w", r.kendallsW},
-             {"k", r.k}, {"ln_p", r.lnP}, {"chi2_uncorrected", r.chi2Uncorrected}, {"tie_correction", r.tieCorrection},
+        f = {{"chi2", r.chi2},
+             {"df", r.df},
+             {"p", r.p},
+             {"n_blocks", r.nBlocks},
+             {"kendalls_w", r.kendallsW},
+             {"k", r.k},
+             {"ln_p", r.lnP},
+             {"chi2_uncorrected", r.chi2Uncorrected},
+             {"tie_correction", r.tieCorrection},
              {"rank_sums", r.rankSums}};
     } else {
-        f = {{"chi2", nullptr}, {"df", nullptr}, {"p", nullptr}, {"n_blocks", g.observerMeans.size()},
+        f = {{"chi2", nullptr},
+             {"df", nullptr},
+             {"p", nullptr},
+             {"n_blocks", g.observerMeans.size()},
              {"kendalls_w", nullptr}};
     }
     addExclusions(f, g.friedman);
@@ -86,8 +101,8 @@ ordered_json groupJson(const GroupAnalysis& g) {
         ordered_json e;
         if (o.result) {
             const WilcoxonResult& r = *o.result;
-            e = {{"T", r.T}, {"z", r.z}, {"p", r.p}, {"n", r.n}, {"n_pairs", r.nPairs}, {"n_zero", r.nZero},
-                 {"w_plus", r.wPlus}, {"w_minus", r.wMinus}};
+            e = {{"T", r.T},          {"z", r.z},          {"p", r.p},           {"n", r.n}, {"n_pairs", r.nPairs},
+                 {"n_zero", r.nZero}, {"w_plus", r.wPlus}, {"w_minus", r.wMinus}};
             if (r.pExact) e["p_exact"] = *r.pExact;
         } else {
             e = {{"T", nullptr}, {"z", nullptr}, {"p", nullptr}, {"n", 0}};
@@ -117,11 +132,20 @@ std::string esc(const std::string& s) {
     std::string o;
     for (char c : s) {
         switch (c) {
-            case '<': o += "&lt;"; break;
-            case '>': o += "&gt;"; break;
-            case '&': o += "&amp;"; break;
-            case '"': o += "&quot;"; break;
-            default: o += c;
+            case '<':
+                o += "&lt;";
+                break;
+            case '>':
+                o += "&gt;";
+                break;
+            case '&':
+                o += "&amp;";
+                break;
+            case '"':
+                o += "&quot;";
+                break;
+            default:
+                o += c;
         }
     }
     return o;
@@ -140,11 +164,16 @@ const char* categoryColour(int c) {
 
 const char* categoryLabel(int c) {
     switch (c) {
-        case 1: return "1 unreal";
-        case 2: return "2 low-res texture";
-        case 3: return "3 BRDF, no specular";
-        case 4: return "4 BRDF + noise specular";
-        case 5: return "5 real frame";
+        case 1:
+            return "1 unreal";
+        case 2:
+            return "2 low-res texture";
+        case 3:
+            return "3 BRDF, no specular";
+        case 4:
+            return "4 BRDF + noise specular";
+        case 5:
+            return "5 real frame";
     }
     return "?";
 }
@@ -161,9 +190,10 @@ std::string fig6Svg(const Analysis& a) {
         "&#177;1 SD)</text>\n",
         W, H, W, H, left + plotW / 2);
     for (int v = 0; v <= 5; ++v)
-        s += fmt::format("<line x1=\"{}\" x2=\"{}\" y1=\"{:.1f}\" y2=\"{:.1f}\" stroke=\"#ddd\"/><text x=\"{}\" "
-                         "y=\"{:.1f}\" text-anchor=\"end\">{}</text>\n",
-                         left, left + plotW, y(v), y(v), left - 6, y(v) + 4, v);
+        s += fmt::format(
+            "<line x1=\"{}\" x2=\"{}\" y1=\"{:.1f}\" y2=\"{:.1f}\" stroke=\"#ddd\"/><text x=\"{}\" "
+            "y=\"{:.1f}\" text-anchor=\"end\">{}</text>\n",
+            left, left + plotW, y(v), y(v), left - 6, y(v) + 4, v);
     const std::size_t nc = a.categories.size(), ng = a.groups.size();
     const double slot = plotW / static_cast<double>(nc), barW = slot * 0.8 / static_cast<double>(ng);
     for (std::size_t ci = 0; ci < nc; ++ci) {
@@ -177,26 +207,30 @@ std::string fig6Svg(const Analysis& a) {
             if (it == g.categories.end()) continue;
             const double m = it->second.mean, sd = it->second.sd.value_or(0);
             const double bx = x0 + barW * static_cast<double>(gi);
-            s += fmt::format("<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" fill=\"{}\"><title>{} "
-                             "category {}: {:.3f} &#177; {:.3f}</title></rect>\n",
-                             bx, y(m), barW * 0.9, y(0) - y(m), groupColour(g.group), g.group, c, m, sd);
+            s += fmt::format(
+                "<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" fill=\"{}\"><title>{} "
+                "category {}: {:.3f} &#177; {:.3f}</title></rect>\n",
+                bx, y(m), barW * 0.9, y(0) - y(m), groupColour(g.group), g.group, c, m, sd);
             const double cx = bx + barW * 0.45, lo = std::max(0.0, m - sd), hi = std::min(5.5, m + sd);
-            s += fmt::format("<path d=\"M{0:.1f} {1:.1f}V{2:.1f}M{3:.1f} {1:.1f}H{4:.1f}M{3:.1f} {2:.1f}H{4:.1f}\" "
-                             "stroke=\"black\" fill=\"none\"/>\n",
-                             cx, y(lo), y(hi), cx - barW * 0.2, cx + barW * 0.2);
+            s += fmt::format(
+                "<path d=\"M{0:.1f} {1:.1f}V{2:.1f}M{3:.1f} {1:.1f}H{4:.1f}M{3:.1f} {2:.1f}H{4:.1f}\" "
+                "stroke=\"black\" fill=\"none\"/>\n",
+                cx, y(lo), y(hi), cx - barW * 0.2, cx + barW * 0.2);
         }
     }
-    s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">image category</text>\n", left + plotW / 2,
-                     H - 12);
-    s += fmt::format("<text transform=\"translate(14 {}) rotate(-90)\" text-anchor=\"middle\">Likert score "
-                     "(1-5)</text>\n",
-                     top + plotH / 2);
+    s +=
+        fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">image category</text>\n", left + plotW / 2, H - 12);
+    s += fmt::format(
+        "<text transform=\"translate(14 {}) rotate(-90)\" text-anchor=\"middle\">Likert score "
+        "(1-5)</text>\n",
+        top + plotH / 2);
     for (std::size_t gi = 0; gi < ng; ++gi) {
         const double ly = top + 10 + 20 * static_cast<double>(gi);
-        s += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"12\" height=\"12\" fill=\"{}\"/><text x=\"{}\" y=\"{}\">{} "
-                         "(n={})</text>\n",
-                         W - right + 15, ly, groupColour(a.groups[gi].group), W - right + 32, ly + 10,
-                         a.groups[gi].group, a.groups[gi].observers.size());
+        s += fmt::format(
+            "<rect x=\"{}\" y=\"{}\" width=\"12\" height=\"12\" fill=\"{}\"/><text x=\"{}\" y=\"{}\">{} "
+            "(n={})</text>\n",
+            W - right + 15, ly, groupColour(a.groups[gi].group), W - right + 32, ly + 10, a.groups[gi].group,
+            a.groups[gi].observers.size());
     }
     for (std::size_t ci = 0; ci < nc; ++ci)
         s += fmt::format("<text x=\"{}\" y=\"{}\" font-size=\"10\" fill=\"#555\">{}</text>\n", W - right + 15,
@@ -244,13 +278,15 @@ std::string fig7Svg(const Analysis& a) {
             s += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" text-anchor=\"end\" font-size=\"10\">{:.1f}</text>\n",
                              px(0) - 4, py(f) + 3, f);
         }
-        s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">false positives (real called "
-                         "synthetic)</text>\n",
-                         x0 + panel / 2, y0 + panel + 32);
+        s += fmt::format(
+            "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">false positives (real called "
+            "synthetic)</text>\n",
+            x0 + panel / 2, y0 + panel + 32);
         if (gi == 0)
-            s += fmt::format("<text transform=\"translate(12 {}) rotate(-90)\" text-anchor=\"middle\">true positives "
-                             "(synthetic called synthetic)</text>\n",
-                             y0 + panel / 2);
+            s += fmt::format(
+                "<text transform=\"translate(12 {}) rotate(-90)\" text-anchor=\"middle\">true positives "
+                "(synthetic called synthetic)</text>\n",
+                y0 + panel / 2);
     }
     const double lx = pad + static_cast<double>(a.groups.size()) * (panel + pad);
     int row = 0;
@@ -260,36 +296,45 @@ std::string fig7Svg(const Analysis& a) {
         for (const auto& g : a.groups)
             if (auto it = g.roc.find(c); it != g.roc.end())
                 aucs += fmt::format("{}{:.2f}", aucs.empty() ? " " : ", ", it->second.auc);
-        s += fmt::format("<line x1=\"{}\" x2=\"{}\" y1=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"3\"/><text x=\"{}\" "
-                         "y=\"{}\">{}</text><text x=\"{}\" y=\"{}\" font-size=\"10\" fill=\"#555\">AUC by panel:{}</text>\n",
-                         lx, lx + 18, top + 20 + 34 * row, top + 20 + 34 * row, categoryColour(c), lx + 24,
-                         top + 24 + 34 * row, categoryLabel(c), lx + 24, top + 37 + 34 * row, aucs);
+        s += fmt::format(
+            "<line x1=\"{}\" x2=\"{}\" y1=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"3\"/><text x=\"{}\" "
+            "y=\"{}\">{}</text><text x=\"{}\" y=\"{}\" font-size=\"10\" fill=\"#555\">AUC by panel:{}</text>\n",
+            lx, lx + 18, top + 20 + 34 * row, top + 20 + 34 * row, categoryColour(c), lx + 24, top + 24 + 34 * row,
+            categoryLabel(c), lx + 24, top + 37 + 34 * row, aucs);
         ++row;
     }
-    s += fmt::format("<line x1=\"{}\" x2=\"{}\" y1=\"{}\" y2=\"{}\" stroke=\"#999\" stroke-dasharray=\"5 4\"/><text "
-                     "x=\"{}\" y=\"{}\">random classifier</text>\n",
-                     lx, lx + 18, top + 20 + 34 * row, top + 20 + 34 * row, lx + 24, top + 24 + 34 * row);
+    s += fmt::format(
+        "<line x1=\"{}\" x2=\"{}\" y1=\"{}\" y2=\"{}\" stroke=\"#999\" stroke-dasharray=\"5 4\"/><text "
+        "x=\"{}\" y=\"{}\">random classifier</text>\n",
+        lx, lx + 18, top + 20 + 34 * row, top + 20 + 34 * row, lx + 24, top + 24 + 34 * row);
     return s + "</svg>\n";
 }
 
-std::string num(double v, int digits = 3) { return fmt::format("{:.{}f}", v, digits); }
-std::string pval(double p) { return p < 1e-4 ? fmt::format("{:.2e}", p) : fmt::format("{:.4f}", p); }
+std::string num(double v, int digits = 3) {
+    return fmt::format("{:.{}f}", v, digits);
+}
+std::string pval(double p) {
+    return p < 1e-4 ? fmt::format("{:.2e}", p) : fmt::format("{:.4f}", p);
+}
 
 std::string reportHtml(const Analysis& a, const std::string& source, const std::string& fig6, const std::string& fig7) {
-    std::string h = "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>Mucosa realism study "
-                    "report</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
-                    "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #ccc;padding:3px 8px;"
-                    "text-align:right}th{background:#f3f3f3}.warn{color:#a60}</style></head><body>\n";
-    h += fmt::format("<h1>Realism study report</h1>\n<p>Source: <code>{}</code>. Full numbers in "
-                     "<code>stats.json</code>.</p>\n",
-                     esc(source));
+    std::string h =
+        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>Mucosa realism study "
+        "report</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
+        "table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #ccc;padding:3px 8px;"
+        "text-align:right}th{background:#f3f3f3}.warn{color:#a60}</style></head><body>\n";
+    h += fmt::format(
+        "<h1>Realism study report</h1>\n<p>Source: <code>{}</code>. Full numbers in "
+        "<code>stats.json</code>.</p>\n",
+        esc(source));
     for (const auto& w : a.warnings) h += "<p class=\"warn\">Note: " + esc(w) + "</p>\n";
     h += "<h2>Scores per category (Fig. 6)</h2>\n" + fig6;
     for (const auto& g : a.groups) {
-        h += fmt::format("<h2>Group {} ({} observers)</h2>\n<table><tr><th>category</th><th>ratings</th><th>observers"
-                         "</th><th>mean</th><th>SD</th><th>Wilcoxon vs 5: T</th><th>z</th><th>p</th><th>n</th>"
-                         "<th>ROC AUC</th></tr>\n",
-                         esc(g.group), g.observers.size());
+        h += fmt::format(
+            "<h2>Group {} ({} observers)</h2>\n<table><tr><th>category</th><th>ratings</th><th>observers"
+            "</th><th>mean</th><th>SD</th><th>Wilcoxon vs 5: T</th><th>z</th><th>p</th><th>n</th>"
+            "<th>ROC AUC</th></tr>\n",
+            esc(g.group), g.observers.size());
         for (const auto& [c, s] : g.categories) {
             h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>", esc(categoryLabel(c)),
                              s.nRatings, s.nObservers, num(s.mean), s.sd ? num(*s.sd) : "-");
@@ -304,19 +349,21 @@ std::string reportHtml(const Analysis& a, const std::string& source, const std::
         }
         h += "</table>\n";
         if (g.friedman.result)
-            h += fmt::format("<p>Friedman (observer means): &chi;&sup2; = {}, df = {}, p = {}, n = {}, Kendall's W = "
-                             "{}</p>\n",
-                             num(g.friedman.result->chi2), g.friedman.result->df, pval(g.friedman.result->p),
-                             g.friedman.result->nBlocks, num(g.friedman.result->kendallsW));
+            h += fmt::format(
+                "<p>Friedman (observer means): &chi;&sup2; = {}, df = {}, p = {}, n = {}, Kendall's W = "
+                "{}</p>\n",
+                num(g.friedman.result->chi2), g.friedman.result->df, pval(g.friedman.result->p),
+                g.friedman.result->nBlocks, num(g.friedman.result->kendallsW));
         else
             h += "<p>Friedman: not computed (" + esc(g.friedman.why) + ")</p>\n";
         if (!g.twoafc.empty()) {
             h += "<table><tr><th>2AFC</th><th>n</th><th>chose higher</th><th>95% CI (Wilson)</th><th>p "
                  "(binomial)</th></tr>\n";
             for (const auto& [k, b] : g.twoafc)
-                h += fmt::format("<tr><td>{} vs {}</td><td>{}</td><td>{:.1f}%</td><td>{:.1f}-{:.1f}%</td><td>{}</td>"
-                                 "</tr>\n",
-                                 k.first, k.second, b.n, 100 * b.proportion, 100 * b.ciLow, 100 * b.ciHigh, pval(b.p));
+                h += fmt::format(
+                    "<tr><td>{} vs {}</td><td>{}</td><td>{:.1f}%</td><td>{:.1f}-{:.1f}%</td><td>{}</td>"
+                    "</tr>\n",
+                    k.first, k.second, b.n, 100 * b.proportion, 100 * b.ciLow, 100 * b.ciHigh, pval(b.p));
             h += "</table>\n";
         }
     }

@@ -23,8 +23,8 @@ using nlohmann::json;
 
 namespace {
 
-constexpr std::size_t kMaxBody = 16 * 1024;               // an answer is ~200 bytes
-constexpr std::size_t kImageCacheBytes = 256u << 20;      // keep stimuli in memory up to this
+constexpr std::size_t kMaxBody = 16 * 1024;           // an answer is ~200 bytes
+constexpr std::size_t kImageCacheBytes = 256u << 20;  // keep stimuli in memory up to this
 
 bool validObserverId(const std::string& s) {
     return !s.empty() && s.size() <= 64 && std::all_of(s.begin(), s.end(), [](char c) {
@@ -213,7 +213,8 @@ struct StudyServer::Impl {
         }
         switch (store.insert(a)) {
             case detail::AnswerStore::Insert::Stored:
-            case detail::AnswerStore::Insert::Duplicate: break;
+            case detail::AnswerStore::Insert::Duplicate:
+                break;
             case detail::AnswerStore::Insert::Conflict:
                 throw HttpError{409, "this screen was already answered differently; the first answer is kept"};
             case detail::AnswerStore::Insert::OutOfOrder:
@@ -284,7 +285,8 @@ struct StudyServer::Impl {
             }
             try {
                 auto bytes = imageBytes(static_cast<int>(index));
-                res.set_content(bytes->data(), bytes->size(), mimeOf(plan.images[static_cast<std::size_t>(index)].file));
+                res.set_content(bytes->data(), bytes->size(),
+                                mimeOf(plan.images[static_cast<std::size_t>(index)].file));
                 res.set_header("Cache-Control", "private, max-age=3600");
             } catch (const HttpError& e) {
                 res.status = e.status;
@@ -335,6 +337,8 @@ void StudyServer::run(const std::function<void(int)>& onListening) {
     impl_->http.listen_after_bind();
 }
 
-void StudyServer::stop() { impl_->http.stop(); }
+void StudyServer::stop() {
+    impl_->http.stop();
+}
 
 }  // namespace mucosa::study

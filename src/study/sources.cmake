@@ -25,7 +25,12 @@ set_source_files_properties(${mucosa_study_web_cpp} PROPERTIES
 
 target_sources(mucosa PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/plan.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/stats.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/ranks.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/friedman.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/wilcoxon.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/mann_whitney.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/roc.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/binomial.cpp
   ${CMAKE_CURRENT_LIST_DIR}/analysis.cpp
   ${CMAKE_CURRENT_LIST_DIR}/data_io.cpp
   ${CMAKE_CURRENT_LIST_DIR}/report.cpp

@@ -62,7 +62,9 @@ public:
         v ? sqlite3_bind_int(st_, i, *v) : sqlite3_bind_null(st_, i);
         return *this;
     }
-    Stmt& bindNonEmpty(int i, const std::string& s) { return s.empty() ? (sqlite3_bind_null(st_, i), *this) : bind(i, s); }
+    Stmt& bindNonEmpty(int i, const std::string& s) {
+        return s.empty() ? (sqlite3_bind_null(st_, i), *this) : bind(i, s);
+    }
     Stmt& bindNonZero(int i, int v) { return v == 0 ? (sqlite3_bind_null(st_, i), *this) : bind(i, v); }
     int step() { return sqlite3_step(st_); }
     std::string text(int i) const {

@@ -2,6 +2,7 @@
 // one `error:` line, a non-zero exit and no output file.
 #include <fstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -12,9 +13,13 @@ namespace {
 
 using nlohmann::json;
 
-void write(const std::filesystem::path& p, const std::string& text) { std::ofstream(p) << text; }
+void write(const std::filesystem::path& p, const std::string& text) {
+    std::ofstream(p) << text;
+}
 
-int lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
+int lines(const std::string& s) {
+    return static_cast<int>(std::count(s.begin(), s.end(), '\n'));
+}
 
 void expectOneLineError(const RunResult& r, const std::string& needle) {
     EXPECT_NE(r.exitCode, 0);
@@ -27,7 +32,7 @@ std::string manifest(const TempDir& dir, int poses) {
     json images = json::array();
     for (int c = 1; c <= 5; ++c)
         for (int q = 1; q <= poses; ++q) {
-            const std::string name = "c" + std::to_string(c) + "_v" + std::to_string(q) + ".png";
+            const std::string name = fmt::format("c{}_v{}.png", c, q);
             write(dir / name, "not really a png");
             images.push_back({{"id", name}, {"file", name}, {"category", c}, {"patient", 1}, {"pose", q}});
         }
@@ -38,9 +43,11 @@ std::string manifest(const TempDir& dir, int poses) {
 TEST(studyCli, PlanWritesAReproduciblePlan) {
     TempDir dir;
     const std::string m = manifest(dir, 3);
-    const auto r1 = runCli("study plan --manifest '" + m + "' -o '" + (dir / "a.json").string() + "' --observers 5 --seed 9");
+    const auto r1 =
+        runCli("study plan --manifest '" + m + "' -o '" + (dir / "a.json").string() + "' --observers 5 --seed 9");
     ASSERT_EQ(r1.exitCode, 0) << r1.err;
-    const auto r2 = runCli("study plan --manifest '" + m + "' -o '" + (dir / "b.json").string() + "' --observers 5 --seed 9");
+    const auto r2 =
+        runCli("study plan --manifest '" + m + "' -o '" + (dir / "b.json").string() + "' --observers 5 --seed 9");
     ASSERT_EQ(r2.exitCode, 0) << r2.err;
     EXPECT_EQ(readBytes(dir / "a.json"), readBytes(dir / "b.json"));
     const json plan = json::parse(readBytes(dir / "a.json"));
@@ -52,8 +59,8 @@ TEST(studyCli, PlanRefusesAnUnsatisfiableManifest) {
     write(dir / "x.png", "x");
     write(dir / "images.json", R"({"images":[{"id":"a","file":"x.png","category":1,"patient":1,"pose":1},
                                             {"id":"b","file":"x.png","category":5,"patient":1,"pose":1}]})");
-    const auto r = runCli("study plan --manifest '" + (dir / "images.json").string() + "' -o '" +
-                          (dir / "p.json").string() + "'");
+    const auto r =
+        runCli("study plan --manifest '" + (dir / "images.json").string() + "' -o '" + (dir / "p.json").string() + "'");
     expectOneLineError(r, "category 2 has no images");
     EXPECT_FALSE(std::filesystem::exists(dir / "p.json"));
 }
@@ -61,9 +68,9 @@ TEST(studyCli, PlanRefusesAnUnsatisfiableManifest) {
 TEST(studyCli, PlanRefusesAMissingImageFile) {
     TempDir dir;
     write(dir / "images.json", R"([{"id":"a","file":"nope.png","category":1,"patient":1,"pose":1}])");
-    expectOneLineError(runCli("study plan --manifest '" + (dir / "images.json").string() + "' -o '" +
-                              (dir / "p.json").string() + "'"),
-                       "does not exist");
+    expectOneLineError(
+        runCli("study plan --manifest '" + (dir / "images.json").string() + "' -o '" + (dir / "p.json").string() + "'"),
+        "does not exist");
 }
 
 TEST(studyCli, AnalyzeWritesTheReport) {
@@ -90,8 +97,10 @@ TEST(studyCli, AnalyzeRejectsBadRatingsWithOneLine) {
         {"unknown group", "observer,group,category,image_id,score\nA,student,1,x,3\n", "unknown group 'student'"},
         {"missing column", "observer,group,category,score\nA,naive,1,3\n", "missing column(s) image_id"},
         {"category 6", "observer,group,category,image_id,score\nA,naive,6,x,3\n", "6 is outside 1-5"},
-        {"no reference", "observer,group,category,image_id,score\nA,naive,1,x,3\nA,naive,2,y,3\n", "no ratings of category 5"},
-        {"two groups", "observer,group,category,image_id,score\nA,naive,1,x,3\nA,expert,5,y,3\n", "appears in both groups"},
+        {"no reference", "observer,group,category,image_id,score\nA,naive,1,x,3\nA,naive,2,y,3\n",
+         "no ratings of category 5"},
+        {"two groups", "observer,group,category,image_id,score\nA,naive,1,x,3\nA,expert,5,y,3\n",
+         "appears in both groups"},
         {"empty", "", "empty"},
         {"short row", "observer,group,category,image_id,score\nA,naive,1\n", "line 2: 3 fields"},
     };
@@ -104,8 +113,9 @@ TEST(studyCli, AnalyzeRejectsBadRatingsWithOneLine) {
         EXPECT_FALSE(std::filesystem::exists(dir / "out" / "stats.json"));
     }
     TempDir dir;
-    expectOneLineError(runCli("study analyze '" + (dir / "missing.csv").string() + "' -o '" + (dir / "o").string() + "'"),
-                       "missing.csv");
+    expectOneLineError(
+        runCli("study analyze '" + (dir / "missing.csv").string() + "' -o '" + (dir / "o").string() + "'"),
+        "missing.csv");
 }
 
 TEST(studyCli, AnalyzeRejectsBadTwoAfcRows) {
@@ -126,7 +136,8 @@ TEST(studyCli, ObserverWithoutACategoryIsExcludedAndSaidSo) {
     std::string csv = "observer,group,category,image_id,score\n";
     const int scores[4][5] = {{1, 2, 3, 4, 5}, {2, 2, 3, 5, 4}, {1, 3, 3, 4, 5}, {2, 1, 4, 4, 5}};
     for (int o = 0; o < 4; ++o)
-        for (int c = 1; c <= 5; ++c) csv += "O" + std::to_string(o) + ",naive," + std::to_string(c) + ",i," + std::to_string(scores[o][c - 1]) + "\n";
+        for (int c = 1; c <= 5; ++c)
+            csv += fmt::format("O{},naive,{},i,{}\n", o, c, scores[o][c - 1]);
     csv += "LATE,naive,1,i,2\nLATE,naive,5,i,4\n";  // never rated 2, 3, 4
     write(dir / "r.csv", csv);
     const auto r = runCli("study analyze '" + (dir / "r.csv").string() + "' -o '" + (dir / "out").string() + "'");

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -85,8 +86,7 @@ TEST_F(studyExpectedA, StudyFriedmanMatchesScipy) {
         const auto& m = e["observer_means_matrix"];
         ASSERT_EQ(group(g).observerMeans.size(), m.size());
         for (std::size_t i = 0; i < m.size(); ++i)
-            for (std::size_t j = 0; j < 5; ++j)
-                EXPECT_NEAR(group(g).observerMeans[i][j], m[i][j].get<double>(), 1e-12);
+            for (std::size_t j = 0; j < 5; ++j) EXPECT_NEAR(group(g).observerMeans[i][j], m[i][j].get<double>(), 1e-12);
     }
 }
 
@@ -131,7 +131,7 @@ TEST_F(studyExpectedA, StudyWilcoxonMatchesScipy) {
     // scipy.stats.wilcoxon(x, y, zero_method='wilcox', correction=False, method='approx')
     for (const char* g : kGroupNames)
         for (int c = 1; c <= 4; ++c) {
-            const json& e = expected_["wilcoxon_observer_means"][g]["c" + std::to_string(c) + "_vs_c5"];
+            const json& e = expected_["wilcoxon_observer_means"][g][fmt::format("c{}_vs_c5", c)];
             const auto& o = group(g).wilcoxon.at(c);
             ASSERT_TRUE(o.result) << g << c;
             const WilcoxonResult& w = *o.result;
@@ -142,7 +142,7 @@ TEST_F(studyExpectedA, StudyWilcoxonMatchesScipy) {
             EXPECT_NEAR(w.wMinus, e["W_minus"].get<double>(), kStatTol);
             EXPECT_NEAR(w.T, t["statistic_T_min"].get<double>(), kStatTol);
             EXPECT_NEAR(w.z, t["z"].get<double>(), kStatTol) << g << c;
-            expectP(t["pvalue"].get<double>(), w.p, "wilcoxon p " + std::string(g) + std::to_string(c));
+            expectP(t["pvalue"].get<double>(), w.p, fmt::format("wilcoxon p {} {}", g, c));
             EXPECT_EQ(w.pExact.has_value(), !e["tests"]["exact"].contains("not_applicable"));
         }
 }
@@ -150,7 +150,7 @@ TEST_F(studyExpectedA, StudyWilcoxonMatchesScipy) {
 TEST_F(studyExpectedA, StudyRocAndAucMatchExpected) {
     for (const char* g : kGroupNames)
         for (int c = 1; c <= 4; ++c) {
-            const json& e = expected_["roc"][g]["c" + std::to_string(c) + "_vs_c5"];
+            const json& e = expected_["roc"][g][fmt::format("c{}_vs_c5", c)];
             const RocResult& r = group(g).roc.at(c);
             EXPECT_EQ(r.nPos, e["n_pos"].get<int>());
             EXPECT_EQ(r.nNeg, e["n_neg"].get<int>());
@@ -176,7 +176,7 @@ TEST_F(studyExpectedA, StudyMannWhitneyMatchesScipyOnRocSamples) {
                 if (r.category == c) pos.push_back(r.score);
                 if (r.category == 5) neg.push_back(r.score);
             }
-            const json& e = expected_["roc"][g]["c" + std::to_string(c) + "_vs_c5"]["mannwhitneyu"];
+            const json& e = expected_["roc"][g][fmt::format("c{}_vs_c5", c)]["mannwhitneyu"];
             const auto m = mannWhitney(pos, neg);
             ASSERT_TRUE(m);
             EXPECT_NEAR(m->U, e["U_pos"].get<double>(), kStatTol);

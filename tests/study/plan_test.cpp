@@ -2,6 +2,7 @@
 #include <map>
 #include <set>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <mucosa/core/error.hpp>
@@ -18,7 +19,8 @@ std::vector<Image> paperImages(int patients = 5, int poses = 8) {
     for (int c = 1; c <= 5; ++c)
         for (int p = 1; p <= patients; ++p)
             for (int q = 1; q <= poses; ++q)
-                v.push_back(Image{"C" + std::to_string(c) + "_P" + std::to_string(p) + "_V" + std::to_string(q), "/dev/null", c, std::to_string(p), std::to_string(q)});
+                v.push_back(
+                    Image{fmt::format("C{}_P{}_V{}", c, p, q), "/dev/null", c, std::to_string(p), std::to_string(q)});
     return v;
 }
 

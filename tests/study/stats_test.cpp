@@ -64,7 +64,7 @@ TEST(studyStats, RocRunsFromOriginToOneOneAndAucIsMannWhitney) {
     double wins = 0;  // P(pos < neg) + P(tie) / 2
     for (int p : pos)
         for (int n : neg) wins += p < n ? 1 : p == n ? 0.5 : 0;
-    EXPECT_NEAR(r.auc, wins / (pos.size() * neg.size()), 1e-15);
+    EXPECT_NEAR(r.auc, wins / static_cast<double>(pos.size() * neg.size()), 1e-15);
 }
 
 TEST(studyStats, BinomialTwoSidedIsTwiceTheSmallTail) {

@@ -47,7 +47,7 @@ struct CategoryStats {
 };
 
 template <class R>
-struct Outcome {          // a result, or why there is none
+struct Outcome {  // a result, or why there is none
     std::optional<R> result;
     std::string why;
     std::vector<std::string> excludedObservers;  // observers without the needed categories
@@ -58,22 +58,22 @@ struct GroupAnalysis {
     std::vector<std::string> observers;
     std::map<int, CategoryStats> categories;
     Outcome<FriedmanResult> friedman;
-    std::vector<std::vector<double>> observerMeans;  // blocks of friedman, rows = observers kept
-    std::map<int, Outcome<WilcoxonResult>> wilcoxon;  // c vs 5
-    std::map<int, RocResult> roc;                     // c vs 5
+    std::vector<std::vector<double>> observerMeans;        // blocks of friedman, rows = observers kept
+    std::map<int, Outcome<WilcoxonResult>> wilcoxon;       // c vs 5
+    std::map<int, RocResult> roc;                          // c vs 5
     std::map<std::pair<int, int>, BinomialResult> twoafc;  // (lower, higher): k = chose higher
 };
 
-struct GroupComparison {          // naive vs expert within one category
+struct GroupComparison {                       // naive vs expert within one category
     Outcome<MannWhitneyResult> observerMeans;  // unit = observer (as Friedman and Wilcoxon)
     Outcome<MannWhitneyResult> ratings;        // unit = single rating
 };
 
 struct Analysis {
-    std::vector<int> categories;         // present in the data, ascending
-    std::vector<GroupAnalysis> groups;   // "all" first
+    std::vector<int> categories;        // present in the data, ascending
+    std::vector<GroupAnalysis> groups;  // "all" first
     std::map<int, GroupComparison> naiveVsExpert;
-    std::vector<std::string> warnings;   // documented handling that changed what was computed
+    std::vector<std::string> warnings;  // documented handling that changed what was computed
 };
 
 // Throws InputError when the data cannot support the analysis (no ratings, no

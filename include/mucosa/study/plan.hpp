@@ -18,10 +18,10 @@ inline constexpr int kReferenceCategory = 5;
 
 // One stimulus of the manifest.
 struct Image {
-    std::string id;               // unique, shown nowhere to the observer
-    std::filesystem::path file;   // absolute after readManifest()
-    int category = 0;             // 1..5
-    std::string patient, pose;    // (patient, pose) identifies a view
+    std::string id;              // unique, shown nowhere to the observer
+    std::filesystem::path file;  // absolute after readManifest()
+    int category = 0;            // 1..5
+    std::string patient, pose;   // (patient, pose) identifies a view
     std::string viewKey() const { return patient + "\x1f" + pose; }
 };
 
@@ -31,7 +31,7 @@ struct Image {
 std::vector<Image> readManifest(const std::filesystem::path& path);
 
 struct PlanOptions {
-    int observers = 30;            // number of observer slots planned
+    int observers = 30;  // number of observer slots planned
     std::uint64_t seed = 1;
     int seriesLength = 15;         // Likert images per series (the paper: 15)
     int likertLimit = 0;           // Likert images per observer; 0 = every image
@@ -43,8 +43,8 @@ enum class TrialKind { Calibration, Likert, TwoAfc };
 // One screen of the protocol. Indices refer to Plan::images.
 struct Trial {
     TrialKind kind = TrialKind::Likert;
-    int image = -1;              // Likert
-    int left = -1, right = -1;   // calibration (left = category 1) and 2AFC
+    int image = -1;             // Likert
+    int left = -1, right = -1;  // calibration (left = category 1) and 2AFC
 };
 
 struct ObserverPlan {

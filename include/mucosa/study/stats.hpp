@@ -15,7 +15,7 @@ namespace mucosa::study {
 struct FriedmanResult {
     int nBlocks = 0, k = 0, df = 0;
     double chi2 = 0, chi2Uncorrected = 0, tieCorrection = 1, p = 1;
-    double lnP = 0;  // ln p, finite even where p underflows to 0
+    double lnP = 0;        // ln p, finite even where p underflows to 0
     double kendallsW = 0;  // Kendall & Babington Smith 1939: W = chi2 / (n (k - 1))
     std::vector<double> rankSums;
 };
