@@ -29,6 +29,7 @@ struct Sum {
 struct ObserverCells {
     std::string id;
     std::map<int, Sum> byCategory;
+    std::map<int, std::vector<int>> scores;  // for the per-observer ROC
 };
 
 GroupAnalysis analyzeGroup(const std::string& group, const StudyData& data, const std::vector<int>& categories,
@@ -43,7 +44,8 @@ GroupAnalysis analyzeGroup(const std::string& group, const StudyData& data, cons
     for (const Rating& r : data.ratings) {
         if (!inGroup(r.group)) continue;
         auto [it, added] = index.emplace(r.observer, obs.size());
-        if (added) obs.push_back(ObserverCells{r.observer, {}});
+        if (added) obs.push_back(ObserverCells{r.observer, {}, {}});
+        obs[it->second].scores[r.category].push_back(r.score);
         Sum& s = obs[it->second].byCategory[r.category];
         s.total += r.score;
         ++s.count;
@@ -111,6 +113,30 @@ GroupAnalysis analyzeGroup(const std::string& group, const StudyData& data, cons
         g.wilcoxon[c] = std::move(w);
         if (!scores[c].empty() && !scores[kReferenceCategory].empty())
             g.roc[c] = roc(scores[c], scores[kReferenceCategory]);
+        // Each observer's own ROC area (Hanley & McNeil 1982 style reader
+        // analysis): how well that observer alone tells c from real frames.
+        ObserverAuc oa;
+        std::vector<double> defined;
+        for (const auto& o : obs) {
+            auto a = o.scores.find(c), b = o.scores.find(kReferenceCategory);
+            if (a == o.scores.end() || b == o.scores.end()) {
+                oa.values.emplace_back(std::nullopt);
+                continue;
+            }
+            oa.values.emplace_back(roc(a->second, b->second).auc);
+            defined.push_back(*oa.values.back());
+        }
+        if (!defined.empty()) {
+            double sum = 0;
+            for (double v : defined) sum += v;
+            oa.mean = sum / static_cast<double>(defined.size());
+            if (defined.size() > 1) {
+                double ss = 0;
+                for (double v : defined) ss += (v - *oa.mean) * (v - *oa.mean);
+                oa.sd = std::sqrt(ss / static_cast<double>(defined.size() - 1));
+            }
+        }
+        g.observerAuc[c] = std::move(oa);
     }
 
     // 2AFC: for each unordered pair of categories, how often the higher one won.

@@ -32,7 +32,8 @@ const char* const kConventions[] = {
     "= scipy.stats.wilcoxon(x, y, zero_method='wilcox', correction=False, method='approx'); p_exact only when no "
     "difference is zero and no |d| is tied (= method='exact')",
     "roc.<c>: 'synthetic if score <= t' for t = 0..5, positives = ratings of c, negatives = ratings of 5; points "
-    "are [fpr, tpr]; auc by the trapezoid rule = P(pos < neg) + P(pos = neg)/2",
+    "are [fpr, tpr]; auc by the trapezoid rule = P(pos < neg) + P(pos = neg)/2; observer_auc = the same area from "
+    "each observer's own ratings (order of 'observers'; null without ratings of both), with its mean and sample SD",
     "twoafc.<a>_vs_<b> (a < b): proportion of choices of the higher category b; p = exact two-sided binomial test "
     "against 0.5 (scipy.stats.binomtest); ci95_wilson = Wilson score interval without continuity correction",
     "naive_vs_expert.<c>: scipy.stats.mannwhitneyu(naive, expert, alternative='two-sided', method='asymptotic', "
@@ -117,6 +118,13 @@ ordered_json groupJson(const GroupAnalysis& g) {
         ordered_json pts = ordered_json::array();
         for (const auto& p : r.points) pts.push_back({p[0], p[1]});
         rocs[std::to_string(c)] = {{"points", pts}, {"auc", r.auc}, {"n_pos", r.nPos}, {"n_neg", r.nNeg}};
+        if (auto it = g.observerAuc.find(c); it != g.observerAuc.end()) {
+            ordered_json v = ordered_json::array();
+            for (const auto& x : it->second.values) v.push_back(optionalNumber(x));
+            rocs[std::to_string(c)]["observer_auc"] = v;
+            rocs[std::to_string(c)]["observer_auc_mean"] = optionalNumber(it->second.mean);
+            rocs[std::to_string(c)]["observer_auc_sd"] = optionalNumber(it->second.sd);
+        }
     }
     j["roc"] = rocs;
 
@@ -333,7 +341,7 @@ std::string reportHtml(const Analysis& a, const std::string& source, const std::
         h += fmt::format(
             "<h2>Group {} ({} observers)</h2>\n<table><tr><th>category</th><th>ratings</th><th>observers"
             "</th><th>mean</th><th>SD</th><th>Wilcoxon vs 5: T</th><th>z</th><th>p</th><th>n</th>"
-            "<th>ROC AUC</th></tr>\n",
+            "<th>ROC AUC</th><th>observer AUC mean &#177; SD</th></tr>\n",
             esc(g.group), g.observers.size());
         for (const auto& [c, s] : g.categories) {
             h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>", esc(categoryLabel(c)),
@@ -345,7 +353,12 @@ std::string reportHtml(const Analysis& a, const std::string& source, const std::
             else
                 h += "<td colspan=\"4\">-</td>";
             auto r = g.roc.find(c);
-            h += fmt::format("<td>{}</td></tr>\n", r != g.roc.end() ? num(r->second.auc) : "-");
+            h += fmt::format("<td>{}</td>", r != g.roc.end() ? num(r->second.auc) : "-");
+            auto oa = g.observerAuc.find(c);
+            h += fmt::format("<td>{}</td></tr>\n",
+                             oa != g.observerAuc.end() && oa->second.mean
+                                 ? num(*oa->second.mean) + " &#177; " + num(oa->second.sd.value_or(0))
+                                 : "-");
         }
         h += "</table>\n";
         if (g.friedman.result)

@@ -165,6 +165,19 @@ TEST_F(studyExpectedA, StudyRocAndAucMatchExpected) {
         }
 }
 
+TEST_F(studyExpectedA, StudyPerObserverAucMatchesExpected) {
+    for (const char* g : kGroupNames)
+        for (int c = 1; c <= 4; ++c) {
+            const json& e = expected_["per_observer_auc_low_score_positive"][g][fmt::format("c{}_vs_c5", c)];
+            const ObserverAuc& a = group(g).observerAuc.at(c);
+            ASSERT_EQ(a.values.size(), e["per_observer"].size());
+            for (std::size_t i = 0; i < a.values.size(); ++i)
+                EXPECT_NEAR(a.values[i].value(), e["per_observer"][i].get<double>(), kStatTol);
+            EXPECT_NEAR(a.mean.value(), e["mean"].get<double>(), kStatTol);
+            EXPECT_NEAR(a.sd.value(), e["sd_ddof1"].get<double>(), kStatTol);
+        }
+}
+
 TEST_F(studyExpectedA, StudyMannWhitneyMatchesScipyOnRocSamples) {
     // scipy.stats.mannwhitneyu(pos, neg, alternative='two-sided', method='asymptotic', use_continuity=True)
     const auto ratings = readRatingsCsv(test::testdata("study/ratings_A_main.csv"));

@@ -144,6 +144,19 @@ def check_dataset(name, ratings, choices=None):
             if len(pos) and len(neg):
                 u = stats.mannwhitneyu(pos, neg, alternative="two-sided", method="asymptotic").statistic
                 close_stat(G["roc"][str(c)]["auc"], 1 - u / (len(pos) * len(neg)), f"{name}/{g}/c{c} ROC AUC vs U")
+                # per observer: the same area from that observer's ratings only
+                per = []
+                for o, ours in zip(G["observers"], G["roc"][str(c)]["observer_auc"]):
+                    po = [r[3] for r in rows if r[0] == o and r[2] == c]
+                    ne = [r[3] for r in rows if r[0] == o and r[2] == 5]
+                    if not po or not ne:
+                        undefined(ours, None, f"{name}/{g}/c{c} observer {o} AUC without both categories")
+                        continue
+                    u_o = stats.mannwhitneyu(po, ne, alternative="two-sided", method="asymptotic").statistic
+                    per.append(1 - u_o / (len(po) * len(ne)))
+                    close_stat(ours, per[-1], f"{name}/{g}/c{c} observer {o} AUC (mannwhitneyu U)")
+                if per:
+                    close_stat(G["roc"][str(c)]["observer_auc_mean"], np.mean(per), f"{name}/{g}/c{c} observer AUC mean")
                 pts = [[float(np.mean(neg <= t)), float(np.mean(pos <= t))] for t in range(6)]
                 for (a, b), (pa, pb) in zip(G["roc"][str(c)]["points"], pts):
                     close_stat(a, pa, f"{name}/{g}/c{c} ROC fpr")

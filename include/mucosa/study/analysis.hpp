@@ -53,6 +53,11 @@ struct Outcome {  // a result, or why there is none
     std::vector<std::string> excludedObservers;  // observers without the needed categories
 };
 
+struct ObserverAuc {                            // one ROC area per observer (GroupAnalysis::observers order)
+    std::vector<std::optional<double>> values;  // none: the observer lacks c or 5 ratings
+    std::optional<double> mean, sd;             // over the observers with a value; sd is n - 1
+};
+
 struct GroupAnalysis {
     std::string group;  // "all", "naive", "expert"
     std::vector<std::string> observers;
@@ -60,7 +65,8 @@ struct GroupAnalysis {
     Outcome<FriedmanResult> friedman;
     std::vector<std::vector<double>> observerMeans;        // blocks of friedman, rows = observers kept
     std::map<int, Outcome<WilcoxonResult>> wilcoxon;       // c vs 5
-    std::map<int, RocResult> roc;                          // c vs 5
+    std::map<int, RocResult> roc;                          // c vs 5, all ratings pooled
+    std::map<int, ObserverAuc> observerAuc;                // c vs 5, per observer
     std::map<std::pair<int, int>, BinomialResult> twoafc;  // (lower, higher): k = chose higher
 };
 
