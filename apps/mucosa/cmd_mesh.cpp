@@ -27,7 +27,9 @@ struct MeshArgs {
     float weldTolerance = 0;
 };
 
-std::string yesNo(bool b) { return b ? "yes" : "no"; }
+std::string yesNo(bool b) {
+    return b ? "yes" : "no";
+}
 
 void printInfo(const Global& g, const std::string& file, const std::string& unit) {
     mesh::LoadOptions lo;
@@ -46,8 +48,8 @@ void printInfo(const Global& g, const std::string& file, const std::string& unit
                      li.droppedPrimitives ? fmt::format(", {} point/line meshes ignored", li.droppedPrimitives) : ""));
     line(fmt::format("vertices:      {} ({} distinct positions)", r.vertices, r.uniquePositions));
     line(fmt::format("triangles:     {}", r.triangles));
-    line(fmt::format("bounds (mm):   [{:.2f}, {:.2f}, {:.2f}] .. [{:.2f}, {:.2f}, {:.2f}]", r.boundsMin[0], r.boundsMin[1],
-                     r.boundsMin[2], r.boundsMax[0], r.boundsMax[1], r.boundsMax[2]));
+    line(fmt::format("bounds (mm):   [{:.2f}, {:.2f}, {:.2f}] .. [{:.2f}, {:.2f}, {:.2f}]", r.boundsMin[0],
+                     r.boundsMin[1], r.boundsMin[2], r.boundsMax[0], r.boundsMax[1], r.boundsMax[2]));
     line(fmt::format("size (mm):     {:.2f} x {:.2f} x {:.2f}", r.boundsMax[0] - r.boundsMin[0],
                      r.boundsMax[1] - r.boundsMin[1], r.boundsMax[2] - r.boundsMin[2]));
     line(fmt::format("surface:       {:.1f} mm^2, enclosed volume {:.1f} mm^3 ({})", r.surfaceArea, r.signedVolume,
@@ -58,20 +60,22 @@ void printInfo(const Global& g, const std::string& file, const std::string& unit
     line(fmt::format("defects:       {} degenerate triangles, {} non-finite values, {} unused vertices",
                      r.degenerateTriangles, r.nonFiniteValues, r.unusedVertices));
     line(fmt::format("normals:       {}{}", li.fileHadNormals ? "in file" : "computed (angle-weighted)",
-                     r.hasNormals ? fmt::format(", {} not unit, {} against the winding", r.badNormals,
-                                                r.normalsAgainstWinding)
-                                  : ""));
+                     r.hasNormals
+                         ? fmt::format(", {} not unit, {} against the winding", r.badNormals, r.normalsAgainstWinding)
+                         : ""));
     line(fmt::format("uvs:           {}", yesNo(r.hasUvs)));
     line(fmt::format("tangents:      {}{}", yesNo(r.hasTangents),
                      r.hasTangents ? fmt::format(" ({} not unit / not _|_ N / w != +-1)", r.badTangents) : ""));
     if (r.stretch) {
         const mesh::UvStretch& st = *r.stretch;
-        line(fmt::format("uv stretch:    {:.4g} uv area per mm^2; per-triangle area ratio / mean: p5 {:.2f}, p50 {:.2f}, "
-                         "p95 {:.2f}",
-                         st.uvPerSurfaceArea, st.areaP05, st.areaP50, st.areaP95));
-        line(fmt::format("               anisotropy sigma1/sigma2: p50 {:.2f}, p95 {:.2f}; {} zero-area, {} flipped "
-                         "triangles",
-                         st.anisotropyP50, st.anisotropyP95, st.zeroUvAreaTriangles, st.flippedTriangles));
+        line(fmt::format(
+            "uv stretch:    {:.4g} uv area per mm^2; per-triangle area ratio / mean: p5 {:.2f}, p50 {:.2f}, "
+            "p95 {:.2f}",
+            st.uvPerSurfaceArea, st.areaP05, st.areaP50, st.areaP95));
+        line(
+            fmt::format("               anisotropy sigma1/sigma2: p50 {:.2f}, p95 {:.2f}; {} zero-area, {} flipped "
+                        "triangles",
+                        st.anisotropyP50, st.anisotropyP95, st.zeroUvAreaTriangles, st.flippedTriangles));
     }
     if (!g.quiet) std::fputs(s.c_str(), stdout);
 }
@@ -145,7 +149,8 @@ void convert(const MeshArgs& a, const Global& g) {
 
 void addMeshCommand(CLI::App& app, Global& g) {
     auto a = std::make_shared<MeshArgs>();
-    CLI::App* c = app.add_subcommand("mesh", "Inspect, repair, parameterise and convert meshes (mucosa mesh info FILE)");
+    CLI::App* c =
+        app.add_subcommand("mesh", "Inspect, repair, parameterise and convert meshes (mucosa mesh info FILE)");
     c->footer(
         "Examples:\n"
         "  mucosa mesh info airway.obj\n"
@@ -154,7 +159,8 @@ void addMeshCommand(CLI::App& app, Global& g) {
         "TANGENT), .ply or .obj, in millimetres.");
     c->add_option("input", a->positional, "Input mesh")->expected(0, 1);
     c->add_option("-o,--output", a->output, "Output mesh (.glb, .gltf, .ply, .obj)");
-    c->add_option("--uv", a->uv, "keep: the file's UVs; centerline: tube parameterisation around/along the lumen [keep]");
+    c->add_option("--uv", a->uv,
+                  "keep: the file's UVs; centerline: tube parameterisation around/along the lumen [keep]");
     c->add_flag("--flip", a->flip, "Turn the surface inside out (normals into the lumen for a camera inside)");
     c->add_flag("--weld", a->weld, "Merge duplicate vertices, drop degenerate triangles");
     c->add_option("--weld-tolerance", a->weldTolerance, "Distance (mm) under which --weld merges vertices [0: exact]");
@@ -163,7 +169,8 @@ void addMeshCommand(CLI::App& app, Global& g) {
     c->add_option("--unit", a->unit, "Unit of the input: auto, mm, cm, m, in [auto]");
     c->require_subcommand(0, 1);
 
-    CLI::App* i = c->add_subcommand("info", "Report counts, bounds, topology, defects, normals/UVs/tangents, UV stretch");
+    CLI::App* i =
+        c->add_subcommand("info", "Report counts, bounds, topology, defects, normals/UVs/tangents, UV stretch");
     i->add_option("file", a->infoFile, "Mesh to inspect")->required();
     i->add_option("--unit", a->infoUnit, "Unit of the input: auto, mm, cm, m, in [auto]");
     i->callback([a, &g] { printInfo(g, a->infoFile, a->infoUnit); });

@@ -24,10 +24,12 @@ struct PhantomArgs {
 
 void addPhantomCommand(CLI::App& app, Global& g) {
     auto a = std::make_shared<PhantomArgs>();
-    CLI::App* c = app.add_subcommand("phantom", "Generate the synthetic airway phantom (bronchial tree mesh + centreline JSON)");
-    c->footer("Example: mucosa phantom -o airway.glb --generations 3 --seed 1\n"
-              "Millimetres; origin at the top of the trachea, +Y up (cranial), +X the patient's left, +Z anterior.\n"
-              "Normals face the lumen. The centreline tree (points, radii, parent links) goes to OUT.centerline.json.");
+    CLI::App* c =
+        app.add_subcommand("phantom", "Generate the synthetic airway phantom (bronchial tree mesh + centreline JSON)");
+    c->footer(
+        "Example: mucosa phantom -o airway.glb --generations 3 --seed 1\n"
+        "Millimetres; origin at the top of the trachea, +Y up (cranial), +X the patient's left, +Z anterior.\n"
+        "Normals face the lumen. The centreline tree (points, radii, parent links) goes to OUT.centerline.json.");
     const mesh::PhantomParams d;
     c->add_option("-o,--output", a->output, "Output mesh (.glb, .gltf, .ply, .obj) [airway.glb]");
     c->add_option("--generations", a->p.generations,

@@ -6,10 +6,10 @@
 #include <map>
 #include <memory>
 
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <benchmark/benchmark.h>
+#include <assimp/Importer.hpp>
 
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/phantom.hpp>
@@ -27,7 +27,8 @@ Mesh subdivide(const Mesh& m) {
     std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> mid;
     auto midpoint = [&](std::uint32_t a, std::uint32_t b) {
         const auto key = std::minmax(a, b);
-        auto [it, inserted] = mid.try_emplace({key.first, key.second}, static_cast<std::uint32_t>(out.positions.size()));
+        auto [it, inserted] =
+            mid.try_emplace({key.first, key.second}, static_cast<std::uint32_t>(out.positions.size()));
         if (inserted) {
             Vec3 p, n;
             for (int k = 0; k < 3; ++k) p[k] = 0.5f * (m.positions[a][k] + m.positions[b][k]);
@@ -98,8 +99,8 @@ void BM_TangentsAssimp(benchmark::State& state) {
     }
     state.counters["triangles"] = static_cast<double>(am->mNumFaces);
     state.counters["vertices"] = static_cast<double>(am->mNumVertices);
-    state.counters["Mtri/s"] = benchmark::Counter(static_cast<double>(am->mNumFaces) * 1e-6,
-                                                  benchmark::Counter::kIsIterationInvariantRate);
+    state.counters["Mtri/s"] =
+        benchmark::Counter(static_cast<double>(am->mNumFaces) * 1e-6, benchmark::Counter::kIsIterationInvariantRate);
     std::remove(file.c_str());
 }
 

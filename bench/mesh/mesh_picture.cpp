@@ -20,13 +20,27 @@ using mesh::Vec3;
 struct V3 {
     double x, y, z;
 };
-V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-V3 operator*(V3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-double dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-V3 cross(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-V3 norm(V3 a) { return a * (1.0 / std::sqrt(dot(a, a))); }
-V3 v3(const Vec3& a) { return {a[0], a[1], a[2]}; }
+V3 operator-(V3 a, V3 b) {
+    return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+V3 operator+(V3 a, V3 b) {
+    return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+V3 operator*(V3 a, double s) {
+    return {a.x * s, a.y * s, a.z * s};
+}
+double dot(V3 a, V3 b) {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+V3 cross(V3 a, V3 b) {
+    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+V3 norm(V3 a) {
+    return a * (1.0 / std::sqrt(dot(a, a)));
+}
+V3 v3(const Vec3& a) {
+    return {a[0], a[1], a[2]};
+}
 
 struct Camera {
     V3 eye, fwd, right, up;
@@ -138,7 +152,8 @@ int main(int argc, char** argv) {
         const int S = 2, W = 640, H = 800;  // 2x2 supersampling
         const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
         // Outside, from the front (anterior, +Z), slightly from the right.
-        const Camera outside = lookAt(centre + V3{0.25 * extent, 0.1 * extent, 2.2 * extent}, centre, {0, 1, 0}, 28, W * S, H * S);
+        const Camera outside =
+            lookAt(centre + V3{0.25 * extent, 0.1 * extent, 2.2 * extent}, centre, {0, 1, 0}, 28, W * S, H * S);
         // Inside the trachea, 80 mm below its top, looking down at the carina
         // (anterior up, as bronchoscopists hold the scope).
         const Camera inside = lookAt({0, -80, 2}, {0, -120, -1}, {0, 0, 1}, 100, W * S, H * S);
@@ -152,9 +167,11 @@ int main(int argc, char** argv) {
                     for (int ch = 0; ch < 3; ++ch) {
                         double s = 0;
                         for (int dy = 0; dy < S; ++dy)
-                            for (int dx = 0; dx < S; ++dx) s += src[((std::size_t(y) * S + dy) * W * S + (x * S + dx)) * 3 + ch];
+                            for (int dx = 0; dx < S; ++dx)
+                                s += src[((std::size_t(y) * S + dy) * W * S + (x * S + dx)) * 3 + ch];
                         s /= S * S;
-                        img.at(x + xOff, y, ch) = static_cast<std::uint8_t>(std::clamp(std::pow(s, 1 / 2.2) * 255.0 + 0.5, 0.0, 255.0));
+                        img.at(x + xOff, y, ch) =
+                            static_cast<std::uint8_t>(std::clamp(std::pow(s, 1 / 2.2) * 255.0 + 0.5, 0.0, 255.0));
                     }
         };
         put(a, 0);

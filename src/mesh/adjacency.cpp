@@ -15,7 +15,8 @@ VertexCorners vertexCorners(const Mesh& mesh) {
     for (std::size_t v = 0; v < n; ++v) vc.offsets[v + 1] += vc.offsets[v];
     vc.corners.resize(mesh.indices.size());
     std::vector<std::uint32_t> fill(vc.offsets.begin(), vc.offsets.end() - 1);
-    for (std::size_t c = 0; c < mesh.indices.size(); ++c) vc.corners[fill[mesh.indices[c]]++] = static_cast<std::uint32_t>(c);
+    for (std::size_t c = 0; c < mesh.indices.size(); ++c)
+        vc.corners[fill[mesh.indices[c]]++] = static_cast<std::uint32_t>(c);
     return vc;
 }
 

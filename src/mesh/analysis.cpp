@@ -68,8 +68,10 @@ MeshReport analyse(const Mesh& mesh) {
         }
     }
     for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {
-        if (!used[v]) ++r.unusedVertices;
-        else if (ids[v] == v && findRoot(parent, static_cast<std::uint32_t>(v)) == v) ++r.components;
+        if (!used[v])
+            ++r.unusedVertices;
+        else if (ids[v] == v && findRoot(parent, static_cast<std::uint32_t>(v)) == v)
+            ++r.components;
     }
 
     // Area, signed volume (divergence theorem: V = 1/6 sum P0 . (P1 x P2)),

@@ -16,8 +16,11 @@ void writeCenterlineJson(const Centerline& c, const std::filesystem::path& path)
     for (const CenterlineBranch& b : c.branches) {
         nlohmann::json points = nlohmann::json::array();
         for (const Vec3& p : b.points) points.push_back({p[0], p[1], p[2]});
-        j["branches"].push_back(
-            {{"name", b.name}, {"parent", b.parent}, {"generation", b.generation}, {"points", points}, {"radii", b.radii}});
+        j["branches"].push_back({{"name", b.name},
+                                 {"parent", b.parent},
+                                 {"generation", b.generation},
+                                 {"points", points},
+                                 {"radii", b.radii}});
     }
     writeFileAtomic(path, j.dump(1) + "\n");
 }
@@ -40,12 +43,15 @@ Centerline readCenterlineJson(const std::filesystem::path& path) {
             b.name = jb.value("name", "");
             b.parent = jb.at("parent").get<int>();
             b.generation = jb.value("generation", 0);
-            for (const auto& p : jb.at("points")) b.points.push_back({p.at(0).get<float>(), p.at(1).get<float>(), p.at(2).get<float>()});
+            for (const auto& p : jb.at("points"))
+                b.points.push_back({p.at(0).get<float>(), p.at(1).get<float>(), p.at(2).get<float>()});
             b.radii = jb.at("radii").get<std::vector<float>>();
             if (b.radii.size() != b.points.size())
-                throw InputError("centerline JSON", name, fmt::format("branch {}: {} radii for {} points", i, b.radii.size(), b.points.size()));
+                throw InputError("centerline JSON", name,
+                                 fmt::format("branch {}: {} radii for {} points", i, b.radii.size(), b.points.size()));
             if (b.parent >= static_cast<int>(i) || b.parent < -1)
-                throw InputError("centerline JSON", name, fmt::format("branch {}: parent {} must come before it", i, b.parent));
+                throw InputError("centerline JSON", name,
+                                 fmt::format("branch {}: parent {} must come before it", i, b.parent));
             c.branches.push_back(std::move(b));
         }
     } catch (const nlohmann::json::exception& e) {

@@ -37,16 +37,16 @@ std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t x) {
 }
 
 struct Node {
-    int slice = 0;               // level index k (distance (k + 1/2) w)
+    int slice = 0;  // level index k (distance (k + 1/2) w)
     std::uint32_t piece = 0;
-    int parent = -1;             // node in a lower slice
+    int parent = -1;  // node in a lower slice
     int branch = -1;
     std::vector<int> children;
     Vec3d sum{0, 0, 0};
     std::size_t count = 0;
-    Vec3d c{}, t{}, n{}, b{};    // centroid and frame
-    double s = 0;                // arc length at the centroid (mm)
-    double v = 0;                // texture v at the centroid
+    Vec3d c{}, t{}, n{}, b{};  // centroid and frame
+    double s = 0;              // arc length at the centroid (mm)
+    double v = 0;              // texture v at the centroid
 };
 
 struct Branch {
@@ -148,9 +148,10 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
     auto levelValue = [&](int k) { return (k + 0.5) * w; };
     auto edgeIndex = [&](std::uint32_t a, std::uint32_t b) -> std::size_t {
         if (a > b) std::swap(a, b);
-        const auto it = std::lower_bound(edges.begin(), edges.end(), std::pair{a, b}, [](const EdgeUse& e, const std::pair<std::uint32_t, std::uint32_t>& k) {
-            return std::pair{e.a, e.b} < k;
-        });
+        const auto it = std::lower_bound(edges.begin(), edges.end(), std::pair{a, b},
+                                         [](const EdgeUse& e, const std::pair<std::uint32_t, std::uint32_t>& k) {
+                                             return std::pair{e.a, e.b} < k;
+                                         });
         return static_cast<std::size_t>(it - edges.begin());
     };
     std::unordered_map<std::uint64_t, std::uint32_t> crossingId;  // (edge, level) -> crossing
@@ -168,9 +169,11 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
         return it->second;
     };
     for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-        const std::uint32_t c[3] = {ids[mesh.indices[3 * t]], ids[mesh.indices[3 * t + 1]], ids[mesh.indices[3 * t + 2]]};
+        const std::uint32_t c[3] = {ids[mesh.indices[3 * t]], ids[mesh.indices[3 * t + 1]],
+                                    ids[mesh.indices[3 * t + 2]]};
         if (c[0] == c[1] || c[1] == c[2] || c[0] == c[2]) continue;
-        const double dmin = std::min({dist[c[0]], dist[c[1]], dist[c[2]]}), dmax = std::max({dist[c[0]], dist[c[1]], dist[c[2]]});
+        const double dmin = std::min({dist[c[0]], dist[c[1]], dist[c[2]]}),
+                     dmax = std::max({dist[c[0]], dist[c[1]], dist[c[2]]});
         if (!std::isfinite(dmax)) continue;
         for (int k = levelBelow(dmin) + 1; levelValue(k) <= dmax; ++k) {
             const double lv = levelValue(k);
@@ -211,7 +214,8 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
     std::vector<std::uint32_t> byDistance;
     for (std::uint32_t v = 0; v < nv; ++v)
         if (isRep[v] && std::isfinite(dist[v])) byDistance.push_back(v);
-    std::sort(byDistance.begin(), byDistance.end(), [&](std::uint32_t a, std::uint32_t b) { return dist[a] < dist[b]; });
+    std::sort(byDistance.begin(), byDistance.end(),
+              [&](std::uint32_t a, std::uint32_t b) { return dist[a] < dist[b]; });
     std::vector<int> nodeOf(nv, -1);
     std::vector<std::uint32_t> firstLevelVertices;
     for (std::uint32_t v : byDistance) {
@@ -239,7 +243,8 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
         }
         std::vector<int> best(nodes.size(), 0);
         for (const auto& [key, count] : votes)
-            if (count > best[std::size_t(key.first)]) best[std::size_t(key.first)] = count, nodes[std::size_t(key.first)].parent = key.second;
+            if (count > best[std::size_t(key.first)])
+                best[std::size_t(key.first)] = count, nodes[std::size_t(key.first)].parent = key.second;
     }
     // Vertices before the first ring take the nearest first ring of their piece.
     for (std::uint32_t v : firstLevelVertices) {
@@ -253,7 +258,8 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
     // Visit nodes in slice order: parents before children.
     std::vector<int> order(nodes.size());
     std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return nodes[std::size_t(a)].slice < nodes[std::size_t(b)].slice; });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return nodes[std::size_t(a)].slice < nodes[std::size_t(b)].slice; });
     for (int i : order)
         if (nodes[std::size_t(i)].parent >= 0) nodes[std::size_t(nodes[std::size_t(i)].parent)].children.push_back(i);
 
@@ -336,7 +342,8 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
     }
     for (int i : order) {
         Node& n = nodes[std::size_t(i)];
-        n.v = n.parent >= 0 ? nodes[std::size_t(n.parent)].v + (n.s - nodes[std::size_t(n.parent)].s) * vRate[std::size_t(n.branch)]
+        n.v = n.parent >= 0 ? nodes[std::size_t(n.parent)].v +
+                                  (n.s - nodes[std::size_t(n.parent)].s) * vRate[std::size_t(n.branch)]
                             : 0.0;
     }
 
@@ -347,7 +354,8 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
     // mirrored texture, tangent w = +1).
     std::vector<double> facing(branches.size(), 0.0);
     for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-        const std::uint32_t c0 = ids[mesh.indices[3 * t]], c1 = ids[mesh.indices[3 * t + 1]], c2 = ids[mesh.indices[3 * t + 2]];
+        const std::uint32_t c0 = ids[mesh.indices[3 * t]], c1 = ids[mesh.indices[3 * t + 1]],
+                            c2 = ids[mesh.indices[3 * t + 2]];
         const int nd = nodeOf[c0];
         if (nd < 0) continue;
         const Node& n = nodes[std::size_t(nd)];
@@ -399,9 +407,12 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
         for (int k = 0; k < 3; ++k) {
             const Vec3d p = toD(mesh.positions[vi[k]]);
             const int nd = nodeOf[ids[vi[k]]];
-            if (nd < 0) uv[k] = {0, 0};
-            else if (br[k] == B) uv[k] = uvAt(p, nodes[std::size_t(nd)]);
-            else uv[k] = uvAt(p, nearestNodeOfBranch(B, p));
+            if (nd < 0)
+                uv[k] = {0, 0};
+            else if (br[k] == B)
+                uv[k] = uvAt(p, nodes[std::size_t(nd)]);
+            else
+                uv[k] = uvAt(p, nearestNodeOfBranch(B, p));
         }
         // Wrap-around seam: lift the low side by one period of the branch.
         const double period = branches.empty() ? 1.0 : branches[std::size_t(B)].wraps;

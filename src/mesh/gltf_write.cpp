@@ -63,7 +63,8 @@ struct Builder {
         bin.resize(offset + bytes);
         std::memcpy(bin.data() + offset, data, bytes);
         views.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", bytes}, {"target", target}});
-        nlohmann::json a = {{"bufferView", views.size() - 1}, {"componentType", componentType}, {"count", count}, {"type", type}};
+        nlohmann::json a = {
+            {"bufferView", views.size() - 1}, {"componentType", componentType}, {"count", count}, {"type", type}};
         if (!extra.is_null()) a.update(extra);
         accessors.push_back(a);
         return static_cast<int>(accessors.size() - 1);
@@ -141,11 +142,13 @@ void writeGltf(const Mesh& mesh, const std::filesystem::path& path, bool binary,
     doc["scene"] = 0;
     doc["scenes"] = {{{"nodes", {0}}}};
     doc["nodes"] = {{{"mesh", 0}, {"name", options.name}}};
-    doc["materials"] = {{{"name", "mucosa"},
-                         {"pbrMetallicRoughness",
-                          {{"baseColorFactor", {0.80, 0.36, 0.34, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.35}}}}};
-    doc["meshes"] = {{{"name", options.name},
-                      {"primitives", {{{"attributes", attributes}, {"indices", indices}, {"material", 0}, {"mode", 4}}}}}};
+    doc["materials"] = {
+        {{"name", "mucosa"},
+         {"pbrMetallicRoughness",
+          {{"baseColorFactor", {0.80, 0.36, 0.34, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.35}}}}};
+    doc["meshes"] = {
+        {{"name", options.name},
+         {"primitives", {{{"attributes", attributes}, {"indices", indices}, {"material", 0}, {"mode", 4}}}}}};
     doc["accessors"] = std::move(b.accessors);
     doc["bufferViews"] = std::move(b.views);
     nlohmann::json buffer = {{"byteLength", b.bin.size()}};

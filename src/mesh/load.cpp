@@ -6,11 +6,11 @@
 #include <fstream>
 #include <limits>
 
-#include <assimp/Importer.hpp>
 #include <assimp/importerdesc.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <fmt/format.h>
+#include <assimp/Importer.hpp>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/memory.hpp>
@@ -133,17 +133,21 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
         allTangents = allTangents && am->HasTangentsAndBitangents() && am->HasNormals();
     }
     if (triangles == 0) throw InputError("mesh", name, "the file contains no triangles");
-    if (vertices > std::numeric_limits<std::uint32_t>::max() - 1 || triangles > std::numeric_limits<std::uint32_t>::max() / 3)
-        throw InputError("mesh", name, fmt::format("{} vertices / {} triangles exceed 32-bit indices", vertices, triangles));
-    requireMemory(saturatingMul(vertices, sizeof(Vec3) * 2 + sizeof(Vec2) + sizeof(Vec4)) + saturatingMul(triangles, 12),
-                  fmt::format("mesh '{}'", name));
+    if (vertices > std::numeric_limits<std::uint32_t>::max() - 1 ||
+        triangles > std::numeric_limits<std::uint32_t>::max() / 3)
+        throw InputError("mesh", name,
+                         fmt::format("{} vertices / {} triangles exceed 32-bit indices", vertices, triangles));
+    requireMemory(
+        saturatingMul(vertices, sizeof(Vec3) * 2 + sizeof(Vec2) + sizeof(Vec4)) + saturatingMul(triangles, 12),
+        fmt::format("mesh '{}'", name));
     info.fileHadNormals = allNormals;
     info.fileHadUvs = allUvs;
     info.fileHadTangents = allTangents;
     if (info.subMeshes > 1) {
         std::size_t anyUv = 0;
         for (unsigned m = 0; m < scene->mNumMeshes; ++m) anyUv += scene->mMeshes[m]->HasTextureCoords(0) ? 1 : 0;
-        if (!allUvs && anyUv > 0) info.warnings.push_back("some parts have texture coordinates and some not: all dropped");
+        if (!allUvs && anyUv > 0)
+            info.warnings.push_back("some parts have texture coordinates and some not: all dropped");
     }
 
     Mesh mesh;
@@ -177,7 +181,8 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
             if (face.mNumIndices != 3) continue;
             for (int k = 0; k < 3; ++k) {
                 if (face.mIndices[k] >= am->mNumVertices)
-                    throw InputError("mesh", name, fmt::format("face {} has index {} out of range", f, face.mIndices[k]));
+                    throw InputError("mesh", name,
+                                     fmt::format("face {} has index {} out of range", f, face.mIndices[k]));
                 mesh.indices.push_back(base + face.mIndices[k]);
             }
         }
@@ -188,8 +193,9 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     std::size_t nonFinite = 0;
     for (const Vec3& p : mesh.positions) nonFinite += finite(p) ? 0 : 1;
     if (nonFinite > 0 && !options.allowNonFinite)
-        throw InputError("mesh", name, fmt::format("non-finite (NaN/Inf) coordinates at {} of {} vertices", nonFinite,
-                                                   mesh.positions.size()));
+        throw InputError(
+            "mesh", name,
+            fmt::format("non-finite (NaN/Inf) coordinates at {} of {} vertices", nonFinite, mesh.positions.size()));
 
     // Units.
     double scale = 1.0;
@@ -204,15 +210,18 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
         Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
         for (const Vec3& p : mesh.positions)
             if (finite(p))
-                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], double(p[k])), hi[k] = std::max(hi[k], double(p[k]));
+                for (int k = 0; k < 3; ++k)
+                    lo[k] = std::min(lo[k], double(p[k])), hi[k] = std::max(hi[k], double(p[k]));
         const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 0.0});
         // Anatomy smaller than 2 mm across is not a plausible whole model; in
         // metres it is anything up to 2 m. (--unit overrides the guess.)
         if (extent > 0 && extent < 2.0) {
             scale = 1000.0;
-            info.unitReason = fmt::format("assumed metres: the model is {:.4g} units across (use --unit to override)", extent);
+            info.unitReason =
+                fmt::format("assumed metres: the model is {:.4g} units across (use --unit to override)", extent);
         } else {
-            info.unitReason = fmt::format("assumed millimetres: the model is {:.4g} units across (use --unit to override)", extent);
+            info.unitReason =
+                fmt::format("assumed millimetres: the model is {:.4g} units across (use --unit to override)", extent);
         }
     }
     info.scaleToMillimetres = scale;

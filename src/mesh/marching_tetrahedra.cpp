@@ -63,11 +63,13 @@ Mesh marchingTetrahedra(const ScalarGrid& g) {
                     }
                     return it->second;
                 };
-                auto emit = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c, const Corner& in, const Corner& out) {
+                auto emit = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c, const Corner& in,
+                                const Corner& out) {
                     // Wind so the geometric normal faces the inside corner.
                     const Vec3d pa = toD(m.positions[a]), pb = toD(m.positions[b]), pc = toD(m.positions[c]);
                     const Vec3d n = cross(pb - pa, pc - pa);
-                    const Vec3d toward{double(in.d[0] - out.d[0]), double(in.d[1] - out.d[1]), double(in.d[2] - out.d[2])};
+                    const Vec3d toward{double(in.d[0] - out.d[0]), double(in.d[1] - out.d[1]),
+                                       double(in.d[2] - out.d[2])};
                     if (dot(n, toward) < 0) std::swap(b, c);
                     m.indices.insert(m.indices.end(), {a, b, c});
                 };
@@ -80,8 +82,10 @@ Mesh marchingTetrahedra(const ScalarGrid& g) {
                     Corner in[4], out[4];
                     int ni = 0, no = 0;
                     for (const Corner& q : c) {
-                        if (f[q.d[0]][q.d[1]][q.d[2]] < 0) in[ni++] = q;
-                        else out[no++] = q;
+                        if (f[q.d[0]][q.d[1]][q.d[2]] < 0)
+                            in[ni++] = q;
+                        else
+                            out[no++] = q;
                     }
                     if (ni == 0 || no == 0) continue;
                     if (ni == 1) {

@@ -11,7 +11,7 @@ struct ScalarGrid {
     std::array<double, 3> origin{};  // position of sample (0, 0, 0), mm
     double spacing = 1;              // mm between samples
     std::size_t nx = 0, ny = 0, nz = 0;
-    std::vector<float> values;       // x fastest; < 0 inside
+    std::vector<float> values;  // x fastest; < 0 inside
     float at(std::size_t i, std::size_t j, std::size_t k) const noexcept { return values[i + nx * (j + ny * k)]; }
 };
 

@@ -39,7 +39,7 @@ constexpr double kLengthPerDiameter = 3.0;
 constexpr double kRingSpacing = 4.5, kRingDepth = 0.045;
 
 struct Tube {
-    Vec3d a, dir;          // start, unit direction
+    Vec3d a, dir;  // start, unit direction
     double length = 0;
     double radius = 0;     // at the start
     double endRadius = 0;  // after the taper towards the children
@@ -211,7 +211,8 @@ struct Field {
         const auto ix = static_cast<std::ptrdiff_t>(std::floor((p[0] - lo[0]) / cell));
         const auto iy = static_cast<std::ptrdiff_t>(std::floor((p[1] - lo[1]) / cell));
         const auto iz = static_cast<std::ptrdiff_t>(std::floor((p[2] - lo[2]) / cell));
-        if (ix < 0 || iy < 0 || iz < 0 || ix >= std::ptrdiff_t(bx) || iy >= std::ptrdiff_t(by) || iz >= std::ptrdiff_t(bz))
+        if (ix < 0 || iy < 0 || iz < 0 || ix >= std::ptrdiff_t(bx) || iy >= std::ptrdiff_t(by) ||
+            iz >= std::ptrdiff_t(bz))
             return far;
         const auto& list = buckets[std::size_t(ix) + bx * (std::size_t(iy) + by * std::size_t(iz))];
         double f = far;
@@ -251,12 +252,16 @@ Field makeField(const std::vector<Tube>& tubes, const Vec3d& lo, const Vec3d& hi
         auto clampIndex = [](double v, std::size_t n) {
             return static_cast<std::size_t>(std::clamp(v, 0.0, double(n - 1)));
         };
-        const std::size_t x0 = clampIndex(std::floor((a[0] - lo[0]) / F.cell), F.bx), x1 = clampIndex(std::floor((b[0] - lo[0]) / F.cell), F.bx);
-        const std::size_t y0 = clampIndex(std::floor((a[1] - lo[1]) / F.cell), F.by), y1 = clampIndex(std::floor((b[1] - lo[1]) / F.cell), F.by);
-        const std::size_t z0 = clampIndex(std::floor((a[2] - lo[2]) / F.cell), F.bz), z1 = clampIndex(std::floor((b[2] - lo[2]) / F.cell), F.bz);
+        const std::size_t x0 = clampIndex(std::floor((a[0] - lo[0]) / F.cell), F.bx),
+                          x1 = clampIndex(std::floor((b[0] - lo[0]) / F.cell), F.bx);
+        const std::size_t y0 = clampIndex(std::floor((a[1] - lo[1]) / F.cell), F.by),
+                          y1 = clampIndex(std::floor((b[1] - lo[1]) / F.cell), F.by);
+        const std::size_t z0 = clampIndex(std::floor((a[2] - lo[2]) / F.cell), F.bz),
+                          z1 = clampIndex(std::floor((b[2] - lo[2]) / F.cell), F.bz);
         for (std::size_t z = z0; z <= z1; ++z)
             for (std::size_t y = y0; y <= y1; ++y)
-                for (std::size_t x = x0; x <= x1; ++x) F.buckets[x + F.bx * (y + F.by * z)].push_back(static_cast<std::uint16_t>(ti));
+                for (std::size_t x = x0; x <= x1; ++x)
+                    F.buckets[x + F.bx * (y + F.by * z)].push_back(static_cast<std::uint16_t>(ti));
     }
     return F;
 }
@@ -274,8 +279,9 @@ void checkParams(const PhantomParams& p) {
 
 Centerline toCenterline(const std::vector<Tube>& tubes) {
     Centerline c;
-    c.axes = "millimetres; origin at the top of the trachea's centreline; +Y cranial (up), +X the patient's left, "
-             "+Z anterior; the trachea runs down -Y";
+    c.axes =
+        "millimetres; origin at the top of the trachea's centreline; +Y cranial (up), +X the patient's left, "
+        "+Z anterior; the trachea runs down -Y";
     for (const Tube& t : tubes) {
         CenterlineBranch b;
         b.name = t.name;
@@ -286,7 +292,8 @@ Centerline toCenterline(const std::vector<Tube>& tubes) {
             const double s = t.length * i / steps;
             b.points.push_back(toF(t.a + t.dir * s));
             const double taperStart = std::max(0.0, t.length - 1.5 * t.radius);
-            b.radii.push_back(static_cast<float>(t.radius + (t.endRadius - t.radius) * smoothstep(taperStart, t.length, s)));
+            b.radii.push_back(
+                static_cast<float>(t.radius + (t.endRadius - t.radius) * smoothstep(taperStart, t.length, s)));
         }
         c.branches.push_back(std::move(b));
     }
@@ -343,7 +350,8 @@ Phantom makePhantom(const PhantomParams& params, int threads, const Progress& pr
                         float v = static_cast<float>(F(p));
                         if (v == 0.0f) v = 1e-7f;  // no sample on the surface: the result stays a manifold
                         // The border is outside so the surface closes.
-                        if (i == 0 || j == 0 || k == 0 || i + 1 == g.nx || j + 1 == g.ny || k + 1 == g.nz) v = std::max(v, 1e-3f);
+                        if (i == 0 || j == 0 || k == 0 || i + 1 == g.nx || j + 1 == g.ny || k + 1 == g.nz)
+                            v = std::max(v, 1e-3f);
                         g.values[i + g.nx * (j + g.ny * k)] = v;
                     }
         });

@@ -31,7 +31,9 @@ void writePly(const Mesh& mesh, const std::filesystem::path& path, const SaveOpt
     header += fmt::format("element vertex {}\nproperty float x\nproperty float y\nproperty float z\n", n);
     if (N) header += "property float nx\nproperty float ny\nproperty float nz\n";
     if (uv) header += "property float s\nproperty float t\n";
-    if (T) header += "property float tangent_x\nproperty float tangent_y\nproperty float tangent_z\nproperty float tangent_w\n";
+    if (T)
+        header +=
+            "property float tangent_x\nproperty float tangent_y\nproperty float tangent_z\nproperty float tangent_w\n";
     header += fmt::format("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", m);
 
     std::vector<std::byte> body(n * stride + m * 13);

@@ -30,7 +30,9 @@ struct WeldHash {
     }
 };
 
-float canonical(float f) noexcept { return f == 0.0f ? 0.0f : f; }
+float canonical(float f) noexcept {
+    return f == 0.0f ? 0.0f : f;
+}
 
 }  // namespace
 
@@ -76,7 +78,8 @@ std::size_t weld(Mesh& mesh, float tolerance) {
     const std::size_t removed = n - out.positions.size();
     if (normals) {
         out.normals.resize(normalSum.size());
-        for (std::size_t v = 0; v < normalSum.size(); ++v) out.normals[v] = toF(normalizeOr(normalSum[v], Vec3d{0, 0, 1}));
+        for (std::size_t v = 0; v < normalSum.size(); ++v)
+            out.normals[v] = toF(normalizeOr(normalSum[v], Vec3d{0, 0, 1}));
     }
     out.indices.resize(mesh.indices.size());
     for (std::size_t i = 0; i < mesh.indices.size(); ++i) out.indices[i] = remap[mesh.indices[i]];

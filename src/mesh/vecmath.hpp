@@ -52,7 +52,9 @@ inline std::array<T, 3> normalizeOr(const std::array<T, 3>& a, const std::array<
     return a * (T(1) / l);
 }
 
-inline Vec3d toD(const Vec3& a) noexcept { return {a[0], a[1], a[2]}; }
+inline Vec3d toD(const Vec3& a) noexcept {
+    return {a[0], a[1], a[2]};
+}
 inline Vec3 toF(const Vec3d& a) noexcept {
     return {static_cast<float>(a[0]), static_cast<float>(a[1]), static_cast<float>(a[2])};
 }

@@ -1,6 +1,5 @@
 #include <fstream>
 #include <sstream>
-#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -36,8 +35,8 @@ TEST(MeshCli, InfoReportsTheAirway) {
 
 TEST(MeshCli, ConvertsFlipsAndWritesTangents) {
     TempDir dir;
-    const auto r = runCli("mesh '" + testdata("gltf/NormalTangentTest.glb").string() + "' -o '" + (dir / "o.glb").string() +
-                          "' --flip --recompute-normals");
+    const auto r = runCli("mesh '" + testdata("gltf/NormalTangentTest.glb").string() + "' -o '" +
+                          (dir / "o.glb").string() + "' --flip --recompute-normals");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const Mesh m = mesh::load(dir / "o.glb");
     EXPECT_TRUE(m.hasTangents());
@@ -70,7 +69,8 @@ TEST(MeshCli, BadInputsGiveOneErrorLineAndNoOutput) {
         expectOneErrorLine(r.err, in);
         EXPECT_FALSE(std::filesystem::exists(out)) << in;
     }
-    const auto bad = runCli("mesh '" + testdata("gltf/NormalTangentTest.glb").string() + "' -o '" + (dir / "o.fbx").string() + "'");
+    const auto bad =
+        runCli("mesh '" + testdata("gltf/NormalTangentTest.glb").string() + "' -o '" + (dir / "o.fbx").string() + "'");
     EXPECT_NE(bad.exitCode, 0);
     expectOneErrorLine(bad.err, "fbx output");
     const auto missingInfo = runCli("mesh info '" + (dir / "missing.ply").string() + "'");

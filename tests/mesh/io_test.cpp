@@ -62,7 +62,8 @@ void expectRoundTrip(const Mesh& a, const Mesh& b, bool tangents) {
     ASSERT_EQ(a.triangleCount(), b.triangleCount());
     for (std::size_t c = 0; c < a.indices.size(); ++c) {
         const auto i = a.indices[c], j = b.indices[c];
-        for (int k = 0; k < 3; ++k) ASSERT_NEAR(a.positions[i][k], b.positions[j][k], 1e-4f * (1 + std::abs(a.positions[i][k])));
+        for (int k = 0; k < 3; ++k)
+            ASSERT_NEAR(a.positions[i][k], b.positions[j][k], 1e-4f * (1 + std::abs(a.positions[i][k])));
         for (int k = 0; k < 3; ++k) ASSERT_NEAR(a.normals[i][k], b.normals[j][k], 1e-5f);
         for (int k = 0; k < 2; ++k) ASSERT_NEAR(a.uvs[i][k], b.uvs[j][k], 1e-6f) << "corner " << c;
         if (tangents) {

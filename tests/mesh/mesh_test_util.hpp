@@ -74,7 +74,8 @@ inline Glb parseGlb(const std::string& bytes) {
 inline std::vector<float> accessorFloats(const Glb& g, int a) {
     const auto& acc = g.json["accessors"][a];
     const auto& view = g.json["bufferViews"][acc["bufferView"].get<int>()];
-    const std::size_t comps = std::map<std::string, int>{{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4}}.at(acc["type"]);
+    const std::size_t comps =
+        std::map<std::string, int>{{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4}}.at(acc["type"]);
     const std::size_t count = acc["count"];
     const std::size_t offset = view.value("byteOffset", 0) + acc.value("byteOffset", 0);
     std::vector<float> out(count * comps);
@@ -97,7 +98,8 @@ inline void checkGltfRules(const Glb& g, std::size_t expectVertices) {
     const auto& prim = j["meshes"][0]["primitives"][0];
     const auto& attr = prim["attributes"];
     for (const char* name : {"POSITION", "NORMAL", "TEXCOORD_0", "TANGENT"}) ASSERT_TRUE(attr.contains(name)) << name;
-    for (const auto& [name, a] : attr.items()) EXPECT_EQ(j["accessors"][a.get<int>()]["count"].get<std::size_t>(), expectVertices);
+    for (const auto& [name, a] : attr.items())
+        EXPECT_EQ(j["accessors"][a.get<int>()]["count"].get<std::size_t>(), expectVertices);
 
     const int pa = attr["POSITION"];
     const auto P = accessorFloats(g, pa);
@@ -105,7 +107,8 @@ inline void checkGltfRules(const Glb& g, std::size_t expectVertices) {
     ASSERT_TRUE(acc.contains("min") && acc.contains("max"));
     for (int k = 0; k < 3; ++k) {
         float lo = INFINITY, hi = -INFINITY;
-        for (std::size_t v = 0; v < expectVertices; ++v) lo = std::min(lo, P[3 * v + k]), hi = std::max(hi, P[3 * v + k]);
+        for (std::size_t v = 0; v < expectVertices; ++v)
+            lo = std::min(lo, P[3 * v + k]), hi = std::max(hi, P[3 * v + k]);
         EXPECT_EQ(acc["min"][k].get<float>(), lo);
         EXPECT_EQ(acc["max"][k].get<float>(), hi);
     }

@@ -13,11 +13,15 @@
 namespace mucosa::test {
 namespace {
 
-Vec3 xyz(const Vec4& t) { return {t[0], t[1], t[2]}; }
+Vec3 xyz(const Vec4& t) {
+    return {t[0], t[1], t[2]};
+}
 Vec3 cross3(const Vec3& a, const Vec3& b) {
     return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
-float dot3(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+float dot3(const Vec3& a, const Vec3& b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 // Every frame: finite, T unit and _|_ N, w = +-1.
 void expectOrthonormal(const Mesh& m) {
@@ -51,11 +55,12 @@ TEST(Tangents, AgreeWithMikkTSpaceOnMirrorTestModel) {
     }
     std::sort(angles.begin(), angles.end());
     auto pct = [&](double q) { return angles[static_cast<std::size_t>(q * double(angles.size() - 1))]; };
-    const double within2 = double(std::upper_bound(angles.begin(), angles.end(), 2.0) - angles.begin()) / double(angles.size());
-    std::printf("MikkTSpace agreement on %zu vertices (%zu mirrored): angle p50 %.4f deg, p90 %.4f, p99 %.4f, max %.4f; "
-                "%.2f%% within 2 deg; handedness equal on %zu\n",
-                angles.size(), mirroredReference, pct(0.5), pct(0.9), pct(0.99), angles.back(), 100 * within2,
-                sameHandedness);
+    const double within2 =
+        double(std::upper_bound(angles.begin(), angles.end(), 2.0) - angles.begin()) / double(angles.size());
+    std::printf(
+        "MikkTSpace agreement on %zu vertices (%zu mirrored): angle p50 %.4f deg, p90 %.4f, p99 %.4f, max %.4f; "
+        "%.2f%% within 2 deg; handedness equal on %zu\n",
+        angles.size(), mirroredReference, pct(0.5), pct(0.9), pct(0.99), angles.back(), 100 * within2, sameHandedness);
     RecordProperty("angle_p50_deg", std::to_string(pct(0.5)));
     RecordProperty("angle_p99_deg", std::to_string(pct(0.99)));
     RecordProperty("within_2deg", std::to_string(within2));

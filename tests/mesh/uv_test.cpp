@@ -48,7 +48,9 @@ TEST(CenterlineUv, CylinderGetsSquareTexelsAndASeamlessWrap) {
     EXPECT_EQ(s.flippedTriangles, 0u);
     // u spans one turn, v runs 100 mm / L.
     float umin = 1e9f, umax = -1e9f, vmin = 1e9f, vmax = -1e9f;
-    for (const Vec2& uv : m.uvs) umin = std::min(umin, uv[0]), umax = std::max(umax, uv[0]), vmin = std::min(vmin, uv[1]), vmax = std::max(vmax, uv[1]);
+    for (const Vec2& uv : m.uvs)
+        umin = std::min(umin, uv[0]), umax = std::max(umax, uv[0]), vmin = std::min(vmin, uv[1]),
+        vmax = std::max(vmax, uv[1]);
     EXPECT_NEAR(umax - umin, 1.0, 1e-3);
     EXPECT_NEAR(vmax - vmin, 100.0 / rep.tileLength, 0.02);
     // The topology is unchanged (the seam is not a boundary).
@@ -83,10 +85,11 @@ TEST(CenterlineUv, WorksOnTheCtAirway) {
     const auto r = mesh::analyse(m);
     ASSERT_TRUE(r.stretch);
     const auto& s = *r.stretch;
-    std::printf("CT airway: %zu pieces, %zu branches, tile %.1f mm, %zu seam vertices; area ratio p5 %.2f p50 %.2f p95 "
-                "%.2f; anisotropy p50 %.3f p95 %.2f; flipped %zu of %zu\n",
-                rep.pieces, rep.centerline.branches.size(), rep.tileLength, rep.seamVertices, s.areaP05, s.areaP50,
-                s.areaP95, s.anisotropyP50, s.anisotropyP95, s.flippedTriangles, r.triangles);
+    std::printf(
+        "CT airway: %zu pieces, %zu branches, tile %.1f mm, %zu seam vertices; area ratio p5 %.2f p50 %.2f p95 "
+        "%.2f; anisotropy p50 %.3f p95 %.2f; flipped %zu of %zu\n",
+        rep.pieces, rep.centerline.branches.size(), rep.tileLength, rep.seamVertices, s.areaP05, s.areaP50, s.areaP95,
+        s.anisotropyP50, s.anisotropyP95, s.flippedTriangles, r.triangles);
     EXPECT_EQ(r.badTangents, 0u);
     EXPECT_EQ(r.nonFiniteValues, 0u);
     EXPECT_EQ(s.zeroUvAreaTriangles, 0u);

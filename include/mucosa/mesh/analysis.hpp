@@ -28,16 +28,16 @@ struct MeshReport {
     std::size_t nonManifoldEdges = 0;   // used by three or more
     std::size_t inconsistentEdges = 0;  // two triangles traverse it the same way (winding flips)
     std::size_t degenerateTriangles = 0;
-    std::size_t nonFiniteValues = 0;    // NaN/Inf floats in any attribute
+    std::size_t nonFiniteValues = 0;  // NaN/Inf floats in any attribute
     std::size_t unusedVertices = 0;
     Vec3 boundsMin{}, boundsMax{};
-    double surfaceArea = 0;             // mm^2
-    double signedVolume = 0;            // mm^3; > 0: normals/winding face out of the enclosed volume
+    double surfaceArea = 0;   // mm^2
+    double signedVolume = 0;  // mm^3; > 0: normals/winding face out of the enclosed volume
     bool hasNormals = false, hasUvs = false, hasTangents = false;
-    std::size_t badNormals = 0;         // not unit length (|1 - |N|| > 1e-3) or non-finite
+    std::size_t badNormals = 0;             // not unit length (|1 - |N|| > 1e-3) or non-finite
     std::size_t normalsAgainstWinding = 0;  // vertex normal opposite to its triangles' winding
-    std::size_t badTangents = 0;        // not unit, not _|_ N, or |w| != 1
-    std::optional<UvStretch> stretch;   // when UVs are present
+    std::size_t badTangents = 0;            // not unit, not _|_ N, or |w| != 1
+    std::optional<UvStretch> stretch;       // when UVs are present
     bool watertight() const noexcept { return boundaryEdges == 0 && nonManifoldEdges == 0; }
 };
 

@@ -29,13 +29,13 @@ struct LoadOptions {
 
 // What the importer found and did, for reports.
 struct LoadInfo {
-    std::string format;           // Assimp's importer ("glTF2 Importer", ...)
+    std::string format;  // Assimp's importer ("glTF2 Importer", ...)
     std::size_t fileBytes = 0;
-    std::size_t subMeshes = 0;    // triangle meshes merged into one
+    std::size_t subMeshes = 0;          // triangle meshes merged into one
     std::size_t droppedPrimitives = 0;  // points/lines ignored
     double scaleToMillimetres = 1;
-    std::string unitReason;       // "glTF is in metres", "assumed millimetres: ..."
-    std::string upAxis;           // "+Y (glTF)" or "as stored in the file"
+    std::string unitReason;  // "glTF is in metres", "assumed millimetres: ..."
+    std::string upAxis;      // "+Y (glTF)" or "as stored in the file"
     bool fileHadNormals = false, fileHadUvs = false, fileHadTangents = false;
     std::size_t repairedNormals = 0;  // zero/non-finite normals recomputed
     std::vector<std::string> warnings;

@@ -8,16 +8,16 @@
 namespace mucosa::mesh {
 
 struct CenterlineUvOptions {
-    Vec3 up{0, 1, 0};        // each connected piece is parameterised from its end furthest along `up`
-    float tileLength = 0;    // mm per texture repeat on the widest tube; 0 = its circumference
-    float sliceWidth = 0;    // mm between centreline samples; 0 = auto (about 2 mean edge lengths)
+    Vec3 up{0, 1, 0};      // each connected piece is parameterised from its end furthest along `up`
+    float tileLength = 0;  // mm per texture repeat on the widest tube; 0 = its circumference
+    float sliceWidth = 0;  // mm between centreline samples; 0 = auto (about 2 mean edge lengths)
 };
 
 struct CenterlineUvReport {
-    Centerline centerline;          // the centreline the UVs follow (one branch per tube piece)
-    float tileLength = 0;           // mm per texture repeat, as used
-    std::size_t seamVertices = 0;   // vertices duplicated at the wrap-around seam and branch junctions
-    std::size_t pieces = 0;         // connected pieces parameterised
+    Centerline centerline;         // the centreline the UVs follow (one branch per tube piece)
+    float tileLength = 0;          // mm per texture repeat, as used
+    std::size_t seamVertices = 0;  // vertices duplicated at the wrap-around seam and branch junctions
+    std::size_t pieces = 0;        // connected pieces parameterised
 };
 
 // Level-set centreline parameterisation (Lazarus & Verroust 1999, "Level set
