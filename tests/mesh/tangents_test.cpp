@@ -16,9 +16,6 @@ namespace {
 Vec3 xyz(const Vec4& t) {
     return {t[0], t[1], t[2]};
 }
-Vec3 cross3(const Vec3& a, const Vec3& b) {
-    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
 float dot3(const Vec3& a, const Vec3& b) {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
