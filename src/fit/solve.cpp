@@ -12,6 +12,8 @@
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <fmt/format.h>
 
@@ -68,12 +70,19 @@ private:
 // scaled identity, so the reduced system is 6 x 6 and one iteration is one pass
 // over the samples), with the Cauchy loss applied by iterative reweighting
 // (Triggs et al. 2000, "Bundle adjustment: a modern synthesis", sec. 6 and
-// 6.8). It reaches the same minimum as Ceres' DENSE_SCHUR (tested) in a small
-// fraction of the time.
+// 6.8). Samples are sorted by texel so that each texel's sums are formed by one
+// task; tasks cover fixed texel ranges and their partial 6 x 6 sums are added
+// in order, so the result does not depend on the thread count. It reaches the
+// same minimum as Ceres' DENSE_SCHUR (tested) in a small fraction of the time.
 double robustCost(double e2, const FitOptions& o) {
     const double c2 = o.cauchyScale * o.cauchyScale;
     return o.robust ? c2 * std::log1p(e2 / c2) : e2;
 }
+
+struct SolveSample {
+    float gamma, r;
+    float I[3];
+};
 
 int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vector<std::size_t>& usable,
                             const std::vector<std::uint32_t>& slotOf, const BrdfParams& range, const FitOptions& o,
@@ -83,33 +92,59 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
     const double span = range.zmax - range.zmin;
     const double c2 = o.cauchyScale * o.cauchyScale;
     const std::size_t T = albedo.size();
+
+    // Samples grouped by texel: begin[t] .. begin[t + 1].
+    std::vector<std::size_t> begin(T + 1, 0);
+    for (std::uint32_t s : slotOf) begin[s + 1]++;
+    for (std::size_t t = 0; t < T; ++t) begin[t + 1] += begin[t];
+    std::vector<SolveSample> ss(usable.size());
+    {
+        std::vector<std::size_t> at(begin.begin(), begin.end() - 1);
+        for (std::size_t j = 0; j < usable.size(); ++j) {
+            const Sample& s = samples[usable[j]];
+            ss[at[slotOf[j]]++] = {s.gamma, static_cast<float>((s.z - range.zmin) / span), {s.I[0], s.I[1], s.I[2]}};
+        }
+    }
     struct Cell {
         double haa = 0;
         Vec6 hta[3];
         double ba[3] = {0, 0, 0};
     };
     std::vector<Cell> cells(T);
-    auto shading = [&](const Sample& s, const std::array<double, 6>& p, Vec6* grad) {
+    constexpr std::size_t kChunk = 256;  // texels per task
+    const std::size_t chunks = (T + kChunk - 1) / kChunk;
+    std::vector<Mat6> partH(chunks);
+    std::vector<Vec6> partB(chunks);
+    std::vector<double> partCost(chunks);
+    tbb::task_arena arena(resolveThreads(o.threads));
+
+    auto shading = [](const SolveSample& s, const std::array<double, 6>& p, Vec6* grad) {
         const double g = s.gamma, g2 = g * g, g3 = g2 * g;
-        const double r = (s.z - range.zmin) / span, r2 = r * r, r3 = r2 * r;
+        const double r = s.r, r2 = r * r, r3 = r2 * r;
         const double rho = 1.0 + p[0] * (g - 1) + p[1] * (g2 - 1) + p[2] * (g3 - 1);
         const double delta = 1.0 + p[3] * r + p[4] * r2 + p[5] * r3;
         if (grad) *grad << delta * (g - 1), delta * (g2 - 1), delta * (g3 - 1), rho * r, rho * r2, rho * r3;
         return rho * delta;
     };
     auto totalCost = [&](const std::array<double, 6>& p, const std::vector<std::array<double, 3>>& a) {
+        arena.execute([&] {
+            tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+                double cost = 0;
+                for (std::size_t t = c * kChunk; t < std::min(T, (c + 1) * kChunk); ++t)
+                    for (std::size_t j = begin[t]; j < begin[t + 1]; ++j) {
+                        const double m = shading(ss[j], p, nullptr);
+                        double e2 = 0;
+                        for (int k = 0; k < 3; ++k) {
+                            const double e = a[t][k] * m - ss[j].I[k];
+                            e2 += e * e;
+                        }
+                        cost += robustCost(e2, o);
+                    }
+                partCost[c] = cost;
+            });
+        });
         double cost = 0;
-        for (std::size_t j = 0; j < usable.size(); ++j) {
-            const Sample& s = samples[usable[j]];
-            const double m = shading(s, p, nullptr);
-            const auto& at = a[slotOf[j]];
-            double e2 = 0;
-            for (int k = 0; k < 3; ++k) {
-                const double e = at[k] * m - s.I[k];
-                e2 += e * e;
-            }
-            cost += robustCost(e2, o);
-        }
+        for (double pc : partCost) cost += pc;
         return cost;
     };
     double cost = totalCost(cd, albedo);
@@ -117,34 +152,44 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
     int iterations = 0;
     for (int it = 0; it < 60; ++it) {
         iterations = it + 1;
-        for (Cell& c : cells) {
-            c.haa = 0;
-            for (auto& v : c.hta) v.setZero();
-            c.ba[0] = c.ba[1] = c.ba[2] = 0;
-        }
+        arena.execute([&] {
+            tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t ch) {
+                Mat6 H = Mat6::Zero();
+                Vec6 b = Vec6::Zero();
+                for (std::size_t t = ch * kChunk; t < std::min(T, (ch + 1) * kChunk); ++t) {
+                    Cell& c = cells[t];
+                    c.haa = 0;
+                    for (auto& v : c.hta) v.setZero();
+                    c.ba[0] = c.ba[1] = c.ba[2] = 0;
+                    const auto& at = albedo[t];
+                    const double a2 = at[0] * at[0] + at[1] * at[1] + at[2] * at[2];
+                    for (std::size_t j = begin[t]; j < begin[t + 1]; ++j) {
+                        Vec6 g;
+                        const double m = shading(ss[j], cd, &g);
+                        double e[3], e2 = 0;
+                        for (int k = 0; k < 3; ++k) {
+                            e[k] = at[k] * m - ss[j].I[k];
+                            e2 += e[k] * e[k];
+                        }
+                        const double w = o.robust ? 1.0 / (1.0 + e2 / c2) : 1.0;  // IRLS weight of the Cauchy loss
+                        c.haa += w * m * m;
+                        for (int k = 0; k < 3; ++k) {
+                            c.hta[k].noalias() += (w * at[k] * m) * g;
+                            c.ba[k] += w * m * e[k];
+                            b.noalias() += (w * at[k] * e[k]) * g;
+                        }
+                        H.noalias() += (w * a2) * g * g.transpose();
+                    }
+                }
+                partH[ch] = H;
+                partB[ch] = b;
+            });
+        });
         Mat6 Htt = Mat6::Zero();
         Vec6 bt = Vec6::Zero();
-        for (std::size_t j = 0; j < usable.size(); ++j) {
-            const Sample& s = samples[usable[j]];
-            Vec6 g;
-            const double m = shading(s, cd, &g);
-            const auto& at = albedo[slotOf[j]];
-            double e[3], e2 = 0;
-            for (int k = 0; k < 3; ++k) {
-                e[k] = at[k] * m - s.I[k];
-                e2 += e[k] * e[k];
-            }
-            const double w = o.robust ? 1.0 / (1.0 + e2 / c2) : 1.0;  // IRLS weight of the Cauchy loss
-            Cell& c = cells[slotOf[j]];
-            c.haa += w * m * m;
-            double a2 = 0;
-            for (int k = 0; k < 3; ++k) {
-                a2 += at[k] * at[k];
-                c.hta[k].noalias() += (w * at[k] * m) * g;
-                c.ba[k] += w * m * e[k];
-                bt.noalias() += (w * at[k] * e[k]) * g;
-            }
-            Htt.noalias() += (w * a2) * g * g.transpose();
+        for (std::size_t ch = 0; ch < chunks; ++ch) {
+            Htt += partH[ch];
+            bt += partB[ch];
         }
         // Schur complement onto the six shared parameters (LM damping on both).
         Mat6 S = Htt;
@@ -175,7 +220,10 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
             albedo.swap(aNew);
             cost = newCost;
             lambda = std::max(1e-9, lambda / 3);
-            if (gain < 1e-7) break;  // relative decrease: converged for all practical purposes
+            // Converged for all practical purposes: the cost or the step stalls.
+            const double size = std::sqrt(cd[0] * cd[0] + cd[1] * cd[1] + cd[2] * cd[2] + cd[3] * cd[3] +
+                                          cd[4] * cd[4] + cd[5] * cd[5]);
+            if (gain < 1e-7 || dt.norm() < 1e-5 * (1.0 + size)) break;
         } else {
             lambda *= 10;
             if (lambda > 1e8) break;

@@ -10,6 +10,8 @@
 #include <mucosa/noise/fractal.hpp>
 
 #include <algorithm>
+#include <array>
+#include <type_traits>
 #include <cmath>
 #include <thread>
 #include <vector>
@@ -39,7 +41,15 @@ struct Octave {
     int period = 256;  // 256 = plain noise
     std::vector<T> xf, xf1, u;
     std::vector<Span> spans;
+    // Float path: the corner gradients of every (lattice row Y0, span), so a
+    // row needs no hashing (see buildCornerTables). Empty: hash per span.
+    std::array<int, 256> ySlot{};
+    std::vector<float> corners;  // [slot][kCornerFields][spans]
 };
+
+// Per corner pair k (l00, l10, l01, l11) of a span: gx of the a corner, gx(b) -
+// gx(a), gy(a), gz(a), gx(b), gy(b) - gy(a), gz(b) - gz(a).
+constexpr int kCornerFields = 28;
 
 // Row constants of one octave: y, z fractions, their fades and lattice indices.
 struct RowFrame {
@@ -199,54 +209,142 @@ __attribute__((always_inline)) inline void foldedKernel(float* __restrict acc, c
     }
 }
 
-__attribute__((always_inline)) inline void rowBodyFolded(const RowJob<float>& job, float* row, int width, double v) {
-    std::fill(row, row + width, 0.0f);
-    const std::uint8_t* p = job.p;
-    for (const Octave<float>& oct : *job.octaves) {
-        const double y = oct.f * v, z = job.z;
-        const double fy = std::floor(y), fz = std::floor(z);
-        int Y0, Y1, Z0, Z1;
-        if (oct.period == 256) {
-            Y0 = floorToInt(y) & 255;
-            Y1 = Y0 + 1;
-            Z0 = floorToInt(z) & 255;
-            Z1 = Z0 + 1;
-        } else {
-            Y0 = wrapIndex(floorToInt(std::fmod(fy, oct.period)), oct.period);
-            Y1 = (Y0 + 1) % oct.period;
-            Z0 = wrapIndex(floorToInt(std::fmod(fz, 256.0)), 256);
-            Z1 = (Z0 + 1) % 256;
+// Row frame of the float path: lattice indices and the four x-lerp weights.
+struct FoldedFrame {
+    int Y0, Y1, Z0, Z1;
+    double W[4], yq[4], zq[4];
+};
+
+inline FoldedFrame foldedFrame(const Octave<float>& oct, double v, double z) {
+    const double y = oct.f * v;
+    const double fy = std::floor(y), fz = std::floor(z);
+    FoldedFrame fr{};
+    if (oct.period == 256) {
+        fr.Y0 = floorToInt(y) & 255;
+        fr.Y1 = fr.Y0 + 1;
+        fr.Z0 = floorToInt(z) & 255;
+        fr.Z1 = fr.Z0 + 1;
+    } else {
+        fr.Y0 = wrapIndex(floorToInt(std::fmod(fy, oct.period)), oct.period);
+        fr.Y1 = (fr.Y0 + 1) % oct.period;
+        fr.Z0 = wrapIndex(floorToInt(std::fmod(fz, 256.0)), 256);
+        fr.Z1 = (fr.Z0 + 1) % 256;
+    }
+    const double yf = y - fy, zf = z - fz, vv = fade(yf), ww = fade(zf);
+    const double W[4] = {(1 - vv) * (1 - ww) * oct.a, vv * (1 - ww) * oct.a, (1 - vv) * ww * oct.a, vv * ww * oct.a};
+    const double yq[4] = {yf, yf - 1, yf, yf - 1}, zq[4] = {zf, zf, zf - 1, zf - 1};
+    for (int k = 0; k < 4; ++k) {
+        fr.W[k] = W[k];
+        fr.yq[k] = yq[k];
+        fr.zq[k] = zq[k];
+    }
+    return fr;
+}
+
+// Fills oct.corners for every lattice row the map's rows fall in (at most 256).
+void buildCornerTables(Octave<float>& oct, const std::uint8_t* p, int height, double z) {
+    constexpr std::size_t kMaxTableBytes = std::size_t{48} << 20;
+    oct.ySlot.fill(-1);
+    const std::size_t nsp = oct.spans.size();
+    std::vector<FoldedFrame> rows;
+    int slots = 0;
+    for (int y = 0; y < height; ++y) {
+        const FoldedFrame fr = foldedFrame(oct, static_cast<double>(y) / height, z);
+        if (oct.ySlot[static_cast<std::size_t>(fr.Y0)] < 0) {
+            oct.ySlot[static_cast<std::size_t>(fr.Y0)] = slots++;
+            rows.push_back(fr);
         }
-        const double yf = y - fy, zf = z - fz, vv = fade(yf), ww = fade(zf);
-        // Weights of the four x-lerps l00, l10, l01, l11 and their y, z offsets.
-        const double W[4] = {(1 - vv) * (1 - ww) * oct.a, vv * (1 - ww) * oct.a, (1 - vv) * ww * oct.a,
-                             vv * ww * oct.a};
-        const double yq[4] = {yf, yf - 1, yf, yf - 1}, zq[4] = {zf, zf, zf - 1, zf - 1};
-        const int Ys[4] = {Y0, Y1, Y0, Y1}, Zs[4] = {Z0, Z0, Z1, Z1};
-        const auto* gx = kGrad.gx;
-        const auto* gy = kGrad.gy;
-        const auto* gz = kGrad.gz;
-        for (const Span& sp : oct.spans) {
-            double P = 0, Q = 0, R = 0, S = 0;
+    }
+    if (static_cast<std::size_t>(slots) * nsp * kCornerFields * sizeof(float) > kMaxTableBytes) {
+        oct.ySlot.fill(-1);
+        return;  // too many cells for a table: hash per span instead
+    }
+    oct.corners.assign(static_cast<std::size_t>(slots) * kCornerFields * nsp, 0.0f);
+    for (int sl = 0; sl < slots; ++sl) {
+        const FoldedFrame& fr = rows[static_cast<std::size_t>(sl)];
+        const int Ys[4] = {fr.Y0, fr.Y1, fr.Y0, fr.Y1}, Zs[4] = {fr.Z0, fr.Z0, fr.Z1, fr.Z1};
+        float* t = oct.corners.data() + static_cast<std::size_t>(sl) * kCornerFields * nsp;
+        for (std::size_t j = 0; j < nsp; ++j) {
+            const Span& sp = oct.spans[j];
             for (int k = 0; k < 4; ++k) {
                 const int ha = p[p[p[sp.X0] + Ys[k]] + Zs[k]] & 15;
                 const int hb = p[p[p[sp.X1] + Ys[k]] + Zs[k]] & 15;
-                const double Ca = gy[ha] * yq[k] + gz[ha] * zq[k];
-                const double Cb = -gx[hb] + gy[hb] * yq[k] + gz[hb] * zq[k];
-                P += W[k] * gx[ha];
-                Q += W[k] * Ca;
-                R += W[k] * (gx[hb] - gx[ha]);
-                S += W[k] * (Cb - Ca);
+                const float f[7] = {static_cast<float>(kGrad.gx[ha]), static_cast<float>(kGrad.gx[hb] - kGrad.gx[ha]),
+                                    static_cast<float>(kGrad.gy[ha]), static_cast<float>(kGrad.gz[ha]),
+                                    static_cast<float>(kGrad.gx[hb]), static_cast<float>(kGrad.gy[hb] - kGrad.gy[ha]),
+                                    static_cast<float>(kGrad.gz[hb] - kGrad.gz[ha])};
+                for (int q = 0; q < 7; ++q) t[static_cast<std::size_t>(7 * k + q) * nsp + j] = f[q];
             }
+        }
+    }
+}
+
+__attribute__((always_inline)) inline void rowBodyFolded(const RowJob<float>& job, float* row, int width, double v,
+                                                         std::vector<float>& scratch) {
+    std::fill(row, row + width, 0.0f);
+    const std::uint8_t* p = job.p;
+    for (const Octave<float>& oct : *job.octaves) {
+        const FoldedFrame fr = foldedFrame(oct, v, job.z);
+        const std::size_t nsp = oct.spans.size();
+        const int slot = oct.ySlot[static_cast<std::size_t>(fr.Y0)];
+        scratch.resize(4 * nsp);
+        float* __restrict P = scratch.data();
+        float* __restrict Q = P + nsp;
+        float* __restrict R = Q + nsp;
+        float* __restrict S = R + nsp;
+        if (slot >= 0) {
+            // P = sum W gx(a), R = sum W (gx(b) - gx(a)),
+            // Q = sum W (gy(a) yq + gz(a) zq), S = sum W (-gx(b) + dgy yq + dgz zq),
+            // for all spans at once (vectorised across spans).
+            const float* t = oct.corners.data() + static_cast<std::size_t>(slot) * kCornerFields * nsp;
+            std::fill(P, P + 4 * nsp, 0.0f);
+            for (int k = 0; k < 4; ++k) {
+                const float W = static_cast<float>(fr.W[k]);
+                const float Wy = static_cast<float>(fr.W[k] * fr.yq[k]), Wz = static_cast<float>(fr.W[k] * fr.zq[k]);
+                const float* gxa = t + static_cast<std::size_t>(7 * k) * nsp;
+                const float* dgx = gxa + nsp;
+                const float* gya = dgx + nsp;
+                const float* gza = gya + nsp;
+                const float* gxb = gza + nsp;
+                const float* dgy = gxb + nsp;
+                const float* dgz = dgy + nsp;
+                for (std::size_t j = 0; j < nsp; ++j) {
+                    P[j] += W * gxa[j];
+                    R[j] += W * dgx[j];
+                    Q[j] += Wy * gya[j] + Wz * gza[j];
+                    S[j] += Wy * dgy[j] + Wz * dgz[j] - W * gxb[j];
+                }
+            }
+        } else {
+            const int Ys[4] = {fr.Y0, fr.Y1, fr.Y0, fr.Y1}, Zs[4] = {fr.Z0, fr.Z0, fr.Z1, fr.Z1};
+            for (std::size_t j = 0; j < nsp; ++j) {
+                const Span& sp = oct.spans[j];
+                double p0 = 0, q0 = 0, r0 = 0, s0 = 0;
+                for (int k = 0; k < 4; ++k) {
+                    const int ha = p[p[p[sp.X0] + Ys[k]] + Zs[k]] & 15;
+                    const int hb = p[p[p[sp.X1] + Ys[k]] + Zs[k]] & 15;
+                    const double Ca = kGrad.gy[ha] * fr.yq[k] + kGrad.gz[ha] * fr.zq[k];
+                    const double Cb = -kGrad.gx[hb] + kGrad.gy[hb] * fr.yq[k] + kGrad.gz[hb] * fr.zq[k];
+                    p0 += fr.W[k] * kGrad.gx[ha];
+                    q0 += fr.W[k] * Ca;
+                    r0 += fr.W[k] * (kGrad.gx[hb] - kGrad.gx[ha]);
+                    s0 += fr.W[k] * (Cb - Ca);
+                }
+                P[j] = static_cast<float>(p0);
+                Q[j] = static_cast<float>(q0);
+                R[j] = static_cast<float>(r0);
+                S[j] = static_cast<float>(s0);
+            }
+        }
+        for (std::size_t j = 0; j < nsp; ++j) {
+            const Span& sp = oct.spans[j];
             const int n = sp.end - sp.begin;
             if (job.turbulence)
-                foldedKernel<true>(row + sp.begin, oct.xf.data() + sp.begin, oct.u.data() + sp.begin, n,
-                                   static_cast<float>(P), static_cast<float>(Q), static_cast<float>(R),
-                                   static_cast<float>(S));
+                foldedKernel<true>(row + sp.begin, oct.xf.data() + sp.begin, oct.u.data() + sp.begin, n, P[j], Q[j],
+                                   R[j], S[j]);
             else
-                foldedKernel<false>(row + sp.begin, oct.xf.data() + sp.begin, oct.u.data() + sp.begin, n,
-                                    static_cast<float>(P), static_cast<float>(Q), static_cast<float>(R),
-                                    static_cast<float>(S));
+                foldedKernel<false>(row + sp.begin, oct.xf.data() + sp.begin, oct.u.data() + sp.begin, n, P[j], Q[j],
+                                    R[j], S[j]);
         }
     }
 }
@@ -260,8 +358,9 @@ MUCOSA_CLONES void rowsDouble(const RowJob<double>& job, double* out, int width,
 }
 
 MUCOSA_CLONES void rowsFloat(const RowJob<float>& job, float* out, int width, int height, int y0, int y1) {
+    std::vector<float> scratch;
     for (int y = y0; y < y1; ++y)
-        rowBodyFolded(job, out + static_cast<std::size_t>(y) * width, width, static_cast<double>(y) / height);
+        rowBodyFolded(job, out + static_cast<std::size_t>(y) * width, width, static_cast<double>(y) / height, scratch);
 }
 
 void rows(const RowJob<double>& job, double* out, int w, int h, int y0, int y1) { rowsDouble(job, out, w, h, y0, y1); }
@@ -317,7 +416,9 @@ void fillImpl(const FractalParams& prm, std::span<T> out, int width, int height,
     if (out.size() < static_cast<std::size_t>(width) * static_cast<std::size_t>(height))
         throw InputError("output buffer", "", "smaller than width x height");
     const Permutation perm = Permutation::fromSeed(prm.seed);
-    const std::vector<Octave<T>> octs = buildOctaves<T>(prm, width);
+    std::vector<Octave<T>> octs = buildOctaves<T>(prm, width);
+    if constexpr (std::is_same_v<T, float>)
+        for (Octave<float>& o : octs) buildCornerTables(o, perm.table().data(), height, prm.z);
     const RowJob<T> job{&octs, perm.table().data(), prm.z, prm.turbulence};
     T* data = out.data();
 
