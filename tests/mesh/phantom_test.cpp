@@ -81,6 +81,21 @@ TEST(Phantom, CentrelineUvsStayNearSquare) {
     EXPECT_LT(s.anisotropyP95, 4.0);
     EXPECT_EQ(s.zeroUvAreaTriangles, 0u);
     EXPECT_LT(double(s.flippedTriangles), 0.03 * double(defaultPhantom().mesh.triangleCount()));
+    // Triangles spanning more than a quarter turn of u: only at the poles of
+    // the closed caps (112 of 595 480 at the defaults), never at the seam.
+    const Mesh& m = defaultPhantom().mesh;
+    std::size_t wide = 0, mirrored = 0;
+    for (std::size_t t = 0; t < m.triangleCount(); ++t) {
+        float lo = 1e9f, hi = -1e9f;
+        for (int k = 0; k < 3; ++k)
+            lo = std::min(lo, m.uvs[m.indices[3 * t + k]][0]), hi = std::max(hi, m.uvs[m.indices[3 * t + k]][0]);
+        wide += hi - lo > 0.25f ? 1 : 0;
+    }
+    for (const Vec4& T : m.tangents) mirrored += T[3] < 0 ? 1 : 0;
+    std::printf("phantom: %zu triangles span > 1/4 turn of u; %zu of %zu tangent frames mirrored\n", wide, mirrored,
+                m.vertexCount());
+    EXPECT_LT(double(wide), 5e-4 * double(m.triangleCount()));
+    EXPECT_LT(double(mirrored), 0.03 * double(m.vertexCount())) << "UVs follow the winding: frames are right-handed";
 }
 
 TEST(Phantom, CentrelineJsonRoundTrips) {
