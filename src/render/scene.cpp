@@ -282,7 +282,8 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         if (v == "nearest") s.filter = shading::Filter::Nearest;
         else if (v == "linear") s.filter = shading::Filter::Linear;
         else if (v == "trilinear") s.filter = shading::Filter::Trilinear;
-        else P.fail("filter", "must be nearest, linear or trilinear, not '" + v + "'");
+        else if (v == "mipmap") s.filter = shading::Filter::Mipmap;
+        else P.fail("filter", "must be nearest, linear, mipmap or trilinear, not '" + v + "'");
     }
     if (j.contains("mode")) s.mode = shading::parseMode(P.string(j["mode"], "mode"), "mode", P.file);
     if (j.contains("material")) P.registryGroup(j["material"], "material", s.params);
@@ -444,7 +445,9 @@ shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int
 
 shading::Textures referenceTextures(const Scene& scene, const SceneAssets& assets) {
     shading::Textures t;
-    const shading::Filter f = scene.filter == shading::Filter::Trilinear ? shading::Filter::Linear : scene.filter;
+    const shading::Filter f =
+        scene.filter == shading::Filter::Trilinear || scene.filter == shading::Filter::Mipmap ? shading::Filter::Linear
+                                                                                               : scene.filter;
     if (!assets.diffuse.empty()) t.diffuse = {&assets.diffuse, f, shading::Wrap::Repeat};
     t.reflectance = {&assets.reflectanceMap, f, shading::Wrap::Repeat};
     t.highlight = {&assets.highlight, shading::Filter::Linear, shading::Wrap::Clamp};  // as Renderer uploads it

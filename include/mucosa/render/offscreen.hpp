@@ -59,6 +59,10 @@ struct CompareOptions {
 };
 image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const CompareOptions& options = {});
 
+// The comparison sheet of the built-in default scene (the phantom, 'bronchial'
+// preset), written atomically to `png`: what `mucosa demo` adds to ./out/.
+void writeDefaultCompareSheet(const std::filesystem::path& png, int threads = 0);
+
 // Highlight shape statistics (issue 4, "highlights are irregular"): pixels
 // whose smallest channel is >= threshold (white highlights on pink tissue),
 // 8-connected components of >= minArea pixels, each with perimeter (pixel

@@ -41,7 +41,7 @@ struct Scene {
     bool generatedDiffuse = false;                        // "diffuse": "generated" (render::tissueTexture)
     std::optional<std::filesystem::path> reflectanceMap;  // a map PNG; else generated from mapParams
     reflectance::MapParams mapParams;
-    shading::Filter filter = shading::Filter::Trilinear;
+    shading::Filter filter = shading::Filter::Mipmap;
     shading::Mode mode = shading::Mode::Noise;
     shading::ParamSet params;
     float normalSign = 1.0f;  // "lit_side": "front" (+1) or "back" (-1)

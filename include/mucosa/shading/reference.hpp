@@ -34,6 +34,7 @@ enum class Filter {
     Nearest,    // GL_NEAREST
     Linear,     // GL_LINEAR, no mipmaps
     Trilinear,  // GL_LINEAR_MIPMAP_LINEAR (GL only; the reference samples it as Linear)
+    Mipmap,     // GL_LINEAR_MIPMAP_NEAREST (GL only; the reference samples it as Linear)
 };
 enum class Wrap { Repeat, Clamp };
 
