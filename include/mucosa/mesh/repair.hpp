@@ -6,10 +6,12 @@
 
 namespace mucosa::mesh {
 
-// Merges vertices with the same position (within `tolerance` mm) and the same
-// UV (when present): UV seams stay split. Normals of merged vertices are
-// averaged and renormalised; tangents are dropped (recompute them). Returns
-// the number of vertices removed.
+// Merges vertices with the same position and the same UV (when present): UV
+// seams stay split. tolerance = 0 merges bit-identical positions; > 0 merges
+// positions that round to the same cell of a grid of `tolerance` mm (two
+// points closer than that can still straddle a cell border). Normals of
+// merged vertices are averaged and renormalised; tangents are dropped
+// (recompute them). Returns the number of vertices removed.
 std::size_t weld(Mesh& mesh, float tolerance = 0.0f);
 
 // Drops triangles with a repeated index or (near) zero area; returns how many.
