@@ -173,6 +173,7 @@ struct StudyServer::Impl {
 
         detail::AnswerRow a;
         a.observer = o.id;
+        a.group = o.group;
         a.trial = static_cast<int>(trial);
         a.kind = trialKindName(t.kind);
         a.shownAtMs = timeField(b, "shown_at_ms");

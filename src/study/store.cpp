@@ -21,6 +21,7 @@ CREATE TABLE IF NOT EXISTS observers(
   created_at TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS answers(
   observer TEXT NOT NULL REFERENCES observers(observer),
+  grp TEXT NOT NULL CHECK (grp IN ('naive', 'expert')),
   trial INTEGER NOT NULL,
   kind TEXT NOT NULL CHECK (kind IN ('calibration', 'likert', 'twoafc')),
   answer TEXT NOT NULL,
@@ -212,14 +213,14 @@ AnswerStore::Insert AnswerStore::insert(const AnswerRow& a) {
         }
         Stmt ins(db_,
                  "INSERT INTO answers(observer, trial, kind, answer, image_id, category, score, left_id, "
-                 "left_category, right_id, right_category, chosen_category, shown_at_ms, answered_at_ms, received_at) "
-                 "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15)");
+                 "left_category, right_id, right_category, chosen_category, shown_at_ms, answered_at_ms, received_at, grp) "
+                 "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16)");
         if (!ins.ok()) fail("preparing an answer");
         ins.bind(1, a.observer).bind(2, a.trial).bind(3, a.kind).bind(4, a.answer);
         ins.bindNonEmpty(5, a.imageId).bindNonZero(6, a.category).bindOpt(7, a.score);
         ins.bindNonEmpty(8, a.leftId).bindNonZero(9, a.leftCategory).bindNonEmpty(10, a.rightId);
         ins.bindNonZero(11, a.rightCategory).bindOpt(12, a.chosenCategory);
-        ins.bindOpt(13, a.shownAtMs).bindOpt(14, a.answeredAtMs).bind(15, nowIso());
+        ins.bindOpt(13, a.shownAtMs).bindOpt(14, a.answeredAtMs).bind(15, nowIso()).bind(16, a.group);
         if (ins.step() != SQLITE_DONE) fail("storing an answer");
         exec("COMMIT");
         return Insert::Stored;

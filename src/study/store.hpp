@@ -19,7 +19,7 @@ struct ObserverRow {
 
 // One recorded answer. Image ids and categories come from the plan, never from the client.
 struct AnswerRow {
-    std::string observer;
+    std::string observer, group;  // the group is repeated in every row: each row stands alone
     int trial = 0;
     std::string kind, answer;
     std::string imageId, leftId, rightId;

@@ -124,6 +124,8 @@ con = sqlite3.connect(db)
 check(con.execute("PRAGMA journal_mode").fetchone()[0] == "wal", "database is in WAL mode")
 t = con.execute("SELECT shown_at_ms, answered_at_ms, received_at FROM answers WHERE observer='N01' AND trial=1").fetchone()
 check(t[0] == 1700000000000 and t[1] == 1700000001234 and t[2].endswith("Z"), "timestamps stored")
+check(con.execute("SELECT DISTINCT grp FROM answers WHERE observer='N01'").fetchall() == [("naive",)],
+      "every answer row carries the observer's group")
 con.close()
 
 # A database made for another plan is refused with one error line.
