@@ -40,6 +40,14 @@ std::string manifest(const TempDir& dir, int poses) {
     return (dir / "images.json").string();
 }
 
+TEST(studyCli, EverySubcommandHasHelp) {
+    for (const char* sub : {"", " plan", " serve", " analyze"}) {
+        const auto r = runCli(std::string("study") + sub + " --help");
+        EXPECT_EQ(r.exitCode, 0) << sub;
+        EXPECT_NE(r.out.find("Usage"), std::string::npos) << sub;
+    }
+}
+
 TEST(studyCli, PlanWritesAReproduciblePlan) {
     TempDir dir;
     const std::string m = manifest(dir, 3);
@@ -136,8 +144,7 @@ TEST(studyCli, ObserverWithoutACategoryIsExcludedAndSaidSo) {
     std::string csv = "observer,group,category,image_id,score\n";
     const int scores[4][5] = {{1, 2, 3, 4, 5}, {2, 2, 3, 5, 4}, {1, 3, 3, 4, 5}, {2, 1, 4, 4, 5}};
     for (int o = 0; o < 4; ++o)
-        for (int c = 1; c <= 5; ++c)
-            csv += fmt::format("O{},naive,{},i,{}\n", o, c, scores[o][c - 1]);
+        for (int c = 1; c <= 5; ++c) csv += fmt::format("O{},naive,{},i,{}\n", o, c, scores[o][c - 1]);
     csv += "LATE,naive,1,i,2\nLATE,naive,5,i,4\n";  // never rated 2, 3, 4
     write(dir / "r.csv", csv);
     const auto r = runCli("study analyze '" + (dir / "r.csv").string() + "' -o '" + (dir / "out").string() + "'");
