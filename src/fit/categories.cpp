@@ -1,0 +1,208 @@
+#include <mucosa/fit/categories.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/camera/camera.hpp>
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/mesh/tangents.hpp>
+#include <mucosa/reflectance/map.hpp>
+#include <mucosa/reflectance/normal_map.hpp>
+#include <mucosa/render/context.hpp>
+#include <mucosa/render/renderer.hpp>
+#include <mucosa/shading/params.hpp>
+#include <mucosa/shading/reference.hpp>
+
+namespace mucosa::fit {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+FittedModel readFitDirectory(const fs::path& dir) {
+    FittedModel m;
+    const fs::path brdfPath = dir / "brdf.json";
+    m.brdf = readBrdf(brdfPath);
+    const json j = json::parse(readTextFile(brdfPath));
+    for (int i = 0; i < 2; ++i) {
+        if (j.contains("uv_min")) m.uvMin[static_cast<std::size_t>(i)] = j["uv_min"][i].get<float>();
+        if (j.contains("uv_max")) m.uvMax[static_cast<std::size_t>(i)] = j["uv_max"][i].get<float>();
+    }
+    const image::PngImage png = image::readPng(dir / "texture.png");
+    if (png.pixels.channels() < 3) throw InputError("texture", (dir / "texture.png").string(), "must be RGB");
+    const double maxv = png.bitDepth == 16 ? 65535.0 : 255.0;
+    m.texture = image::ImageF(png.pixels.width(), png.pixels.height(), 3);
+    for (int y = 0; y < png.pixels.height(); ++y)
+        for (int x = 0; x < png.pixels.width(); ++x)
+            for (int c = 0; c < 3; ++c) m.texture.at(x, y, c) = static_cast<float>(png.pixels.at(x, y, c) / maxv);
+    return m;
+}
+
+std::array<float, 16> glViewMatrix(const Mat4& c2w) {
+    // OpenGL eye space = OpenCV camera space with y and z negated.
+    const Mat4 w2c = invertRigid(c2w);
+    std::array<float, 16> m{};
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) {
+            const double s = (r == 1 || r == 2) ? -1.0 : 1.0;
+            m[static_cast<std::size_t>(c * 4 + r)] = static_cast<float>(s * w2c[r][c]);
+        }
+    return m;
+}
+
+std::array<float, 16> glProjectionMatrix(const Intrinsics& K, double n, double f) {
+    // x_ndc = 2 (u + 0.5) / w - 1 with u = fx X/Z + cx; y_ndc = 1 - 2 (v + 0.5) / h
+    // (first row on top); X = xe, Y = -ye, Z = -ze (derivation in docs/theory.md).
+    const double w = K.width, h = K.height;
+    std::array<float, 16> m{};
+    auto set = [&](int r, int c, double v) { m[static_cast<std::size_t>(c * 4 + r)] = static_cast<float>(v); };
+    set(0, 0, 2 * K.fx / w);
+    set(0, 2, 1 - 2 * (K.cx + 0.5) / w);
+    set(1, 1, 2 * K.fy / h);
+    set(1, 2, 2 * (K.cy + 0.5) / h - 1);
+    set(2, 2, -(f + n) / (f - n));
+    set(2, 3, -2 * f * n / (f - n));
+    set(3, 2, -1);
+    return m;
+}
+
+namespace {
+
+image::Image8 toImage8(const image::ImageF& linear, double gamma) {
+    image::Image8 out(linear.width(), linear.height(), linear.channels());
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        double v = std::clamp(static_cast<double>(linear.data()[i]), 0.0, 1.0);
+        if (gamma != 1.0) v = std::pow(v, 1.0 / gamma);
+        out.data()[i] = static_cast<std::uint8_t>(std::lround(v * 255.0));
+    }
+    return out;
+}
+
+image::Image8 reduce(const image::Image8& img, int divisor) {
+    const int w = std::max(1, img.width() / divisor), h = std::max(1, img.height() / divisor);
+    image::Image8 out(w, h, img.channels());
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            for (int c = 0; c < img.channels(); ++c) {
+                int sum = 0, n = 0;
+                for (int yy = y * divisor; yy < std::min(img.height(), (y + 1) * divisor); ++yy)
+                    for (int xx = x * divisor; xx < std::min(img.width(), (x + 1) * divisor); ++xx) {
+                        sum += img.at(xx, yy, c);
+                        ++n;
+                    }
+                out.at(x, y, c) = static_cast<std::uint8_t>((sum + n / 2) / std::max(1, n));
+            }
+    return out;
+}
+
+}  // namespace
+
+std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& frames, const FittedModel& model,
+                                            const fs::path& outDir, const CategoriesOptions& o) {
+    if (!mesh.hasUvs())
+        throw InputError("mesh", "", "has no texture coordinates (use the mesh the fit used)");
+    // The atlas spans uvMin..uvMax: render with coordinates in atlas space.
+    const float du = model.uvMax[0] - model.uvMin[0], dv = model.uvMax[1] - model.uvMin[1];
+    for (auto& uv : mesh.uvs) {
+        uv[0] = (uv[0] - model.uvMin[0]) / du;
+        uv[1] = (uv[1] - model.uvMin[1]) / dv;
+    }
+    mesh::computeTangents(mesh, o.threads);
+    std::error_code ec;
+    fs::create_directories(outDir, ec);
+    if (ec) throw IoError("output directory", outDir.string(), ec.message());
+
+    // Check every frame before rendering anything.
+    for (const Frame& f : frames.frames) {
+        const image::PngImage real = image::readPng(f.image);
+        if (real.pixels.width() != f.K.width || real.pixels.height() != f.K.height)
+            throw InputError("image size", f.image.string(),
+                             fmt::format("is {}x{} but the frame's intrinsics say {}x{}", real.pixels.width(),
+                                         real.pixels.height(), f.K.width, f.K.height));
+    }
+
+    render::HeadlessContext context;
+    render::Renderer renderer;
+    renderer.setMesh(mesh);
+    const image::Image8 atlas = toImage8(model.texture, 1.0);
+    const image::Image8 lowRes = reduce(atlas, std::max(1, o.lowResDivisor));
+    reflectance::MapParams mp = reflectance::findPreset(o.preset).params;
+    mp.size = 1024;
+    const image::Image8 map = reflectance::encodeNormals8(reflectance::heightField(mp, o.threads), mp.strength,
+                                                          reflectance::Edges::Wrap, o.threads);
+    renderer.setTexture(render::TextureSlot::Reflectance, map, shading::Filter::Trilinear, shading::Wrap::Repeat);
+
+    // The fitted model: I = albedo rho(gamma) delta(r), nothing else (no
+    // ambient, no mucus tint, no extra fall-off: delta is the fall-off).
+    shading::ParamSet fitted;
+    using P = shading::Param;
+    fitted.set(P::C0, static_cast<float>(model.brdf.c[0]));
+    fitted.set(P::C1, static_cast<float>(model.brdf.c[1]));
+    fitted.set(P::C2, static_cast<float>(model.brdf.c[2]));
+    fitted.set(P::C3, static_cast<float>(model.brdf.c[3]));
+    fitted.set(P::D1, static_cast<float>(model.brdf.d[0]));
+    fitted.set(P::D2, static_cast<float>(model.brdf.d[1]));
+    fitted.set(P::D3, static_cast<float>(model.brdf.d[2]));
+    fitted.set(P::DepthMin, static_cast<float>(model.brdf.zmin));
+    fitted.set(P::DepthMax, static_cast<float>(model.brdf.zmax));
+    fitted.set(P::Ambient, 0.0f);
+    fitted.set(P::MucusOpacity, 0.0f);
+    fitted.setColor(P::BaseColor, {1.0f, 1.0f, 1.0f});
+    fitted.set(P::LightIntensity, 1.0f);
+    fitted.set(P::LightRange, shading::info(P::LightRange).max);
+    fitted.set(P::MapTiling, static_cast<float>(o.mapTiling));
+    const shading::ParamSet unreal;  // the registry's defaults, flat colour, plain Phong
+
+    // Each image is written atomically as soon as it is rendered; the manifest
+    // comes last, so an interrupted run leaves complete images and no manifest.
+    std::vector<CategoryImage> out;
+    const int total = static_cast<int>(frames.frames.size());
+    for (int i = 0; i < total; ++i) {
+        const Frame& f = frames.frames[static_cast<std::size_t>(i)];
+        render::Framebuffer fb(f.K.width, f.K.height);
+        shading::FrameSetup setup;
+        setup.view = glViewMatrix(f.cameraToWorld);
+        setup.projection = glProjectionMatrix(f.K, 0.5, 500.0);
+        const Vec3d eye = cameraCentre(f.cameraToWorld);
+        const Vec3d light = transformPoint(f.cameraToWorld, frames.lightOffset);
+        setup.eye = {static_cast<float>(eye[0]), static_cast<float>(eye[1]), static_cast<float>(eye[2])};
+        setup.light = {static_cast<float>(light[0]), static_cast<float>(light[1]), static_cast<float>(light[2])};
+        setup.width = f.K.width;
+        setup.height = f.K.height;
+        auto shoot = [&](int category, shading::Mode mode, const shading::ParamSet& params) {
+            setup.mode = mode;
+            setup.params = params;
+            fb.bind();
+            renderer.draw(setup);
+            const image::Image8 img = fb.readRgb();
+            CategoryImage ci{fmt::format("p{:03}_c{}", i, category), fmt::format("pose{:03}_cat{}.png", i, category),
+                             category, i};
+            image::writePng(outDir / ci.file, img);
+            out.push_back(ci);
+        };
+        renderer.clearTexture(render::TextureSlot::Diffuse);
+        shoot(1, shading::Mode::VertexPhong, unreal);
+        renderer.setTexture(render::TextureSlot::Diffuse, lowRes, shading::Filter::Linear, shading::Wrap::Clamp);
+        shoot(2, shading::Mode::Diffuse, fitted);
+        renderer.setTexture(render::TextureSlot::Diffuse, atlas, shading::Filter::Trilinear, shading::Wrap::Clamp);
+        shoot(3, shading::Mode::Diffuse, fitted);
+        shoot(4, shading::Mode::Noise, fitted);
+        CategoryImage real{fmt::format("p{:03}_c5", i), fmt::format("pose{:03}_cat5{}", i, f.image.extension().string()),
+                           5, i};
+        writeFileAtomic(outDir / real.file, readFile(f.image));
+        out.push_back(real);
+        if (o.progress) o.progress(i + 1, total);
+    }
+    json manifest{{"images", json::array()}};
+    for (const CategoryImage& c : out)
+        manifest["images"].push_back({{"id", c.id}, {"file", c.file.string()}, {"category", c.category},
+                                      {"patient", o.patient}, {"pose", fmt::format("{:03}", c.pose)}});
+    writeFileAtomic(outDir / "images.json", manifest.dump(2) + "\n");
+    return out;
+}
+
+}  // namespace mucosa::fit
