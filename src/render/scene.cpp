@@ -10,21 +10,14 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/image/png.hpp>
+#include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/io.hpp>
+#include <mucosa/mesh/phantom.hpp>
 #include <mucosa/mesh/tangents.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/render/primitives.hpp>
 #include <mucosa/render/renderer.hpp>
 
-// The phantom and centreline arrive with the mesh module's issue; until they
-// do, the default scene is the analytic tube.
-#if __has_include(<mucosa/mesh/phantom.hpp>) && __has_include(<mucosa/mesh/centerline.hpp>)
-#include <mucosa/mesh/centerline.hpp>
-#include <mucosa/mesh/phantom.hpp>
-#define MUCOSA_HAVE_PHANTOM 1
-#else
-#define MUCOSA_HAVE_PHANTOM 0
-#endif
 
 namespace mucosa::render {
 
@@ -174,7 +167,6 @@ struct Parser {
     }
 };
 
-#if MUCOSA_HAVE_PHANTOM
 std::vector<mesh::Vec3> longestPath(const mesh::Centerline& c, int branch, const std::string& file) {
     if (c.branches.empty()) throw InputError("camera.path.centreline", file, "the centreline has no branches");
     if (branch >= static_cast<int>(c.branches.size()))
@@ -190,7 +182,6 @@ std::vector<mesh::Vec3> longestPath(const mesh::Centerline& c, int branch, const
     }
     return best;
 }
-#endif
 
 }  // namespace
 
@@ -198,9 +189,6 @@ Scene defaultScene() {
     Scene s;
     s.mapParams = reflectance::findPreset("bronchial").params;
     s.mapParams.bits = 8;
-#if !MUCOSA_HAVE_PHANTOM
-    s.mesh.kind = "tube";
-#endif
     s.path.kind = "centreline";
     s.path.fly.frames = 120;
     s.generatedDiffuse = true;
@@ -354,7 +342,6 @@ SceneAssets loadAssets(const Scene& scene, int threads) {
     SceneAssets a;
     const std::string file = scene.file.string();
     if (scene.mesh.kind == "phantom") {
-#if MUCOSA_HAVE_PHANTOM
         mesh::PhantomParams pp;
         pp.generations = scene.mesh.phantomGenerations;
         pp.seed = scene.mesh.phantomSeed;
@@ -363,9 +350,6 @@ SceneAssets loadAssets(const Scene& scene, int threads) {
         a.mesh = std::move(ph.mesh);
         a.centreline = longestPath(ph.centerline, scene.path.branch, file);
         a.notes.push_back(fmt::format("phantom: {} generations, {} triangles", pp.generations, a.mesh.triangleCount()));
-#else
-        throw InputError("mesh", file, "this build has no airway phantom (mesh module); use \"tube\" or a file");
-#endif
     } else if (scene.mesh.kind == "tube") {
         a.mesh = makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
         a.centreline = tubeCenterline(kTubeLength, 64);
@@ -386,12 +370,8 @@ SceneAssets loadAssets(const Scene& scene, int threads) {
         a.notes.push_back(fmt::format("mesh: {} ({} triangles)", scene.mesh.file.string(), a.mesh.triangleCount()));
     }
     if (scene.path.kind == "centreline" && !scene.path.centrelineFile.empty()) {
-#if MUCOSA_HAVE_PHANTOM
         a.centreline = longestPath(mesh::readCenterlineJson(scene.path.centrelineFile), scene.path.branch,
                                    scene.path.centrelineFile.string());
-#else
-        throw InputError("camera.path.centreline", file, "this build cannot read centreline files");
-#endif
     }
     if (scene.diffuse)
         a.diffuse = image::to8(image::readPng(*scene.diffuse));
