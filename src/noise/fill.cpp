@@ -62,6 +62,29 @@ inline int wrapIndex(int i, int period) noexcept {
     return m < 0 ? m + period : m;
 }
 
+// The row's lattice rows and slices and fractions, exactly as perlin() and
+// perlinPeriodic() compute them (period 256 = plain noise).
+inline RowFrame rowLattice(double y, double z, int period) noexcept {
+    const double fy = std::floor(y), fz = std::floor(z);
+    RowFrame r{};
+    if (period == 256) {
+        r.Y0 = floorToInt(y) & 255;
+        r.Y1 = r.Y0 + 1;
+        r.Z0 = floorToInt(z) & 255;
+        r.Z1 = r.Z0 + 1;
+    } else {
+        r.Y0 = wrapIndex(floorToInt(std::fmod(fy, period)), period);
+        r.Y1 = (r.Y0 + 1) % period;
+        r.Z0 = wrapIndex(floorToInt(std::fmod(fz, 256.0)), 256);
+        r.Z1 = (r.Z0 + 1) % 256;
+    }
+    r.yf = y - fy;
+    r.zf = z - fz;
+    r.v = fade(r.yf);
+    r.w = fade(r.zf);
+    return r;
+}
+
 // One lattice corner's gradient as s * xq + C (see the file comment).
 struct Corner {
     double s, C;
@@ -128,25 +151,7 @@ __attribute__((always_inline)) inline void rowBody(const RowJob<T>& job, T* row,
     std::fill(row, row + width, T(0));
     const std::uint8_t* p = job.p;
     for (const Octave<T>& oct : *job.octaves) {
-        // Row frame, exactly as perlin()/perlinPeriodic() compute it.
-        const double y = oct.f * v, z = job.z;
-        const double fy = std::floor(y), fz = std::floor(z);
-        RowFrame r{};
-        if (oct.period == 256) {
-            r.Y0 = floorToInt(y) & 255;
-            r.Y1 = r.Y0 + 1;
-            r.Z0 = floorToInt(z) & 255;
-            r.Z1 = r.Z0 + 1;
-        } else {
-            r.Y0 = wrapIndex(floorToInt(std::fmod(fy, oct.period)), oct.period);
-            r.Y1 = (r.Y0 + 1) % oct.period;
-            r.Z0 = wrapIndex(floorToInt(std::fmod(fz, 256.0)), 256);
-            r.Z1 = (r.Z0 + 1) % 256;
-        }
-        r.yf = y - fy;
-        r.zf = z - fz;
-        r.v = fade(r.yf);
-        r.w = fade(r.zf);
+        const RowFrame r = rowLattice(oct.f * v, job.z, oct.period);
         const double y1 = r.yf - 1, z1 = r.zf - 1;
         SpanCoeffs<T> k{};
         k.v = static_cast<T>(r.v);
@@ -216,23 +221,11 @@ struct FoldedFrame {
 };
 
 inline FoldedFrame foldedFrame(const Octave<float>& oct, double v, double z) {
-    const double y = oct.f * v;
-    const double fy = std::floor(y), fz = std::floor(z);
-    FoldedFrame fr{};
-    if (oct.period == 256) {
-        fr.Y0 = floorToInt(y) & 255;
-        fr.Y1 = fr.Y0 + 1;
-        fr.Z0 = floorToInt(z) & 255;
-        fr.Z1 = fr.Z0 + 1;
-    } else {
-        fr.Y0 = wrapIndex(floorToInt(std::fmod(fy, oct.period)), oct.period);
-        fr.Y1 = (fr.Y0 + 1) % oct.period;
-        fr.Z0 = wrapIndex(floorToInt(std::fmod(fz, 256.0)), 256);
-        fr.Z1 = (fr.Z0 + 1) % 256;
-    }
-    const double yf = y - fy, zf = z - fz, vv = fade(yf), ww = fade(zf);
+    const RowFrame r = rowLattice(oct.f * v, z, oct.period);
+    FoldedFrame fr{r.Y0, r.Y1, r.Z0, r.Z1, {}, {}, {}};
+    const double vv = r.v, ww = r.w;
     const double W[4] = {(1 - vv) * (1 - ww) * oct.a, vv * (1 - ww) * oct.a, (1 - vv) * ww * oct.a, vv * ww * oct.a};
-    const double yq[4] = {yf, yf - 1, yf, yf - 1}, zq[4] = {zf, zf, zf - 1, zf - 1};
+    const double yq[4] = {r.yf, r.yf - 1, r.yf, r.yf - 1}, zq[4] = {r.zf, r.zf, r.zf - 1, r.zf - 1};
     for (int k = 0; k < 4; ++k) {
         fr.W[k] = W[k];
         fr.yq[k] = yq[k];
