@@ -167,8 +167,8 @@ std::vector<Chunk> buildChunks(const mesh::Mesh& mesh, std::vector<std::uint32_t
     for (const auto& p : mesh.positions)
         for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
     const std::size_t tris = mesh.triangleCount();
-    // About 2000 triangles per chunk, cells as cubes.
-    const int cellsWanted = static_cast<int>(std::clamp<std::size_t>(tris / 2000, 1, 4096));
+    // About 1000 triangles per chunk, cells as cubes.
+    const int cellsWanted = static_cast<int>(std::clamp<std::size_t>(tris / 1000, 1, 8192));
     const float ext[3] = {std::max(hi[0] - lo[0], 1e-3f), std::max(hi[1] - lo[1], 1e-3f), std::max(hi[2] - lo[2], 1e-3f)};
     const float cell = std::cbrt(ext[0] * ext[1] * ext[2] / static_cast<float>(cellsWanted));
     int n[3];
@@ -320,7 +320,16 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
-    glDisable(GL_CULL_FACE);
+    // Back faces: only for meshes declared closed (watertight and consistently
+    // wound), where a face turned away from the eye is hidden by a nearer one,
+    // so culling changes no pixel.
+    if (frame.cullBackFaces) {
+        glEnable(GL_CULL_FACE);
+        glFrontFace(GL_CCW);
+        glCullFace(frame.normalSign > 0 ? GL_BACK : GL_FRONT);
+    } else {
+        glDisable(GL_CULL_FACE);
+    }
     glDisable(GL_BLEND);
     glUseProgram(p.id);
     glUniformMatrix4fv(p.loc[kViewProj], 1, GL_FALSE, &f.viewProj[0][0]);

@@ -208,7 +208,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         throw InputError("JSON", P.file, e.what());
     }
     P.object(j, "scene");
-    P.known(j, "", {"mesh", "lit_side", "diffuse", "reflectance_map", "filter", "mode", "material", "brdf", "light",
+    P.known(j, "", {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "brdf", "light",
                     "camera", "resolution", "frames"});
     Scene s = defaultScene();
     s.file = fileForErrors;
@@ -249,6 +249,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         if (v != "front" && v != "back") P.fail("lit_side", "must be \"front\" or \"back\", not '" + v + "'");
         s.normalSign = v == "front" ? 1.0f : -1.0f;
     }
+    if (j.contains("closed")) s.closed = P.boolean(j["closed"], "closed");
     if (j.contains("diffuse")) {
         s.generatedDiffuse = false;
         if (j["diffuse"].is_string() && j["diffuse"].get<std::string>() == "generated")
@@ -416,6 +417,7 @@ shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int
     f.eye = pose.position;
     f.light = camera::lightPosition(pose, scene.light);
     f.normalSign = scene.normalSign;
+    f.cullBackFaces = scene.closed.value_or(scene.mesh.kind == "phantom");
     f.mode = scene.mode;
     f.params = scene.params;
     f.width = width;

@@ -79,6 +79,24 @@ TEST(RenderModes, FramesAreIdenticalRunToRun) {
     }
 }
 
+TEST(RenderModes, CullingBackFacesOfTheClosedPhantomChangesNoPixel) {
+    const Fixture& fx = fixture();
+    ASSERT_TRUE(render::frameSetup(fx.scene, fx.pose, 320, 240).cullBackFaces);
+    render::Scene open = fx.scene;
+    open.closed = false;
+    render::OffscreenSession culled(fx.scene, fx.assets, 320, 240);
+    const image::Image8 a = culled.render(fx.pose, shading::Mode::Noise);
+    render::OffscreenSession all(open, fx.assets, 320, 240);
+    const image::Image8 b = all.render(fx.pose, shading::Mode::Noise);
+    // Equal up to depth ties where a culled face and a kept one meet (a pixel
+    // may round 1/255 differently).
+    const test::DiffStats d = test::diff(a, b, 0);
+    std::printf("culled vs all faces: %zu pixels differ, max %d/255\n", d.pixelsOver, d.maxDiff);
+    EXPECT_LE(d.maxDiff, 2);
+    EXPECT_LE(d.fractionOver, 1e-4);
+    if (d.maxDiff > 2) test::writeComparison("culling", a, b);
+}
+
 TEST(RenderModes, CliFramesAreIdenticalRunToRun) {
     test::TempDir dir;
     const auto a = dir / "a.png", b = dir / "b.png";

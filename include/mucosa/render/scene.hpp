@@ -45,6 +45,10 @@ struct Scene {
     shading::Mode mode = shading::Mode::Noise;
     shading::ParamSet params;
     float normalSign = 1.0f;  // "lit_side": "front" (+1) or "back" (-1)
+    // "closed": the mesh is watertight and wound counter-clockwise seen from
+    // the lit side, so back faces can be culled. Default: true for the
+    // built-in phantom (watertight by construction), false otherwise.
+    std::optional<bool> closed;
     camera::Lens lens;
     camera::TipLight light;
     std::optional<camera::Pose> pose;  // a fixed pose (overrides the path's first pose)

@@ -25,6 +25,10 @@ struct FrameSetup {
     // +1: lit side = the side the normals face; -1: the other side (a mesh
     // whose normals point out of the airway, seen from inside).
     float normalSign = 1.0f;
+    // The mesh is closed and wound counter-clockwise seen from the lit side:
+    // the GL renderer may cull faces turned away (no pixel changes). The
+    // reference never culls.
+    bool cullBackFaces = false;
     Mode mode = Mode::Noise;
     ParamSet params;
     int width = 640, height = 480;
