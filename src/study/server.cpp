@@ -1,5 +1,7 @@
 #include <mucosa/study/server.hpp>
 
+#include <sys/socket.h>
+
 #include <algorithm>
 #include <atomic>
 #include <fstream>
@@ -24,6 +26,7 @@ using nlohmann::json;
 namespace {
 
 constexpr std::size_t kMaxBody = 16 * 1024;           // an answer is ~200 bytes
+constexpr int kListenBacklog = 1024;                  // pending connections (clamped to somaxconn)
 constexpr std::size_t kImageCacheBytes = 256u << 20;  // keep stimuli in memory up to this
 
 bool validObserverId(const std::string& s) {
@@ -60,6 +63,7 @@ struct StudyServer::Impl {
     std::mutex cacheMutex;
     std::map<int, std::shared_ptr<const std::string>> imageCache;
     std::size_t cachedBytes = 0;
+    int listenSocket = -1;
 
     Impl(Plan p, ServeOptions o) : plan(std::move(p)), options(std::move(o)), store(options.db, plan.fingerprint) {}
 
@@ -313,9 +317,10 @@ StudyServer::StudyServer(Plan plan, ServeOptions options) {
     // httplib's default also sets SO_REUSEPORT, which lets a second `serve`
     // (with another database!) share the port and receive half the answers.
     // SO_REUSEADDR alone still allows a quick restart after a kill.
-    impl_->http.set_socket_options([](socket_t sock) {
+    impl_->http.set_socket_options([impl = impl_.get()](socket_t sock) {
         int yes = 1;
         setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+        impl->listenSocket = sock;
     });
     impl_->http.set_payload_max_length(kMaxBody);
     impl_->http.set_keep_alive_timeout(2);  // idle browsers must not hold worker threads
@@ -334,6 +339,10 @@ void StudyServer::run(const std::function<void(int)>& onListening) {
         throw IoError("address", fmt::format("{}:{}", impl_->options.host, port),
                       "cannot listen (port in use, or not a local address?)");
     }
+    // Debian's libcpp-httplib listens with a backlog of 5: a burst of observers
+    // (a class starting together) would see refused connections. listen() on
+    // a listening socket only changes its backlog (Linux).
+    if (impl_->listenSocket >= 0) ::listen(impl_->listenSocket, kListenBacklog);
     if (onListening) onListening(port);
     impl_->http.listen_after_bind();
 }

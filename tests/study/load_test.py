@@ -97,6 +97,11 @@ for t in threads:
     t.join(timeout=max(1, DEADLINE_S - (time.time() - t0)))
 elapsed = time.time() - t0
 alive = sum(t.is_alive() for t in threads)
+peak_kb = 0
+with open(f"/proc/{srv.proc.pid}/status") as f:  # the server's peak resident memory
+    for line in f:
+        if line.startswith("VmHWM:"):
+            peak_kb = int(line.split()[1])
 srv.stop()
 
 failures = list(errors)
@@ -136,7 +141,7 @@ latencies.sort()
 print(f"load: {n_obs} concurrent observers, {stored} answers stored of {expected_total} given, "
       f"{retries[0]} retried requests, {elapsed:.1f} s wall, {stored / elapsed:.0f} answers/s, "
       f"request latency median {1000 * latencies[len(latencies) // 2]:.1f} ms, "
-      f"p99 {1000 * latencies[int(len(latencies) * 0.99)]:.1f} ms")
+      f"p99 {1000 * latencies[int(len(latencies) * 0.99)]:.1f} ms, server peak memory {peak_kb / 1024:.1f} MiB")
 for f in failures[:20]:
     print("FAIL", f)
 sys.exit(1 if failures else 0)
