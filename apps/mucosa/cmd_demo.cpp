@@ -5,6 +5,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/reflectance/map.hpp>
+#include <mucosa/render/offscreen.hpp>
 
 #include "commands.hpp"
 
@@ -31,6 +32,8 @@ void addDemoCommand(CLI::App& app, Global& g) {
         info(g, fmt::format("  reflectance map: {}", fs::absolute(out.map).lexically_normal().string()));
         info(g, fmt::format("  height map:      {}", fs::absolute(*out.height).lexically_normal().string()));
         info(g, fmt::format("  parameters:      {}", fs::absolute(r.sidecar).lexically_normal().string()));
+        render::writeDefaultCompareSheet(dir / "compare.png", g.threads);  // the paper's Fig. 2 and 3 (issue 4)
+        info(g, fmt::format("  comparison:      {}", fs::absolute(dir / "compare.png").lexically_normal().string()));
     });
 }
 

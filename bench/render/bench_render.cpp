@@ -20,6 +20,8 @@ using namespace mucosa;
 
 namespace {
 
+constexpr int kRounds = 5;
+
 std::vector<std::string> split(const std::string& s) {
     std::vector<std::string> out;
     std::size_t pos = 0;
@@ -61,9 +63,9 @@ int main(int argc, char** argv) try {
         if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2) throw InputError("--sizes", "", size + " is not WxH");
         render::OffscreenSession session(scene, assets, w, h);
         rendererName = session.glRendererName();
-        // Modes take turns, three rounds, best round kept: a shared machine's
+        // Modes take turns, kRounds rounds, best round kept: a shared machine's
         // other load then hurts every mode alike.
-        for (int round = 0; round < 3; ++round)
+        for (int round = 0; round < kRounds; ++round)
             for (const std::string& m : modes) {
                 const shading::Mode mode = shading::parseMode(m, "--modes");
                 for (int i = 0; i < 2; ++i) session.draw(poses[static_cast<std::size_t>(i) % poses.size()], mode);
@@ -83,8 +85,8 @@ int main(int argc, char** argv) try {
     }
     std::printf("GL_RENDERER: %s\n", rendererName.c_str());
     std::printf("mesh: %zu triangles (%zu drawn per frame on average after frustum culling), %d frames per "
-                "measurement along the camera path, best of 3 rounds\n\n",
-                assets.mesh.triangleCount(), drawnTriangles, frames);
+                "measurement along the camera path, best of %d rounds\n\n",
+                assets.mesh.triangleCount(), drawnTriangles, frames, kRounds);
     std::printf("| mode |");
     for (const auto& s : sizes) std::printf(" %s fps |", s.c_str());
     std::printf("\n|---|");
