@@ -44,8 +44,9 @@ void run(const CompareArgs& a, const Global& g) {
 void addCompareCommand(CLI::App& app, Global& g) {
     auto a = std::make_shared<CompareArgs>();
     CLI::App* c = app.add_subcommand(
-        "compare", "The paper's Fig. 2 and 3 as one labelled picture: the same views in every mode, a coarse patch, "
-                   "and a row varying the noise frequency");
+        "compare",
+        "The paper's Fig. 2 and 3 as one labelled picture: the same views in every mode, a coarse patch, "
+        "and a row varying the noise frequency");
     c->footer("Example: mucosa compare -o sheet.png");
     addSceneOptions(c, a->scene, false);
     c->add_option("-o,--output", a->output, "Output PNG")->required();

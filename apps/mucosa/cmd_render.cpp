@@ -64,10 +64,10 @@ void run(const RenderArgs& a, const Global& g) {
             continue;
         }
         const image::Image8 img =
-            a.reference ? shading::renderReference(assets.mesh,
-                                                   render::frameSetup(scene, poses[static_cast<std::size_t>(i)],
-                                                                      scene.width, scene.height),
-                                                   refTextures)
+            a.reference ? shading::renderReference(
+                              assets.mesh,
+                              render::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height),
+                              refTextures)
                         : session->render(poses[static_cast<std::size_t>(i)]);
         image::writePng(name, img);
         ++written;
@@ -94,8 +94,9 @@ void run(const RenderArgs& a, const Global& g) {
 void addRenderCommand(CLI::App& app, Global& g) {
     auto a = std::make_shared<RenderArgs>();
     CLI::App* c = app.add_subcommand("render", "Render a scene headless (EGL) to PNG: one frame or a camera path");
-    c->footer("Examples:\n  mucosa render -o frame.png\n  mucosa render scene.json -o fly.png --frames 120 "
-              "--mode vertex-phong --size 1280x1024");
+    c->footer(
+        "Examples:\n  mucosa render -o frame.png\n  mucosa render scene.json -o fly.png --frames 120 "
+        "--mode vertex-phong --size 1280x1024");
     addSceneOptions(c, a->scene);
     c->add_option("-o,--output", a->output, "Output PNG; with --frames N: out_0000.png ... out_<N-1>.png")->required();
     c->add_option("--frames", a->frames, "Frames along the camera path [the scene's frames, 1]")

@@ -14,9 +14,9 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
     c->add_option("scene", o.sceneFile, "Scene file (.json, see README \"Scene files\"); default: the airway phantom");
     c->add_option("--mode", o.mode, "Shading mode: " + shading::modeList() + " [noise]");
     if (withSize) c->add_option("--size", o.size, "Frame size WxH [640x480, or the scene's resolution]");
-    c->add_option("--set", o.sets,
-                  "Override a parameter, e.g. --set material.shininess=80 (repeatable). Parameters:\n" +
-                      shading::registryHelp());
+    c->add_option(
+        "--set", o.sets,
+        "Override a parameter, e.g. --set material.shininess=80 (repeatable). Parameters:\n" + shading::registryHelp());
 }
 
 std::pair<int, int> parseSize(const std::string& text) {

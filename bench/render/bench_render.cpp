@@ -43,13 +43,17 @@ int main(int argc, char** argv) try {
     std::vector<std::string> modes = {"noise", "vertex-phong", "multitexture", "diffuse"};
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
-        if (a == "--frames" && i + 1 < argc) frames = std::atoi(argv[++i]);
-        else if (a == "--sizes" && i + 1 < argc) sizes = split(argv[++i]);
-        else if (a == "--modes" && i + 1 < argc) modes = split(argv[++i]);
+        if (a == "--frames" && i + 1 < argc)
+            frames = std::atoi(argv[++i]);
+        else if (a == "--sizes" && i + 1 < argc)
+            sizes = split(argv[++i]);
+        else if (a == "--modes" && i + 1 < argc)
+            modes = split(argv[++i]);
         else if (a == "--help") {
             std::puts("bench_render [scene.json] [--frames N] [--sizes WxH,...] [--modes m,...]");
             return 0;
-        } else sceneFile = a;
+        } else
+            sceneFile = a;
     }
     const render::Scene scene = sceneFile.empty() ? render::defaultScene() : render::loadScene(sceneFile);
     const render::SceneAssets assets = render::loadAssets(scene);
@@ -84,9 +88,10 @@ int main(int argc, char** argv) try {
             }
     }
     std::printf("GL_RENDERER: %s\n", rendererName.c_str());
-    std::printf("mesh: %zu triangles (%zu drawn per frame on average after frustum culling), %d frames per "
-                "measurement along the camera path, best of %d rounds\n\n",
-                assets.mesh.triangleCount(), drawnTriangles, frames, kRounds);
+    std::printf(
+        "mesh: %zu triangles (%zu drawn per frame on average after frustum culling), %d frames per "
+        "measurement along the camera path, best of %d rounds\n\n",
+        assets.mesh.triangleCount(), drawnTriangles, frames, kRounds);
     std::printf("| mode |");
     for (const auto& s : sizes) std::printf(" %s fps |", s.c_str());
     std::printf("\n|---|");

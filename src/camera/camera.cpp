@@ -14,8 +14,12 @@ namespace mucosa::camera {
 
 namespace {
 
-glm::vec3 v(const Vec3& a) { return {a[0], a[1], a[2]}; }
-Vec3 a3(const glm::vec3& x) { return {x.x, x.y, x.z}; }
+glm::vec3 v(const Vec3& a) {
+    return {a[0], a[1], a[2]};
+}
+Vec3 a3(const glm::vec3& x) {
+    return {x.x, x.y, x.z};
+}
 
 Mat4 toArray(const glm::mat4& m) {
     Mat4 r{};
@@ -87,7 +91,8 @@ std::vector<Pose> interpolatePoses(const std::vector<Pose>& keys, int frames) {
             out.push_back(keys[0]);
             continue;
         }
-        const float s = frames == 1 ? 0.0f : static_cast<float>(i) * static_cast<float>(n - 1) / static_cast<float>(frames - 1);
+        const float s =
+            frames == 1 ? 0.0f : static_cast<float>(i) * static_cast<float>(n - 1) / static_cast<float>(frames - 1);
         const int k = std::min(static_cast<int>(s), n - 2);
         const float t = s - static_cast<float>(k);
         const auto at = [&](int j) { return v(keys[static_cast<std::size_t>(std::clamp(j, 0, n - 1))].position); };
@@ -134,13 +139,14 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centreline, const FlyThrou
     const auto at = [&](float s) {
         s = std::clamp(s, 0.0f, total);
         const auto it = std::upper_bound(arc.begin(), arc.end(), s);
-        const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(std::max<std::ptrdiff_t>(it - arc.begin(), 1)) - 1, pts.size() - 2);
+        const std::size_t k = std::min<std::size_t>(
+            static_cast<std::size_t>(std::max<std::ptrdiff_t>(it - arc.begin(), 1)) - 1, pts.size() - 2);
         const float t = (s - arc[k]) / std::max(arc[k + 1] - arc[k], 1e-6f);
         return glm::mix(pts[k], pts[k + 1], std::clamp(t, 0.0f, 1.0f));
     };
     const float start = std::clamp(o.startMm, 0.0f, total);
-    const float step = o.speedMm > 0.0f ? o.speedMm
-                                        : (o.frames > 1 ? (total - start) / static_cast<float>(o.frames - 1) : 0.0f);
+    const float step =
+        o.speedMm > 0.0f ? o.speedMm : (o.frames > 1 ? (total - start) / static_cast<float>(o.frames - 1) : 0.0f);
     const float ahead = std::max(o.lookAheadMm, 1e-3f);
     std::vector<Pose> out;
     glm::vec3 up = v(o.up);
@@ -154,7 +160,8 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centreline, const FlyThrou
         f = glm::normalize(f);
         if (i == 0) {
             glm::vec3 r = glm::cross(f, up);
-            if (glm::length(r) < 1e-6f) r = glm::cross(f, std::abs(f.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0));
+            if (glm::length(r) < 1e-6f)
+                r = glm::cross(f, std::abs(f.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0));
             up = glm::normalize(glm::cross(glm::normalize(r), f));
         } else {
             // Parallel transport (double reflection, Wang et al. 2008, simplified

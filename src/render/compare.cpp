@@ -36,8 +36,7 @@ image::Image8 generateMap(reflectance::MapParams p) {
 
 }  // namespace
 
-void drawText(image::Image8& img, int x, int y, const std::string& text, std::array<std::uint8_t, 3> color,
-              int scale) {
+void drawText(image::Image8& img, int x, int y, const std::string& text, std::array<std::uint8_t, 3> color, int scale) {
     std::vector<char> buffer(text.size() * 300 + 64);
     std::string copy = text;
     unsigned char rgba[4] = {255, 255, 255, 255};
@@ -85,7 +84,8 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
     };
     auto cellX = [&](int c) { return labelW + gap + c * (tw + gap); };
     auto cellY = [&](int r, int extraHeads) { return headerH + colHeadH + extraHeads * colHeadH + r * (th + gap); };
-    for (int c = 0; c < cols; ++c) drawText(sheet, cellX(c), headerH + 6, std::string(shading::modeName(modes[c])), white, 2);
+    for (int c = 0; c < cols; ++c)
+        drawText(sheet, cellX(c), headerH + 6, std::string(shading::modeName(modes[c])), white, 2);
 
     OffscreenSession session(scene, assets, tw, th);
     // Views spread along the camera path (the middle part, away from the ends).
@@ -157,7 +157,9 @@ HighlightStats highlightStats(const image::Image8& rgb, int threshold, int minAr
             for (int c = 0; c < std::min(3, rgb.channels()); ++c) m = std::min<int>(m, rgb.at(x, y, c));
             in[static_cast<std::size_t>(y) * w + x] = m >= threshold;
         }
-    auto at = [&](int x, int y) { return x >= 0 && y >= 0 && x < w && y < h && in[static_cast<std::size_t>(y) * w + x]; };
+    auto at = [&](int x, int y) {
+        return x >= 0 && y >= 0 && x < w && y < h && in[static_cast<std::size_t>(y) * w + x];
+    };
     std::vector<int> label(in.size(), -1);
     HighlightStats s;
     double sumIso = 0, sumWeighted = 0;

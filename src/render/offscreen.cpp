@@ -35,7 +35,9 @@ void OffscreenSession::draw(const camera::Pose& pose, shading::Mode mode) {
     renderer_->draw(f);
 }
 
-void OffscreenSession::finish() { glFinish(); }
+void OffscreenSession::finish() {
+    glFinish();
+}
 
 image::Image8 OffscreenSession::render(const camera::Pose& pose, std::optional<shading::Mode> mode,
                                        const shading::ParamSet* params) {

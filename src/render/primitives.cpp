@@ -1,7 +1,7 @@
 #include <mucosa/render/primitives.hpp>
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <span>
 
@@ -44,7 +44,8 @@ mesh::Mesh makeQuad(float size, int n, bool mirrorU) {
     mesh::Mesh m;
     for (int j = 0; j <= n; ++j)
         for (int i = 0; i <= n; ++i) {
-            const float s = static_cast<float>(i) / static_cast<float>(n), t = static_cast<float>(j) / static_cast<float>(n);
+            const float s = static_cast<float>(i) / static_cast<float>(n),
+                        t = static_cast<float>(j) / static_cast<float>(n);
             m.positions.push_back({(s - 0.5f) * size, (t - 0.5f) * size, 0.0f});
             m.normals.push_back({0.0f, 0.0f, 1.0f});
             m.uvs.push_back({mirrorU ? 1.0f - s : s, t});
@@ -87,7 +88,8 @@ mesh::Mesh makeTube(float radius, float length, int around, int along) {
         const mesh::Vec3 e2{t[1] * e1[2] - t[2] * e1[1], t[2] * e1[0] - t[0] * e1[2], t[0] * e1[1] - t[1] * e1[0]};
         for (int i = 0; i <= around; ++i) {
             const float u = static_cast<float>(i) / static_cast<float>(around), a = 2.0f * kPi * u;
-            const mesh::Vec3 radial{std::cos(a) * e1[0] + std::sin(a) * e2[0], std::cos(a) * e1[1] + std::sin(a) * e2[1],
+            const mesh::Vec3 radial{std::cos(a) * e1[0] + std::sin(a) * e2[0],
+                                    std::cos(a) * e1[1] + std::sin(a) * e2[1],
                                     std::cos(a) * e1[2] + std::sin(a) * e2[2]};
             m.positions.push_back({c[0] + radius * radial[0], c[1] + radius * radial[1], c[2] + radius * radial[2]});
             m.normals.push_back({-radial[0], -radial[1], -radial[2]});  // into the lumen

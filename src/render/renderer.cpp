@@ -43,24 +43,61 @@ struct Program {
     std::vector<GLint> loc;
 };
 
-constexpr std::array<const char*, 24> kUniformNames = {
-    "uFrame.viewProj",       "uFrame.view",          "uFrame.eye",           "uFrame.light",
-    "uFrame.normalSign",     "uMaterial.baseColor",  "uMaterial.mucusColor", "uMaterial.mucusOpacity",
-    "uMaterial.specularStrength", "uMaterial.shininess", "uMaterial.bumpScale", "uMaterial.mapTiling",
-    "uMaterial.ambient",     "uMaterial.c",          "uMaterial.d",          "uMaterial.depthMin",
-    "uMaterial.depthMax",    "uMaterial.lightIntensity", "uMaterial.lightRange", "uDiffuse",
-    "uReflectance",          "uHighlight",           "",                     ""};
+constexpr std::array<const char*, 24> kUniformNames = {"uFrame.viewProj",
+                                                       "uFrame.view",
+                                                       "uFrame.eye",
+                                                       "uFrame.light",
+                                                       "uFrame.normalSign",
+                                                       "uMaterial.baseColor",
+                                                       "uMaterial.mucusColor",
+                                                       "uMaterial.mucusOpacity",
+                                                       "uMaterial.specularStrength",
+                                                       "uMaterial.shininess",
+                                                       "uMaterial.bumpScale",
+                                                       "uMaterial.mapTiling",
+                                                       "uMaterial.ambient",
+                                                       "uMaterial.c",
+                                                       "uMaterial.d",
+                                                       "uMaterial.depthMin",
+                                                       "uMaterial.depthMax",
+                                                       "uMaterial.lightIntensity",
+                                                       "uMaterial.lightRange",
+                                                       "uDiffuse",
+                                                       "uReflectance",
+                                                       "uHighlight",
+                                                       "",
+                                                       ""};
 
 enum U {
-    kViewProj, kView, kEye, kLight, kNormalSign, kBaseColor, kMucusColor, kMucusOpacity, kSpecularStrength,
-    kShininess, kBumpScale, kMapTiling, kAmbient, kC, kD, kDepthMin, kDepthMax, kLightIntensity, kLightRange,
-    kDiffuseSampler, kReflectanceSampler, kHighlightSampler
+    kViewProj,
+    kView,
+    kEye,
+    kLight,
+    kNormalSign,
+    kBaseColor,
+    kMucusColor,
+    kMucusOpacity,
+    kSpecularStrength,
+    kShininess,
+    kBumpScale,
+    kMapTiling,
+    kAmbient,
+    kC,
+    kD,
+    kDepthMin,
+    kDepthMax,
+    kLightIntensity,
+    kLightRange,
+    kDiffuseSampler,
+    kReflectanceSampler,
+    kHighlightSampler
 };
 
 Program link(int mode) {
     const std::string header = fmt::format("#version 330 core\n#define MUCOSA_MODE {}\n", mode);
     const std::string common(shaderSource("common_shading.glsl"));
-    const std::string name = fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
+    const std::string name =
+        fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
     GLuint vs = compile(GL_VERTEX_SHADER, header + common + std::string(shaderSource("surface_tissue.vert")), name);
     GLuint fs = compile(GL_FRAGMENT_SHADER, header + common + std::string(shaderSource("surface_tissue.frag")), name);
     Program p;
@@ -99,7 +136,8 @@ void upload(GLuint id, const image::Image8& img, shading::Filter filter, shading
     // so that v = 1 samples the first row (docs/theory.md, "Conventions").
     std::vector<std::uint8_t> rows(img.size());
     for (int y = 0; y < h; ++y)
-        std::copy(img.row(h - 1 - y), img.row(h - 1 - y) + img.rowStride(), rows.begin() + static_cast<std::ptrdiff_t>(y) * static_cast<std::ptrdiff_t>(img.rowStride()));
+        std::copy(img.row(h - 1 - y), img.row(h - 1 - y) + img.rowStride(),
+                  rows.begin() + static_cast<std::ptrdiff_t>(y) * static_cast<std::ptrdiff_t>(img.rowStride()));
     GLenum format = GL_RGB, internal = GL_RGB8;
     if (ch == 1) format = GL_RED, internal = GL_R8;
     if (ch == 2) format = GL_RG, internal = GL_RG8;
@@ -148,8 +186,8 @@ struct Chunk {
 bool outsideFrustum(const Chunk& c, const glm::mat4& viewProj) {
     int outside[6] = {0, 0, 0, 0, 0, 0};
     for (int k = 0; k < 8; ++k) {
-        const glm::vec4 p = viewProj * glm::vec4(k & 1 ? c.hi[0] : c.lo[0], k & 2 ? c.hi[1] : c.lo[1],
-                                                 k & 4 ? c.hi[2] : c.lo[2], 1.0f);
+        const glm::vec4 p =
+            viewProj * glm::vec4(k & 1 ? c.hi[0] : c.lo[0], k & 2 ? c.hi[1] : c.lo[1], k & 4 ? c.hi[2] : c.lo[2], 1.0f);
         outside[0] += p.x < -p.w;
         outside[1] += p.x > p.w;
         outside[2] += p.y < -p.w;
@@ -169,7 +207,8 @@ std::vector<Chunk> buildChunks(const mesh::Mesh& mesh, std::vector<std::uint32_t
     const std::size_t tris = mesh.triangleCount();
     // About 1000 triangles per chunk, cells as cubes.
     const int cellsWanted = static_cast<int>(std::clamp<std::size_t>(tris / 1000, 1, 8192));
-    const float ext[3] = {std::max(hi[0] - lo[0], 1e-3f), std::max(hi[1] - lo[1], 1e-3f), std::max(hi[2] - lo[2], 1e-3f)};
+    const float ext[3] = {std::max(hi[0] - lo[0], 1e-3f), std::max(hi[1] - lo[1], 1e-3f),
+                          std::max(hi[2] - lo[2], 1e-3f)};
     const float cell = std::cbrt(ext[0] * ext[1] * ext[2] / static_cast<float>(cellsWanted));
     int n[3];
     for (int k = 0; k < 3; ++k) n[k] = std::clamp(static_cast<int>(std::ceil(ext[k] / cell)), 1, 64);
@@ -178,14 +217,16 @@ std::vector<Chunk> buildChunks(const mesh::Mesh& mesh, std::vector<std::uint32_t
         int idx[3];
         for (int k = 0; k < 3; ++k) {
             const float c = (mesh.positions[mesh.indices[3 * t]][k] + mesh.positions[mesh.indices[3 * t + 1]][k] +
-                             mesh.positions[mesh.indices[3 * t + 2]][k]) / 3.0f;
+                             mesh.positions[mesh.indices[3 * t + 2]][k]) /
+                            3.0f;
             idx[k] = std::clamp(static_cast<int>((c - lo[k]) / ext[k] * static_cast<float>(n[k])), 0, n[k] - 1);
         }
         cellOf[t] = static_cast<std::uint32_t>((idx[2] * n[1] + idx[1]) * n[0] + idx[0]);
     }
     std::vector<std::uint32_t> order(tris);
     for (std::size_t t = 0; t < tris; ++t) order[t] = static_cast<std::uint32_t>(t);
-    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return cellOf[a] < cellOf[b]; });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::uint32_t a, std::uint32_t b) { return cellOf[a] < cellOf[b]; });
     sorted.resize(mesh.indices.size());
     std::vector<Chunk> chunks;
     for (std::size_t i = 0; i < tris; ++i) {
@@ -242,8 +283,12 @@ Renderer::~Renderer() {
     for (Texture& t : impl_->textures) glDeleteTextures(1, &t.id);
 }
 
-std::size_t Renderer::triangleCount() const noexcept { return static_cast<std::size_t>(impl_->indexCount / 3); }
-std::size_t Renderer::lastDrawnTriangles() const noexcept { return impl_->lastDrawnTriangles; }
+std::size_t Renderer::triangleCount() const noexcept {
+    return static_cast<std::size_t>(impl_->indexCount / 3);
+}
+std::size_t Renderer::lastDrawnTriangles() const noexcept {
+    return impl_->lastDrawnTriangles;
+}
 
 void Renderer::setMesh(const mesh::Mesh& mesh) {
     std::string missing;
@@ -266,8 +311,8 @@ void Renderer::setMesh(const mesh::Mesh& mesh) {
     std::vector<std::uint32_t> sorted;
     impl_->chunks = buildChunks(mesh, sorted);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, impl_->ibo);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sorted.size() * sizeof(std::uint32_t)),
-                 sorted.data(), GL_STATIC_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sorted.size() * sizeof(std::uint32_t)), sorted.data(),
+                 GL_STATIC_DRAW);
     const GLsizei stride = kStride * sizeof(float);
     const int sizes[] = {3, 3, 4, 2}, offsets[] = {0, 3, 6, 10};
     for (GLuint a = 0; a < 4; ++a) {
@@ -297,7 +342,9 @@ void Renderer::clearTexture(TextureSlot slot) {
         case TextureSlot::Reflectance:
             upload(t.id, solid(128, 128, 255), shading::Filter::Nearest, shading::Wrap::Repeat);
             break;
-        case TextureSlot::Highlight: impl_->highlightShininess = -1.0f; break;
+        case TextureSlot::Highlight:
+            impl_->highlightShininess = -1.0f;
+            break;
     }
 }
 
@@ -367,7 +414,8 @@ void Renderer::draw(const shading::FrameSetup& frame) {
                 static_cast<std::uintptr_t>(c.first))
             impl_->drawCounts.back() += c.count;
         else {
-            impl_->drawOffsets.push_back(reinterpret_cast<const void*>(static_cast<std::uintptr_t>(c.first) * sizeof(std::uint32_t)));
+            impl_->drawOffsets.push_back(
+                reinterpret_cast<const void*>(static_cast<std::uintptr_t>(c.first) * sizeof(std::uint32_t)));
             impl_->drawCounts.push_back(c.count);
         }
         drawn += static_cast<std::size_t>(c.count / 3);

@@ -18,7 +18,6 @@
 #include <mucosa/render/primitives.hpp>
 #include <mucosa/render/renderer.hpp>
 
-
 namespace mucosa::render {
 
 namespace fs = std::filesystem;
@@ -43,7 +42,9 @@ struct Parser {
         if (j.is_array()) return "an array";
         return "an object";
     }
-    [[noreturn]] void fail(const std::string& field, const std::string& why) const { throw InputError(field, file, why); }
+    [[noreturn]] void fail(const std::string& field, const std::string& why) const {
+        throw InputError(field, file, why);
+    }
 
     void object(const json& j, const std::string& field) const {
         if (!j.is_object()) fail(field, "must be an object, not " + typeName(j));
@@ -136,8 +137,9 @@ struct Parser {
 
     reflectance::MapParams mapParams(const json& j, const std::string& f) const {
         object(j, f);
-        known(j, f + ".", {"preset", "size", "frequency", "octaves", "lacunarity", "gain", "seed", "z", "strength",
-                           "turbulence", "tileable"});
+        known(j, f + ".",
+              {"preset", "size", "frequency", "octaves", "lacunarity", "gain", "seed", "z", "strength", "turbulence",
+               "tileable"});
         reflectance::MapParams p = reflectance::findPreset("bronchial").params;
         if (j.contains("preset")) {
             const std::string name = string(j["preset"], f + ".preset");
@@ -208,8 +210,9 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         throw InputError("JSON", P.file, e.what());
     }
     P.object(j, "scene");
-    P.known(j, "", {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "brdf", "light",
-                    "camera", "resolution", "frames"});
+    P.known(j, "",
+            {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "brdf", "light",
+             "camera", "resolution", "frames"});
     Scene s = defaultScene();
     s.file = fileForErrors;
     if (!j.contains("mesh")) P.fail("mesh", "is missing (a file, \"phantom\" or \"tube\")");
@@ -239,7 +242,8 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
                 s.mesh.phantomGenerations = P.integer(ph["generations"], "mesh.phantom.generations", 0, 7);
             if (ph.contains("seed"))
                 s.mesh.phantomSeed = static_cast<std::uint64_t>(P.integer(ph["seed"], "mesh.phantom.seed", 0, 1 << 30));
-            if (ph.contains("resolution")) s.mesh.phantomResolution = P.positive(ph["resolution"], "mesh.phantom.resolution");
+            if (ph.contains("resolution"))
+                s.mesh.phantomResolution = P.positive(ph["resolution"], "mesh.phantom.resolution");
         }
     } else {
         P.fail("mesh", "must be a file name, \"phantom\", \"tube\" or an object, not " + Parser::typeName(m));
@@ -268,11 +272,16 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     }
     if (j.contains("filter")) {
         const std::string v = P.string(j["filter"], "filter");
-        if (v == "nearest") s.filter = shading::Filter::Nearest;
-        else if (v == "linear") s.filter = shading::Filter::Linear;
-        else if (v == "trilinear") s.filter = shading::Filter::Trilinear;
-        else if (v == "mipmap") s.filter = shading::Filter::Mipmap;
-        else P.fail("filter", "must be nearest, linear, mipmap or trilinear, not '" + v + "'");
+        if (v == "nearest")
+            s.filter = shading::Filter::Nearest;
+        else if (v == "linear")
+            s.filter = shading::Filter::Linear;
+        else if (v == "trilinear")
+            s.filter = shading::Filter::Trilinear;
+        else if (v == "mipmap")
+            s.filter = shading::Filter::Mipmap;
+        else
+            P.fail("filter", "must be nearest, linear, mipmap or trilinear, not '" + v + "'");
     }
     if (j.contains("mode")) s.mode = shading::parseMode(P.string(j["mode"], "mode"), "mode", P.file);
     if (j.contains("material")) P.registryGroup(j["material"], "material", s.params);
@@ -386,8 +395,8 @@ SceneAssets loadAssets(const Scene& scene, int threads) {
     } else {
         const image::ImageF h = reflectance::heightField(scene.mapParams, threads);
         a.reflectanceMap = reflectance::encodeNormals8(
-            h, scene.mapParams.strength, scene.mapParams.noise.tileable ? reflectance::Edges::Wrap : reflectance::Edges::Clamp,
-            threads);
+            h, scene.mapParams.strength,
+            scene.mapParams.noise.tileable ? reflectance::Edges::Wrap : reflectance::Edges::Clamp, threads);
         a.notes.push_back(fmt::format("reflectance map generated: '{}' preset, frequency {}, {}x{}",
                                       scene.mapParams.preset.empty() ? "custom" : scene.mapParams.preset,
                                       scene.mapParams.noise.frequency, scene.mapParams.size, scene.mapParams.size));
@@ -427,9 +436,9 @@ shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int
 
 shading::Textures referenceTextures(const Scene& scene, const SceneAssets& assets) {
     shading::Textures t;
-    const shading::Filter f =
-        scene.filter == shading::Filter::Trilinear || scene.filter == shading::Filter::Mipmap ? shading::Filter::Linear
-                                                                                               : scene.filter;
+    const shading::Filter f = scene.filter == shading::Filter::Trilinear || scene.filter == shading::Filter::Mipmap
+                                  ? shading::Filter::Linear
+                                  : scene.filter;
     if (!assets.diffuse.empty()) t.diffuse = {&assets.diffuse, f, shading::Wrap::Repeat};
     t.reflectance = {&assets.reflectanceMap, f, shading::Wrap::Repeat};
     t.highlight = {&assets.highlight, shading::Filter::Linear, shading::Wrap::Clamp};  // as Renderer uploads it

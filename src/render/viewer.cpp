@@ -10,9 +10,9 @@
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
-#include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
 
 #include <mucosa/image/png.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
@@ -98,7 +98,7 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
         }
         camera::Pose pose = path.front();
         bool playing = o.autoplay && path.size() > 1;
-        double pathPos = 0.0;  // index into path, fractional
+        double pathPos = 0.0;    // index into path, fractional
         float playSpeed = 1.0f;  // path frames per displayed frame
         reflectance::MapParams mapParams = scene.mapParams;
         bool mapDirty = false;
@@ -186,7 +186,8 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
                 for (int k = 0; k < shading::kModeCount; ++k) {
                     const auto m = static_cast<shading::Mode>(k);
                     if (ImGui::Selectable(std::string(shading::modeName(m)).c_str(), k == mode)) mode = k;
-                    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", std::string(shading::modeDescription(m)).c_str());
+                    if (ImGui::IsItemHovered())
+                        ImGui::SetTooltip("%s", std::string(shading::modeDescription(m)).c_str());
                 }
                 ImGui::EndCombo();
             }
@@ -208,7 +209,8 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
                     } else {
                         const bool wide = pi.min > 0 && pi.max / pi.min > 100.0f;
                         ImGui::SliderFloat(label.c_str(), v, pi.min, wide ? std::min(pi.max, pi.min * 1e4f) : pi.max,
-                                           "%.3g", (wide ? ImGuiSliderFlags_Logarithmic : 0) | ImGuiSliderFlags_AlwaysClamp);
+                                           "%.3g",
+                                           (wide ? ImGuiSliderFlags_Logarithmic : 0) | ImGuiSliderFlags_AlwaysClamp);
                     }
                     if (ImGui::IsItemHovered())
                         ImGui::SetTooltip("%s%s%s", std::string(pi.description).c_str(), pi.unit.empty() ? "" : " [",

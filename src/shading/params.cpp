@@ -10,8 +10,8 @@ namespace mucosa::shading {
 
 namespace {
 
-constexpr std::array<std::string_view, kModeCount> kModeNames = {
-    "noise", "vertex-phong", "multitexture", "diffuse", "normals", "tangents", "uv", "depth"};
+constexpr std::array<std::string_view, kModeCount> kModeNames = {"noise",   "vertex-phong", "multitexture", "diffuse",
+                                                                 "normals", "tangents",     "uv",           "depth"};
 
 constexpr std::array<std::string_view, kModeCount> kModeDescriptions = {
     "the paper's method: per-pixel specular from the reflectance map over the diffuse texture",
@@ -28,22 +28,86 @@ using P = Param;
 // Defaults give a bronchoscope-like look on the phantom with the 'bronchial'
 // map: pink tissue under a thin, slightly milky mucous layer, tight highlights.
 constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
-    {P::BaseColor, "base_color", "material", 3, {0.80f, 0.45f, 0.40f}, 0.0f, 1.0f, "",
-     "Tissue albedo, multiplies the diffuse texture (RGB)", false},
-    {P::MucusColor, "mucus_color", "material", 3, {0.95f, 0.85f, 0.78f}, 0.0f, 1.0f, "",
-     "Colour of the mucous layer (RGB)", false},
-    {P::MucusOpacity, "mucus_opacity", "material", 1, {0.15f, 0, 0}, 0.0f, 1.0f, "",
-     "Opacity of the mucous layer: 0 clear, 1 hides the tissue", false},
-    {P::SpecularStrength, "specular_strength", "material", 1, {0.8f, 0, 0}, 0.0f, 8.0f, "",
-     "Strength k_s of the specular highlight", false},
-    {P::Shininess, "shininess", "material", 1, {40.0f, 0, 0}, 1.0f, 2000.0f, "",
-     "Phong exponent n of the highlight lobe (larger = tighter)", false},
-    {P::BumpScale, "bump_scale", "material", 1, {1.0f, 0, 0}, 0.0f, 8.0f, "",
-     "Scales the tilt of the reflectance map's normals (0 = flat, 1 = as generated)", false},
-    {P::MapTiling, "map_tiling", "material", 1, {4.0f, 0, 0}, 0.001f, 1024.0f, "1/uv",
-     "Repeats of the reflectance map per unit of texture coordinate", false},
-    {P::Ambient, "ambient", "material", 1, {0.03f, 0, 0}, 0.0f, 1.0f, "",
-     "Ambient term k_a (light not from the endoscope's lamp)", false},
+    {P::BaseColor,
+     "base_color",
+     "material",
+     3,
+     {0.80f, 0.45f, 0.40f},
+     0.0f,
+     1.0f,
+     "",
+     "Tissue albedo, multiplies the diffuse texture (RGB)",
+     false},
+    {P::MucusColor,
+     "mucus_color",
+     "material",
+     3,
+     {0.95f, 0.85f, 0.78f},
+     0.0f,
+     1.0f,
+     "",
+     "Colour of the mucous layer (RGB)",
+     false},
+    {P::MucusOpacity,
+     "mucus_opacity",
+     "material",
+     1,
+     {0.15f, 0, 0},
+     0.0f,
+     1.0f,
+     "",
+     "Opacity of the mucous layer: 0 clear, 1 hides the tissue",
+     false},
+    {P::SpecularStrength,
+     "specular_strength",
+     "material",
+     1,
+     {0.8f, 0, 0},
+     0.0f,
+     8.0f,
+     "",
+     "Strength k_s of the specular highlight",
+     false},
+    {P::Shininess,
+     "shininess",
+     "material",
+     1,
+     {40.0f, 0, 0},
+     1.0f,
+     2000.0f,
+     "",
+     "Phong exponent n of the highlight lobe (larger = tighter)",
+     false},
+    {P::BumpScale,
+     "bump_scale",
+     "material",
+     1,
+     {1.0f, 0, 0},
+     0.0f,
+     8.0f,
+     "",
+     "Scales the tilt of the reflectance map's normals (0 = flat, 1 = as generated)",
+     false},
+    {P::MapTiling,
+     "map_tiling",
+     "material",
+     1,
+     {4.0f, 0, 0},
+     0.001f,
+     1024.0f,
+     "1/uv",
+     "Repeats of the reflectance map per unit of texture coordinate",
+     false},
+    {P::Ambient,
+     "ambient",
+     "material",
+     1,
+     {0.03f, 0, 0},
+     0.0f,
+     1.0f,
+     "",
+     "Ambient term k_a (light not from the endoscope's lamp)",
+     false},
     {P::C0, "c0", "brdf", 1, {0.0f, 0, 0}, -10.0f, 10.0f, "", "rho(gamma) constant term (paper eq. 9)", true},
     {P::C1, "c1", "brdf", 1, {1.0f, 0, 0}, -10.0f, 10.0f, "", "rho(gamma) linear term (paper eq. 9)", true},
     {P::C2, "c2", "brdf", 1, {0.0f, 0, 0}, -10.0f, 10.0f, "", "rho(gamma) quadratic term (paper eq. 9)", true},
@@ -51,14 +115,46 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
     {P::D1, "d1", "brdf", 1, {0.0f, 0, 0}, -10.0f, 10.0f, "", "delta(r) linear term (paper eq. 10)", true},
     {P::D2, "d2", "brdf", 1, {0.0f, 0, 0}, -10.0f, 10.0f, "", "delta(r) quadratic term (paper eq. 10)", true},
     {P::D3, "d3", "brdf", 1, {0.0f, 0, 0}, -10.0f, 10.0f, "", "delta(r) cubic term (paper eq. 10)", true},
-    {P::DepthMin, "depth_min_mm", "brdf", 1, {0.0f, 0, 0}, 0.0f, 10000.0f, "mm",
-     "z_min of the depth ratio r (paper eq. 10)", false},
-    {P::DepthMax, "depth_max_mm", "brdf", 1, {100.0f, 0, 0}, 0.001f, 10000.0f, "mm",
-     "z_max of the depth ratio r (paper eq. 10)", false},
-    {P::LightIntensity, "intensity", "light", 1, {1.2f, 0, 0}, 0.0f, 100.0f, "",
-     "Intensity I_L of the endoscope's point light", false},
-    {P::LightRange, "range_mm", "light", 1, {30.0f, 0, 0}, 0.01f, 100000.0f, "mm",
-     "Distance at which the light falls to half: att = 1 / (1 + (dist / range)^2)", false},
+    {P::DepthMin,
+     "depth_min_mm",
+     "brdf",
+     1,
+     {0.0f, 0, 0},
+     0.0f,
+     10000.0f,
+     "mm",
+     "z_min of the depth ratio r (paper eq. 10)",
+     false},
+    {P::DepthMax,
+     "depth_max_mm",
+     "brdf",
+     1,
+     {100.0f, 0, 0},
+     0.001f,
+     10000.0f,
+     "mm",
+     "z_max of the depth ratio r (paper eq. 10)",
+     false},
+    {P::LightIntensity,
+     "intensity",
+     "light",
+     1,
+     {1.2f, 0, 0},
+     0.0f,
+     100.0f,
+     "",
+     "Intensity I_L of the endoscope's point light",
+     false},
+    {P::LightRange,
+     "range_mm",
+     "light",
+     1,
+     {30.0f, 0, 0},
+     0.01f,
+     100000.0f,
+     "mm",
+     "Distance at which the light falls to half: att = 1 / (1 + (dist / range)^2)",
+     false},
 }};
 
 constexpr bool registryInOrder() {
@@ -73,17 +169,19 @@ std::string fieldName(const ParamInfo& pi, const std::string& field) {
 }
 
 void checkValue(const ParamInfo& pi, float v, const std::string& file, const std::string& field) {
-    if (!std::isfinite(v))
-        throw InputError(fieldName(pi, field), file, "must be a finite number");
+    if (!std::isfinite(v)) throw InputError(fieldName(pi, field), file, "must be a finite number");
     if (v < pi.min || v > pi.max)
-        throw InputError(fieldName(pi, field), file,
-                         fmt::format("{} is out of range [{}, {}]", v, pi.min, pi.max));
+        throw InputError(fieldName(pi, field), file, fmt::format("{} is out of range [{}, {}]", v, pi.min, pi.max));
 }
 
 }  // namespace
 
-std::string_view modeName(Mode m) noexcept { return kModeNames[static_cast<std::size_t>(m)]; }
-std::string_view modeDescription(Mode m) noexcept { return kModeDescriptions[static_cast<std::size_t>(m)]; }
+std::string_view modeName(Mode m) noexcept {
+    return kModeNames[static_cast<std::size_t>(m)];
+}
+std::string_view modeDescription(Mode m) noexcept {
+    return kModeDescriptions[static_cast<std::size_t>(m)];
+}
 
 std::string modeList() {
     std::string s;
@@ -97,8 +195,12 @@ Mode parseMode(std::string_view name, const std::string& field, const std::strin
     throw InputError(field, file, fmt::format("unknown mode '{}' (known: {})", name, modeList()));
 }
 
-std::span<const ParamInfo> registry() noexcept { return kRegistry; }
-const ParamInfo& info(Param p) noexcept { return kRegistry[static_cast<std::size_t>(p)]; }
+std::span<const ParamInfo> registry() noexcept {
+    return kRegistry;
+}
+const ParamInfo& info(Param p) noexcept {
+    return kRegistry[static_cast<std::size_t>(p)];
+}
 
 const ParamInfo* findParam(std::string_view name) noexcept {
     for (const ParamInfo& pi : kRegistry)

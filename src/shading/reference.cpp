@@ -202,8 +202,7 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         std::memcpy(verts[i].var, &v, sizeof v);
     }
 
-    Target t{frame.width, frame.height,
-             std::vector<float>(static_cast<std::size_t>(frame.width) * frame.height, 1.0f),
+    Target t{frame.width, frame.height, std::vector<float>(static_cast<std::size_t>(frame.width) * frame.height, 1.0f),
              std::vector<glm::vec3>(static_cast<std::size_t>(frame.width) * frame.height, glm::vec3(0.0f))};
     const float W = static_cast<float>(frame.width), H = static_cast<float>(frame.height);
 

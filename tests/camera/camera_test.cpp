@@ -18,8 +18,12 @@ std::array<float, 4> apply(const camera::Mat4& m, const std::array<float, 4>& v)
     return r;
 }
 
-float dot(const camera::Vec3& a, const camera::Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-float norm(const camera::Vec3& a) { return std::sqrt(dot(a, a)); }
+float dot(const camera::Vec3& a, const camera::Vec3& b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+float norm(const camera::Vec3& a) {
+    return std::sqrt(dot(a, a));
+}
 
 TEST(Camera, FieldOfViewSpansTheLargerSide) {
     camera::Lens lens;  // 120 degrees
@@ -45,7 +49,7 @@ TEST(Camera, ViewMatrixLooksDownForward) {
 TEST(Camera, TipLightFollowsTheCameraFrame) {
     const camera::Pose p = camera::lookAt({0, 0, 0}, {0, 0, -1});
     const camera::Vec3 l = camera::lightPosition(p, camera::TipLight{{2, 0, 1}});
-    EXPECT_NEAR(l[0], 2.0f, 1e-6f);  // right
+    EXPECT_NEAR(l[0], 2.0f, 1e-6f);   // right
     EXPECT_NEAR(l[2], -1.0f, 1e-6f);  // forward
 }
 

@@ -14,7 +14,8 @@ namespace {
 TEST(RenderCli, FrameSequenceIsNumberedAndResumable) {
     test::TempDir dir;
     std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [96, 72]})";
-    const std::string base = "render '" + (dir / "tube.json").string() + "' -o '" + (dir / "fly.png").string() + "' --frames 4";
+    const std::string base =
+        "render '" + (dir / "tube.json").string() + "' -o '" + (dir / "fly.png").string() + "' --frames 4";
     auto r = test::runCli(base);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     for (int i = 0; i < 4; ++i) EXPECT_TRUE(std::filesystem::exists(dir / ("fly_000" + std::to_string(i) + ".png")));
@@ -42,7 +43,8 @@ TEST(RenderCli, FrameSequenceIsNumberedAndResumable) {
 TEST(RenderCli, EveryModeAndTheReferenceRenderFromTheCli) {
     test::TempDir dir;
     std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [64, 48]})";
-    for (const char* mode : {"noise", "vertex-phong", "multitexture", "diffuse", "normals", "tangents", "uv", "depth"}) {
+    for (const char* mode :
+         {"noise", "vertex-phong", "multitexture", "diffuse", "normals", "tangents", "uv", "depth"}) {
         const auto out = dir / (std::string(mode) + ".png");
         const auto r = test::runCli("render '" + (dir / "tube.json").string() + "' --mode " + mode + " -o '" +
                                     out.string() + "' --set material.shininess=60");
@@ -61,7 +63,8 @@ TEST(RenderCli, CompareWritesTheLabelledSheet) {
     test::TempDir dir;
     std::ofstream(dir / "tube.json") << R"({"mesh": "tube"})";
     const auto out = dir / "sheet.png";
-    const auto r = test::runCli("compare '" + (dir / "tube.json").string() + "' --tile 160x120 -o '" + out.string() + "'");
+    const auto r =
+        test::runCli("compare '" + (dir / "tube.json").string() + "' --tile 160x120 -o '" + out.string() + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const auto img = image::readPng(out);
     EXPECT_GT(img.pixels.width(), 4 * 160);
@@ -85,7 +88,8 @@ TEST(RenderCli, PhantomFileFlownAlongItsCentrelineJson) {
     r = test::runCli("render '" + (dir / "scene.json").string() + "' --frames 2 -o '" + (dir / "f.png").string() + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(std::filesystem::exists(dir / "f_0001.png"));
-    std::ofstream(dir / "bad.json") << R"({"mesh": "airway.glb", "camera": {"path": {"centreline": "airway.centerline.json", "branch": 99}}})";
+    std::ofstream(dir / "bad.json")
+        << R"({"mesh": "airway.glb", "camera": {"path": {"centreline": "airway.centerline.json", "branch": 99}}})";
     r = test::runCli("render '" + (dir / "bad.json").string() + "' -o '" + (dir / "g.png").string() + "'");
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("error: camera.path.branch"), std::string::npos) << r.err;

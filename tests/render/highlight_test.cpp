@@ -17,7 +17,8 @@ render::HighlightStats statsFor(render::OffscreenSession& s, const camera::Pose&
     const render::HighlightStats st = render::highlightStats(img, 200, 3);
     std::printf("%-13s components %4d, area %7.0f px, mean P^2/A %6.1f, area-weighted P^2/A %6.1f\n", name.c_str(),
                 st.components, st.totalArea, st.meanIsoperimetric, st.weightedIsoperimetric);
-    if (std::getenv("MUCOSA_TEST_WRITE_IMAGES")) image::writePng(test::outputDir() / ("highlight_" + name + ".png"), img);
+    if (std::getenv("MUCOSA_TEST_WRITE_IMAGES"))
+        image::writePng(test::outputDir() / ("highlight_" + name + ".png"), img);
     return st;
 }
 

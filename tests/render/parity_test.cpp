@@ -73,7 +73,8 @@ Parity renderBoth(const mesh::Mesh& m, const shading::FrameSetup& f, const image
     r.setMesh(m);
     r.setTexture(render::TextureSlot::Diffuse, diffuse, Filter::Nearest, Wrap::Repeat);
     r.setTexture(render::TextureSlot::Reflectance, map, Filter::Nearest, Wrap::Repeat);
-    const image::Image8 hl = shading::highlightSphereMap(render::kHighlightTextureSize, f.params[shading::Param::Shininess]);
+    const image::Image8 hl =
+        shading::highlightSphereMap(render::kHighlightTextureSize, f.params[shading::Param::Shininess]);
     r.setTexture(render::TextureSlot::Highlight, hl, Filter::Nearest, Wrap::Clamp);
     render::Framebuffer fb(f.width, f.height);
     fb.bind();
@@ -108,8 +109,8 @@ TEST(RenderParity, FlatQuadWithKnownMapMatchesReferenceInEveryMode) {
     const image::Image8 map = testMap(256, "bronchial");
     const image::Image8 diffuse = testDiffuse(64);
     for (int mode = 0; mode < shading::kModeCount; ++mode) {
-        shading::FrameSetup f = frameFor(camera::lookAt({6.0f, -14.0f, 22.0f}, {0, 0, 0}), 640, 480,
-                                         static_cast<Mode>(mode));
+        shading::FrameSetup f =
+            frameFor(camera::lookAt({6.0f, -14.0f, 22.0f}, {0, 0, 0}), 640, 480, static_cast<Mode>(mode));
         f.params.set(shading::Param::MapTiling, 1.5f);
         const Parity p = renderBoth(quad, f, map, diffuse);
         expectParity(p, "parity_quad_" + std::string(shading::modeName(static_cast<Mode>(mode))));
@@ -121,8 +122,8 @@ TEST(RenderParity, SphereMatchesReferenceInEveryMode) {
     const image::Image8 map = testMap(256, "serosa");
     const image::Image8 diffuse = testDiffuse(64);
     for (int mode = 0; mode < shading::kModeCount; ++mode) {
-        shading::FrameSetup f = frameFor(camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1}), 640, 480,
-                                         static_cast<Mode>(mode));
+        shading::FrameSetup f =
+            frameFor(camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1}), 640, 480, static_cast<Mode>(mode));
         const Parity p = renderBoth(sphere, f, map, diffuse);
         expectParity(p, "parity_sphere_" + std::string(shading::modeName(static_cast<Mode>(mode))));
     }

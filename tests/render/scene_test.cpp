@@ -50,18 +50,18 @@ TEST(RenderScene, FullSceneParses) {
 }
 
 TEST(RenderScene, MapFileIsResolvedAgainstTheSceneFolder) {
-    const render::Scene s = render::parseScene(R"({"mesh": "airway.glb", "reflectance_map": "maps/m.png"})",
-                                               "/data/scenes/a.json");
+    const render::Scene s =
+        render::parseScene(R"({"mesh": "airway.glb", "reflectance_map": "maps/m.png"})", "/data/scenes/a.json");
     EXPECT_EQ(s.mesh.kind, "file");
     EXPECT_EQ(s.mesh.file, std::filesystem::path("/data/scenes/airway.glb"));
     EXPECT_EQ(*s.reflectanceMap, std::filesystem::path("/data/scenes/maps/m.png"));
 }
 
 TEST(RenderScene, BadScenesNameTheField) {
-    EXPECT_EQ(subjectOf(R"({"mode": "noise"})"), "mesh");                                  // missing mesh
-    EXPECT_EQ(subjectOf(R"({"mesh": 3})"), "mesh");                                        // wrong type
-    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "mode": "shiny"})"), "mode");                  // unknown mode
-    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "mode": 2})"), "mode");                        // wrong type
+    EXPECT_EQ(subjectOf(R"({"mode": "noise"})"), "mesh");                                             // missing mesh
+    EXPECT_EQ(subjectOf(R"({"mesh": 3})"), "mesh");                                                   // wrong type
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "mode": "shiny"})"), "mode");                             // unknown mode
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "mode": 2})"), "mode");                                   // wrong type
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"shininess": 0}})"), "material.shininess");  // range
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"shininess": "high"}})"), "material.shininess");
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"shinyness": 5}})"), "material.shinyness");  // typo
@@ -88,7 +88,8 @@ TEST(RenderScene, CliReportsOneErrorLineNamingTheField) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "out.png"));
 
-    const auto missing = test::runCli("render '" + (dir / "nope.json").string() + "' -o '" + (dir / "o.png").string() + "'");
+    const auto missing =
+        test::runCli("render '" + (dir / "nope.json").string() + "' -o '" + (dir / "o.png").string() + "'");
     EXPECT_EQ(missing.exitCode, 1);
     EXPECT_NE(missing.err.find("error: scene file"), std::string::npos) << missing.err;
 

@@ -13,7 +13,8 @@ namespace mucosa {
 namespace {
 
 TEST(RenderViewer, OpensUnderXvfbDrawsFramesAndCloses) {
-    ASSERT_EQ(std::system("command -v xvfb-run >/dev/null 2>&1"), 0) << "xvfb-run is missing (apt-get install xvfb xauth)";
+    ASSERT_EQ(std::system("command -v xvfb-run >/dev/null 2>&1"), 0)
+        << "xvfb-run is missing (apt-get install xvfb xauth)";
     test::TempDir dir;
     std::ofstream(dir / "tube.json") << R"({"mesh": "tube"})";
     const auto shot = dir / "view.png";

@@ -21,7 +21,7 @@ TEST(ShadingModel, BrdfCubicsAreThePapersEquations) {
     const vec4 c(0.1f, 0.7f, -0.2f, 0.05f);
     const vec3 d(-0.3f, 0.1f, 0.02f);
     for (float g : {0.0f, 0.3f, 0.77f, 1.0f}) {
-        EXPECT_NEAR(brdfRho(g, c), 0.1f + 0.7f * g - 0.2f * g * g + 0.05f * g * g * g, 1e-6f);  // eq. 9
+        EXPECT_NEAR(brdfRho(g, c), 0.1f + 0.7f * g - 0.2f * g * g + 0.05f * g * g * g, 1e-6f);     // eq. 9
         EXPECT_NEAR(depthDelta(g, d), 1.0f - 0.3f * g + 0.1f * g * g + 0.02f * g * g * g, 1e-6f);  // eq. 10
     }
     EXPECT_FLOAT_EQ(depthRatio(50.0f, 10.0f, 90.0f), 0.5f);

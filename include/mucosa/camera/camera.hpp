@@ -14,9 +14,9 @@ using Vec3 = mesh::Vec3;
 using Mat4 = std::array<float, 16>;  // column-major (OpenGL)
 
 struct Pose {
-    Vec3 position{0, 0, 0};   // mm
-    Vec3 forward{0, 0, -1};   // viewing direction (normalised on use)
-    Vec3 up{0, 1, 0};         // roughly up; made orthogonal to forward on use
+    Vec3 position{0, 0, 0};  // mm
+    Vec3 forward{0, 0, -1};  // viewing direction (normalised on use)
+    Vec3 up{0, 1, 0};        // roughly up; made orthogonal to forward on use
 };
 
 struct Lens {

@@ -69,14 +69,14 @@ Scene parseScene(const std::string& jsonText, const std::filesystem::path& fileF
 
 // What a scene needs at render time, loaded/generated once.
 struct SceneAssets {
-    mesh::Mesh mesh;  // with normals, uvs and tangents
+    mesh::Mesh mesh;                     // with normals, uvs and tangents
     std::vector<mesh::Vec3> centreline;  // the fly-through polyline (mm); may be empty
-    image::Image8 diffuse;                // empty: none
+    image::Image8 diffuse;               // empty: none
     image::Image8 reflectanceMap;
     // The multitexture baseline's highlight texture for the scene's shininess
     // (what Renderer generates; kept here for the C++ reference).
     image::Image8 highlight;
-    std::vector<std::string> notes;       // what was loaded/generated, for the CLI to report
+    std::vector<std::string> notes;  // what was loaded/generated, for the CLI to report
 };
 
 SceneAssets loadAssets(const Scene& scene, int threads = 0);

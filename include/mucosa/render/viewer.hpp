@@ -13,9 +13,9 @@ namespace mucosa::render {
 
 struct ViewerOptions {
     int width = 1280, height = 800;
-    bool autoplay = true;      // fly along the camera path; any navigation key pauses
-    int pathFrames = 900;      // poses along the path for auto-play (one per displayed frame)
-    int maxFrames = 0;         // > 0: close after this many frames (scripted runs, tests)
+    bool autoplay = true;                             // fly along the camera path; any navigation key pauses
+    int pathFrames = 900;                             // poses along the path for auto-play (one per displayed frame)
+    int maxFrames = 0;                                // > 0: close after this many frames (scripted runs, tests)
     std::optional<std::filesystem::path> screenshot;  // written after the last frame (with the panels)
     bool vsync = true;
 };

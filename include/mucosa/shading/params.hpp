@@ -26,7 +26,7 @@ enum class Mode : int {
 };
 inline constexpr int kModeCount = 8;
 
-std::string_view modeName(Mode m) noexcept;                  // "noise", "vertex-phong", ...
+std::string_view modeName(Mode m) noexcept;  // "noise", "vertex-phong", ...
 std::string_view modeDescription(Mode m) noexcept;
 // Throws InputError(field, file, ...) listing the known names.
 Mode parseMode(std::string_view name, const std::string& field = "mode", const std::string& file = "");
@@ -57,14 +57,14 @@ inline constexpr std::size_t kParamCount = 19;
 
 struct ParamInfo {
     Param id;
-    std::string_view name;         // scene-file key and viewer label, snake_case
-    std::string_view group;        // scene-file object: "material", "brdf" or "light"
-    int components;                // 1 (scalar) or 3 (RGB colour)
+    std::string_view name;          // scene-file key and viewer label, snake_case
+    std::string_view group;         // scene-file object: "material", "brdf" or "light"
+    int components;                 // 1 (scalar) or 3 (RGB colour)
     std::array<float, 3> defaults;  // scalars use [0]
-    float min, max;                // inclusive range of every component
-    std::string_view unit;         // "", "mm", "1/uv", ...
+    float min, max;                 // inclusive range of every component
+    std::string_view unit;          // "", "mm", "1/uv", ...
     std::string_view description;
-    bool fittable;                 // estimated by the BRDF fit (paper eq. 8-11)
+    bool fittable;  // estimated by the BRDF fit (paper eq. 8-11)
 };
 
 // The registry, in Param order.

@@ -18,8 +18,8 @@ using Mat4 = std::array<float, 16>;
 // Everything a frame needs besides the mesh and the textures; the GL renderer
 // (render::Renderer::draw) takes the same struct.
 struct FrameSetup {
-    Mat4 view{};        // world -> eye (rigid)
-    Mat4 projection{};  // eye -> clip
+    Mat4 view{};                   // world -> eye (rigid)
+    Mat4 projection{};             // eye -> clip
     std::array<float, 3> eye{};    // camera position, world mm
     std::array<float, 3> light{};  // point light position, world mm
     // +1: lit side = the side the normals face; -1: the other side (a mesh
