@@ -60,7 +60,7 @@ void runServe(const ServeArgs& a, const Global& g) {
     std::thread waiter([&] {
         int sig = 0;
         sigwait(&stopSignals, &sig);
-        if (sig != 0) server.stop();
+        server.stop();  // safe at any time, also before the server listens
     });
     try {
         server.run([&](int port) {

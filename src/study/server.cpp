@@ -4,10 +4,13 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <sstream>
+#include <thread>
 
 #include <fmt/format.h>
 #include <httplib.h>
@@ -64,6 +67,9 @@ struct StudyServer::Impl {
     std::map<int, std::shared_ptr<const std::string>> imageCache;
     std::size_t cachedBytes = 0;
     int listenSocket = -1;
+    std::mutex stopMutex;
+    std::condition_variable stopCv;
+    bool stopRequested = false;
 
     Impl(Plan p, ServeOptions o) : plan(std::move(p)), options(std::move(o)), store(options.db, plan.fingerprint) {}
 
@@ -344,11 +350,30 @@ void StudyServer::run(const std::function<void(int)>& onListening) {
     // a listening socket only changes its backlog (Linux).
     if (impl_->listenSocket >= 0) ::listen(impl_->listenSocket, kListenBacklog);
     if (onListening) onListening(port);
+    // httplib's stop() only acts once its accept loop runs (and must be called
+    // once), so a stop() that comes early (a Ctrl-C during start-up) is
+    // carried out here, as soon as the loop is running.
+    std::atomic<bool> done{false};
+    std::thread watcher([this, &done] {
+        std::unique_lock lock(impl_->stopMutex);
+        while (!done) {
+            if (impl_->stopRequested && impl_->http.is_running()) {
+                impl_->http.stop();
+                return;
+            }
+            impl_->stopCv.wait_for(lock, std::chrono::milliseconds(20));
+        }
+    });
     impl_->http.listen_after_bind();
+    done = true;
+    impl_->stopCv.notify_all();
+    watcher.join();
 }
 
 void StudyServer::stop() {
-    impl_->http.stop();
+    std::lock_guard lock(impl_->stopMutex);
+    impl_->stopRequested = true;
+    impl_->stopCv.notify_all();
 }
 
 }  // namespace mucosa::study

@@ -128,6 +128,22 @@ check(con.execute("SELECT DISTINCT grp FROM answers WHERE observer='N01'").fetch
       "every answer row carries the observer's group")
 con.close()
 
+# SIGINT and SIGTERM stop the server cleanly, also the instant it has started
+# (before its accept loop runs: httplib's own stop() would miss that).
+import signal  # noqa: E402
+import time  # noqa: E402
+for sig in (signal.SIGINT, signal.SIGTERM):
+    for delay in (0, 0.3):
+        s2 = fx.Server(cli, plan_path, db)
+        time.sleep(delay)
+        s2.proc.send_signal(sig)
+        try:
+            rc = s2.proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            s2.kill()
+            rc = None
+        check(rc == 0, f"{signal.Signals(sig).name} {delay} s after start stops the server (exit {rc})")
+
 # A database made for another plan is refused with one error line.
 other_plan = os.path.join(work, "other.json")
 fx.run(cli, "study", "plan", "--manifest", os.path.join(work, "images.json"), "-o", other_plan, "--seed", "99")

@@ -30,7 +30,7 @@ public:
     // Binds, calls onListening(port), then serves until stop(). Throws IoError
     // if the address cannot be bound.
     void run(const std::function<void(int port)>& onListening = {});
-    void stop();  // thread-safe
+    void stop();  // thread-safe, at any time (also before run() listens)
 
 private:
     struct Impl;
