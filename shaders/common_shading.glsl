@@ -18,6 +18,8 @@ const int kModeNormals = 4;        // debug: perturbed normal in world space, 0.
 const int kModeTangents = 5;       // debug: tangent T in world space, 0.5 T + 0.5
 const int kModeUv = 6;             // debug: fract(u), fract(v)
 const int kModeDepth = 7;          // debug: 1 - r, r = depth ratio of eq. 10
+const int kModeBrdf = 8;           // patient-specific: texture x rho(gamma) delta(r), nothing else (Category 3)
+const int kModeBrdfNoise = 9;      // kModeBrdf plus the method's noise-based specular (Category 4)
 
 // Below this, a decoded map normal's z is clamped: a map texel with blue <= 0.5
 // (a back-facing normal, impossible in a valid map) must not give NaN.
@@ -173,6 +175,11 @@ Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, in
     if (mode == kModeVertexPhong) {
         o.specular = o.specular * phongLobe(N, Ln, Vn, m.shininess);
     }
+    // The fitted model (paper eq. 11): delta(r) is the whole fall-off with
+    // distance, so no point-light attenuation on the diffuse term.
+    if (mode == kModeBrdf || mode == kModeBrdfNoise) {
+        o.diffuseLight = m.lightIntensity * diffuseShading(dot(N, Vn), dv, m);
+    }
     if (mode == kModeMultitexture) {
         o.sphereUv = highlightCoord(N, Ln, Vn, f);
     }
@@ -198,6 +205,14 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec3 mapRgb, float highlight, Ma
     }
     if (mode == kModeDiffuse) {
         return albedo * (m.ambient + v.diffuseLight);
+    }
+    if (mode == kModeBrdf) {
+        return albedoTex * v.diffuseLight;
+    }
+    if (mode == kModeBrdfNoise) {
+        vec3 Nb = decodeReflectanceNormal(mapRgb, m.bumpScale);
+        float specB = phongLobe(Nb, normalize(v.Lt), normalize(v.Vt), m.shininess);
+        return albedoTex * v.diffuseLight + vec3(v.specular * specB);
     }
     if (mode == kModeVertexPhong) {
         return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular);

@@ -36,7 +36,7 @@ void main() {
     if (MUCOSA_MODE != kModeNormals && MUCOSA_MODE != kModeTangents && MUCOSA_MODE != kModeUv &&
         MUCOSA_MODE != kModeDepth)
         albedoTex = texture(uDiffuse, vUv).rgb;
-    if (MUCOSA_MODE == kModeNoise || MUCOSA_MODE == kModeNormals)
+    if (MUCOSA_MODE == kModeNoise || MUCOSA_MODE == kModeNormals || MUCOSA_MODE == kModeBrdfNoise)
         mapRgb = texture(uReflectance, reflectanceMapCoord(vUv, uMaterial)).rgb;
     if (MUCOSA_MODE == kModeMultitexture)
         highlight = texture(uHighlight, vSphereUv).r;

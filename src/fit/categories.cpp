@@ -187,10 +187,10 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
         renderer.clearTexture(render::TextureSlot::Diffuse);
         shoot(1, shading::Mode::VertexPhong, unreal);
         renderer.setTexture(render::TextureSlot::Diffuse, lowRes, shading::Filter::Linear, shading::Wrap::Clamp);
-        shoot(2, shading::Mode::Diffuse, fitted);
+        shoot(2, shading::Mode::Brdf, fitted);
         renderer.setTexture(render::TextureSlot::Diffuse, atlas, shading::Filter::Trilinear, shading::Wrap::Clamp);
-        shoot(3, shading::Mode::Diffuse, fitted);
-        shoot(4, shading::Mode::Noise, fitted);
+        shoot(3, shading::Mode::Brdf, fitted);
+        shoot(4, shading::Mode::BrdfNoise, fitted);
         CategoryImage real{fmt::format("p{:03}_c5", i), fmt::format("pose{:03}_cat5{}", i, f.image.extension().string()),
                            5, i};
         writeFileAtomic(outDir / real.file, readFile(f.image));

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/fit/brdf.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/centerline.hpp>
@@ -211,8 +212,8 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     }
     P.object(j, "scene");
     P.known(j, "",
-            {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "brdf", "light",
-             "camera", "resolution", "frames"});
+            {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
+             "light", "camera", "resolution", "frames"});
     Scene s = defaultScene();
     s.file = fileForErrors;
     if (!j.contains("mesh")) P.fail("mesh", "is missing (a file, \"phantom\" or \"tube\")");
@@ -285,6 +286,29 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     }
     if (j.contains("mode")) s.mode = shading::parseMode(P.string(j["mode"], "mode"), "mode", P.file);
     if (j.contains("material")) P.registryGroup(j["material"], "material", s.params);
+    // "fit": the output folder of mucosa fit: its brdf.json sets c0..c3,
+    // d1..d3 and the depth range, its texture.png is the diffuse texture
+    // (unless "diffuse" names another); explicit "brdf" values override.
+    if (j.contains("fit")) {
+        const fs::path dir = P.path(j["fit"], "fit");
+        fit::BrdfParams b;
+        try {
+            b = fit::readBrdf(dir / "brdf.json");
+        } catch (const Error& e) {
+            P.fail("fit", e.what());
+        }
+        using shading::Param;
+        const Param cs[4] = {Param::C0, Param::C1, Param::C2, Param::C3};
+        const Param ds[3] = {Param::D1, Param::D2, Param::D3};
+        for (int i = 0; i < 4; ++i) s.params.set(cs[i], static_cast<float>(b.c[static_cast<std::size_t>(i)]), P.file, "fit");
+        for (int i = 0; i < 3; ++i) s.params.set(ds[i], static_cast<float>(b.d[static_cast<std::size_t>(i)]), P.file, "fit");
+        s.params.set(Param::DepthMin, static_cast<float>(b.zmin), P.file, "fit");
+        s.params.set(Param::DepthMax, static_cast<float>(b.zmax), P.file, "fit");
+        if (!j.contains("diffuse")) {
+            s.diffuse = dir / "texture.png";
+            s.generatedDiffuse = false;
+        }
+    }
     if (j.contains("brdf")) P.registryGroup(j["brdf"], "brdf", s.params);
     if (j.contains("light")) {
         P.registryGroup(j["light"], "light", s.params, {"offset_mm"});

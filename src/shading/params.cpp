@@ -10,8 +10,8 @@ namespace mucosa::shading {
 
 namespace {
 
-constexpr std::array<std::string_view, kModeCount> kModeNames = {"noise",   "vertex-phong", "multitexture", "diffuse",
-                                                                 "normals", "tangents",     "uv",           "depth"};
+constexpr std::array<std::string_view, kModeCount> kModeNames = {
+    "noise", "vertex-phong", "multitexture", "diffuse", "normals", "tangents", "uv", "depth", "brdf", "brdf-noise"};
 
 constexpr std::array<std::string_view, kModeCount> kModeDescriptions = {
     "the paper's method: per-pixel specular from the reflectance map over the diffuse texture",
@@ -22,6 +22,8 @@ constexpr std::array<std::string_view, kModeCount> kModeDescriptions = {
     "debug: tangent T in world space as 0.5 T + 0.5",
     "debug: fract(u), fract(v) in red, green",
     "debug: 1 - r, the depth ratio of eq. 10",
+    "patient-specific: texture x rho(gamma) delta(r) from mucosa fit, no ambient, tint or fall-off (Category 3)",
+    "patient-specific plus the method's noise-based specular (Category 4)",
 };
 
 using P = Param;

@@ -214,7 +214,7 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         const bool debug = mode == glsl::kModeNormals || mode == glsl::kModeTangents || mode == glsl::kModeUv ||
                            mode == glsl::kModeDepth;
         if (!debug) albedo = sampleTexture(textures.diffuse, v.uv.x, v.uv.y, {1, 1, 1});
-        if (mode == glsl::kModeNoise || mode == glsl::kModeNormals) {
+        if (mode == glsl::kModeNoise || mode == glsl::kModeNormals || mode == glsl::kModeBrdfNoise) {
             const glm::vec2 mc = glsl::reflectanceMapCoord(v.uv, m);
             map = sampleTexture(textures.reflectance, mc.x, mc.y, {0.5f, 0.5f, 1.0f});
         }

@@ -23,8 +23,10 @@ enum class Mode : int {
     Tangents = 5,
     Uv = 6,
     Depth = 7,
+    Brdf = 8,       // patient-specific texture x fitted rho, delta (Category 3)
+    BrdfNoise = 9,  // Brdf plus the method's specular (Category 4)
 };
-inline constexpr int kModeCount = 8;
+inline constexpr int kModeCount = 10;
 
 std::string_view modeName(Mode m) noexcept;  // "noise", "vertex-phong", ...
 std::string_view modeDescription(Mode m) noexcept;
