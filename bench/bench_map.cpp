@@ -24,7 +24,9 @@ double median(std::vector<double> v) {
 }
 
 std::vector<unsigned char> gPng;
-void onWrite(png_structp, png_bytep d, png_size_t n) { gPng.insert(gPng.end(), d, d + n); }
+void onWrite(png_structp, png_bytep d, png_size_t n) {
+    gPng.insert(gPng.end(), d, d + n);
+}
 void onFlush(png_structp) {}
 
 std::size_t libpngLevel6(const mucosa::image::Image8& img) {

@@ -14,7 +14,9 @@ std::vector<std::pair<int, AddCommand>>& registry() {
 }
 }  // namespace
 
-CommandRegistration::CommandRegistration(int order, AddCommand add) { registry().emplace_back(order, add); }
+CommandRegistration::CommandRegistration(int order, AddCommand add) {
+    registry().emplace_back(order, add);
+}
 
 void addRegisteredCommands(CLI::App& app, Global& global) {
     auto r = registry();
@@ -26,6 +28,8 @@ void info(const Global& g, const std::string& line) {
     if (!g.quiet) std::fprintf(stdout, "%s\n", line.c_str());
 }
 
-void warn(const std::string& line) { std::fprintf(stderr, "warning: %s\n", line.c_str()); }
+void warn(const std::string& line) {
+    std::fprintf(stderr, "warning: %s\n", line.c_str());
+}
 
 }  // namespace mucosa::cli

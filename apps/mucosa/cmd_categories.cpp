@@ -24,8 +24,9 @@ void addCategoriesCommand(CLI::App& app, Global& g) {
     auto a = std::make_shared<CategoriesArgs>();
     CLI::App* c = app.add_subcommand(
         "categories", "Render the study's categories 1-4 at every frame's pose and copy the real frame as category 5");
-    c->footer("Example: mucosa categories --mesh airway_uv.glb --fit fit/ --frames frames.json -o stimuli/\n"
-              "Then: mucosa study plan --manifest stimuli/images.json -o study.json");
+    c->footer(
+        "Example: mucosa categories --mesh airway_uv.glb --fit fit/ --frames frames.json -o stimuli/\n"
+        "Then: mucosa study plan --manifest stimuli/images.json -o study.json");
     c->add_option("--mesh", a->mesh, "The mesh the fit used")->required();
     c->add_option("--fit", a->fitDir, "The output folder of mucosa fit (brdf.json, texture.png)")->required();
     c->add_option("--frames", a->frames, "Frames file (poses and intrinsics)")->required();

@@ -14,7 +14,8 @@ namespace mucosa::cli {
 namespace {
 void addDemoCommand(CLI::App& app, Global& g) {
     auto outDir = std::make_shared<std::string>("out");
-    CLI::App* c = app.add_subcommand("demo", "Run the whole pipeline on the built-in default and write results to ./out/");
+    CLI::App* c =
+        app.add_subcommand("demo", "Run the whole pipeline on the built-in default and write results to ./out/");
     c->add_option("-o,--output-dir", *outDir, "Output directory [out]");
     c->callback([outDir, &g] {
         namespace fs = std::filesystem;

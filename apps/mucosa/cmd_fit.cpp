@@ -24,7 +24,8 @@ struct FitArgs {
 
 void addFitCommand(CLI::App& app, Global& g) {
     auto a = std::make_shared<FitArgs>();
-    CLI::App* c = app.add_subcommand("fit", "Fit the paper's BRDF (rho, delta) and a texture atlas to registered frames");
+    CLI::App* c =
+        app.add_subcommand("fit", "Fit the paper's BRDF (rho, delta) and a texture atlas to registered frames");
     c->footer("Example: mucosa fit --mesh airway_uv.glb --frames frames.json -o fit/ --texture-size 1024 --holdout 2");
     c->add_option("--mesh", a->mesh, "Mesh with texture coordinates (any format `mucosa mesh` reads)")->required();
     c->add_option("--frames", a->frames, "Frames file (JSON: images, intrinsics, camera_to_world)")->required();
@@ -59,11 +60,12 @@ void addFitCommand(CLI::App& app, Global& g) {
         }
         fit::writeFitOutputs(r, a->out);
         const auto& b = r.brdf;
-        info(g, fmt::format("rho(gamma) = {:.4f} + {:.4f} g + {:.4f} g^2 + {:.4f} g^3", b.c[0], b.c[1], b.c[2], b.c[3]));
-        info(g, fmt::format("delta(r) = 1 + {:.4f} r + {:.4f} r^2 + {:.4f} r^3, z in [{:.2f}, {:.2f}] mm", b.d[0], b.d[1],
-                            b.d[2], b.zmin, b.zmax));
-        info(g, fmt::format("{} samples in the solve, rms {:.4f}; texture covers {:.1f} % of the atlas", b.samples, b.rms,
-                            100.0 * r.coveredFraction));
+        info(g,
+             fmt::format("rho(gamma) = {:.4f} + {:.4f} g + {:.4f} g^2 + {:.4f} g^3", b.c[0], b.c[1], b.c[2], b.c[3]));
+        info(g, fmt::format("delta(r) = 1 + {:.4f} r + {:.4f} r^2 + {:.4f} r^3, z in [{:.2f}, {:.2f}] mm", b.d[0],
+                            b.d[1], b.d[2], b.zmin, b.zmax));
+        info(g, fmt::format("{} samples in the solve, rms {:.4f}; texture covers {:.1f} % of the atlas", b.samples,
+                            b.rms, 100.0 * r.coveredFraction));
         for (const auto& h : r.holdout)
             info(g, fmt::format("held-out frame {} ({}): PSNR {:.2f} dB over {} pixels ({} masked)", h.frame, h.image,
                                 h.psnr, h.compared, h.masked));

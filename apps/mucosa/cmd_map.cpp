@@ -14,8 +14,8 @@ struct MapArgs {
     std::string output, heightOut, preset, from;
     reflectance::MapParams p;
     bool timings = false;
-    CLI::Option *size, *frequency, *octaves, *lacunarity, *gain, *seed, *strength, *turbulence, *tileable, *bits,
-        *z, *out, *height;
+    CLI::Option *size, *frequency, *octaves, *lacunarity, *gain, *seed, *strength, *turbulence, *tileable, *bits, *z,
+        *out, *height;
 };
 
 std::string presetHelp() {
@@ -72,21 +72,25 @@ void addMapCommand(CLI::App& app, Global& g) {
     CLI::App* c = app.add_subcommand("map", "Generate a reflectance map (Perlin noise -> height -> normals -> RGB)");
     c->footer("Example: mucosa map -o map.png --preset bronchial --size 2048 --height-out height.exr");
     const reflectance::MapParams d;
-    a->out = c->add_option("-o,--output", a->output, "Output reflectance map (.png); a .json sidecar is written next to it");
+    a->out =
+        c->add_option("-o,--output", a->output, "Output reflectance map (.png); a .json sidecar is written next to it");
     a->size = c->add_option("--size", a->p.size, fmt::format("Map size in texels (square) [{}]", d.size));
     a->frequency = c->add_option("--frequency", a->p.noise.frequency,
                                  fmt::format("Base frequency: noise cycles across the map [{}]", d.noise.frequency));
     a->octaves = c->add_option("--octaves", a->p.noise.octaves, fmt::format("Octaves summed [{}]", d.noise.octaves));
     a->lacunarity = c->add_option("--lacunarity", a->p.noise.lacunarity,
                                   fmt::format("Frequency ratio between octaves [{}]", d.noise.lacunarity));
-    a->gain = c->add_option("--gain", a->p.noise.gain, fmt::format("Amplitude ratio between octaves [{}]", d.noise.gain));
+    a->gain =
+        c->add_option("--gain", a->p.noise.gain, fmt::format("Amplitude ratio between octaves [{}]", d.noise.gain));
     a->seed = c->add_option("--seed", a->p.noise.seed, "Permutation seed; 0 = Perlin's reference table [0]");
-    a->z = c->add_option("--z", a->p.noise.z, "Slice z of 3D noise that is sampled (avoid integers: lattice creases) [0.5]");
+    a->z = c->add_option("--z", a->p.noise.z,
+                         "Slice z of 3D noise that is sampled (avoid integers: lattice creases) [0.5]");
     a->strength = c->add_option("--strength", a->p.strength,
                                 fmt::format("Bump strength B: height amplitude in map widths [{}]", d.strength));
     a->turbulence = c->add_flag("--turbulence{true}", a->p.noise.turbulence, "Sum |noise| (ridged) instead of noise");
-    a->tileable = c->add_flag("--tileable{true}", a->p.noise.tileable,
-                              "Periodic noise: the map tiles without a seam (needs whole-number frequency and lacunarity)");
+    a->tileable =
+        c->add_flag("--tileable{true}", a->p.noise.tileable,
+                    "Periodic noise: the map tiles without a seam (needs whole-number frequency and lacunarity)");
     a->bits = c->add_option("--bits", a->p.bits, "Bits per channel, 8 or 16 [8]");
     a->height = c->add_option("--height-out", a->heightOut, "Also write the height field (.png 16-bit or .exr float)");
     c->add_option("--preset", a->preset, presetHelp());

@@ -42,13 +42,19 @@ void FitSolveAndTexture(benchmark::State& state) {
         mucosa::fit::buildTexture(samples, r.brdf, o, r);
         benchmark::DoNotOptimize(r.texture.data());
     }
-    state.counters["s/Msample"] = benchmark::Counter(
-        static_cast<double>(state.range(0)) * static_cast<double>(state.iterations()) / 1e6,
-        benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+    state.counters["s/Msample"] =
+        benchmark::Counter(static_cast<double>(state.range(0)) * static_cast<double>(state.iterations()) / 1e6,
+                           benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 }  // namespace
 
-BENCHMARK(FitSolveAndTexture)->Arg(100000)->Arg(1000000)->Arg(4000000)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(FitSolveAndTexture)
+    ->Arg(100000)
+    ->Arg(1000000)
+    ->Arg(4000000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2.0);
 
 BENCHMARK_MAIN();

@@ -19,7 +19,9 @@ Error::Error(std::string what, std::string file, std::string why)
       file_(std::move(file)),
       reason_(std::move(why)) {}
 
-std::string describe(const Error& e) { return e.what(); }
+std::string describe(const Error& e) {
+    return e.what();
+}
 
 namespace detail {
 void checkFailed(const char* expr, const char* file, int line, const std::string& msg) {

@@ -17,7 +17,9 @@ namespace mucosa {
 namespace fs = std::filesystem;
 
 namespace {
-std::string errnoText(int err) { return std::strerror(err); }
+std::string errnoText(int err) {
+    return std::strerror(err);
+}
 
 fs::path directoryOf(const fs::path& path) {
     fs::path dir = path.parent_path();
@@ -26,14 +28,12 @@ fs::path directoryOf(const fs::path& path) {
 }  // namespace
 
 AtomicFile::AtomicFile(fs::path path) : path_(std::move(path)) {
-    if (path_.filename().empty())
-        throw IoError("output path", path_.string(), "names a directory, not a file");
+    if (path_.filename().empty()) throw IoError("output path", path_.string(), "names a directory, not a file");
     const fs::path dir = directoryOf(path_);
     std::error_code ec;
     if (!fs::is_directory(dir, ec))
         throw IoError("output path", path_.string(), "directory '" + dir.string() + "' does not exist");
-    if (fs::is_directory(path_, ec))
-        throw IoError("output path", path_.string(), "is a directory");
+    if (fs::is_directory(path_, ec)) throw IoError("output path", path_.string(), "is a directory");
     std::string name = ".";
     name += path_.filename().string();
     name += ".tmp-XXXXXX";
@@ -102,8 +102,7 @@ std::vector<std::byte> readFile(const fs::path& path) {
     const auto size = in.tellg();
     in.seekg(0, std::ios::beg);
     std::vector<std::byte> bytes(static_cast<std::size_t>(size));
-    if (!in.read(reinterpret_cast<char*>(bytes.data()), size))
-        throw IoError("input", path.string(), "read failed");
+    if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) throw IoError("input", path.string(), "read failed");
     return bytes;
 }
 

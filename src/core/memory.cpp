@@ -35,8 +35,7 @@ std::uint64_t availableMemoryBytes() {
 }
 
 std::uint64_t saturatingMul(std::uint64_t a, std::uint64_t b) noexcept {
-    if (a != 0 && b > std::numeric_limits<std::uint64_t>::max() / a)
-        return std::numeric_limits<std::uint64_t>::max();
+    if (a != 0 && b > std::numeric_limits<std::uint64_t>::max() / a) return std::numeric_limits<std::uint64_t>::max();
     return a * b;
 }
 
@@ -56,8 +55,8 @@ void requireMemory(std::uint64_t bytes, const std::string& what) {
     const std::uint64_t avail = availableMemoryBytes();
     if (bytes > avail) {
         throw ResourceError(what, "",
-                            fmt::format("needs {} bytes ({}) but only {} are available", bytes,
-                                        formatBytes(bytes), formatBytes(avail)));
+                            fmt::format("needs {} bytes ({}) but only {} are available", bytes, formatBytes(bytes),
+                                        formatBytes(avail)));
     }
 }
 

@@ -1,5 +1,7 @@
 #include <mucosa/core/version.hpp>
 
 namespace mucosa {
-std::string_view version() noexcept { return MUCOSA_VERSION_STRING; }
+std::string_view version() noexcept {
+    return MUCOSA_VERSION_STRING;
+}
 }  // namespace mucosa

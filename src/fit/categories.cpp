@@ -103,8 +103,7 @@ image::Image8 reduce(const image::Image8& img, int divisor) {
 
 std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& frames, const FittedModel& model,
                                             const fs::path& outDir, const CategoriesOptions& o) {
-    if (!mesh.hasUvs())
-        throw InputError("mesh", "", "has no texture coordinates (use the mesh the fit used)");
+    if (!mesh.hasUvs()) throw InputError("mesh", "", "has no texture coordinates (use the mesh the fit used)");
     // The atlas spans uvMin..uvMax: render with coordinates in atlas space.
     const float du = model.uvMax[0] - model.uvMin[0], dv = model.uvMax[1] - model.uvMin[1];
     for (auto& uv : mesh.uvs) {
@@ -191,16 +190,19 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
         renderer.setTexture(render::TextureSlot::Diffuse, atlas, shading::Filter::Trilinear, shading::Wrap::Clamp);
         shoot(3, shading::Mode::Brdf, fitted);
         shoot(4, shading::Mode::BrdfNoise, fitted);
-        CategoryImage real{fmt::format("p{:03}_c5", i), fmt::format("pose{:03}_cat5{}", i, f.image.extension().string()),
-                           5, i};
+        CategoryImage real{fmt::format("p{:03}_c5", i),
+                           fmt::format("pose{:03}_cat5{}", i, f.image.extension().string()), 5, i};
         writeFileAtomic(outDir / real.file, readFile(f.image));
         out.push_back(real);
         if (o.progress) o.progress(i + 1, total);
     }
     json manifest{{"images", json::array()}};
     for (const CategoryImage& c : out)
-        manifest["images"].push_back({{"id", c.id}, {"file", c.file.string()}, {"category", c.category},
-                                      {"patient", o.patient}, {"pose", fmt::format("{:03}", c.pose)}});
+        manifest["images"].push_back({{"id", c.id},
+                                      {"file", c.file.string()},
+                                      {"category", c.category},
+                                      {"patient", o.patient},
+                                      {"pose", fmt::format("{:03}", c.pose)}});
     writeFileAtomic(outDir / "images.json", manifest.dump(2) + "\n");
     return out;
 }

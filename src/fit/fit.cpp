@@ -16,7 +16,8 @@ namespace {
 std::vector<std::size_t> holdoutFrames(std::size_t n, int k) {
     std::vector<std::size_t> out;
     if (k <= 0) return out;
-    for (int i = 0; i < k; ++i) out.push_back((static_cast<std::size_t>(2 * i + 1) * n) / static_cast<std::size_t>(2 * k));
+    for (int i = 0; i < k; ++i)
+        out.push_back((static_cast<std::size_t>(2 * i + 1) * n) / static_cast<std::size_t>(2 * k));
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
 }
@@ -26,13 +27,15 @@ std::vector<std::size_t> holdoutFrames(std::size_t n, int k) {
 FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOptions& o) {
     const auto t0 = std::chrono::steady_clock::now();
     if (!mesh.hasUvs())
-        throw InputError("mesh", "", "has no texture coordinates: prepare it with `mucosa mesh IN -o OUT --uv centerline`");
+        throw InputError("mesh", "",
+                         "has no texture coordinates: prepare it with `mucosa mesh IN -o OUT --uv centerline`");
     if (!mesh.hasNormals()) throw InputError("mesh", "", "has no normals");
     if (o.textureSize < 8 || o.textureSize > 16384)
         throw InputError("texture size", "", fmt::format("must be in 8..16384, got {}", o.textureSize));
     if (o.holdout < 0 || static_cast<std::size_t>(o.holdout) >= set.frames.size())
-        throw InputError("holdout", "",
-                         fmt::format("must leave at least one frame to fit: {} of {} frames", o.holdout, set.frames.size()));
+        throw InputError(
+            "holdout", "",
+            fmt::format("must leave at least one frame to fit: {} of {} frames", o.holdout, set.frames.size()));
     // Memory: samples (one per pixel at most) and the atlas.
     std::uint64_t pixels = 0;
     for (const Frame& f : set.frames) pixels += static_cast<std::uint64_t>(f.K.width) * f.K.height;
@@ -46,8 +49,9 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
     std::vector<Sample> samples;
     for (std::size_t i = 0; i < set.frames.size(); ++i) {
         const Frame& f = set.frames[i];
-        if (o.progress) o.progress(fmt::format("back-projecting frame {}/{}", i + 1, set.frames.size()),
-                                   static_cast<double>(i) / set.frames.size());
+        if (o.progress)
+            o.progress(fmt::format("back-projecting frame {}/{}", i + 1, set.frames.size()),
+                       static_cast<double>(i) / set.frames.size());
         const bool isHeld = std::find(held.begin(), held.end(), i) != held.end();
         image::Image8 sat;
         const image::ImageF img = loadFrameImage(f, set.gamma, &sat, o.saturation);

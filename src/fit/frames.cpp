@@ -65,7 +65,8 @@ FrameSet readFrames(const fs::path& path) {
     for (std::size_t i = 0; i < j["frames"].size(); ++i) {
         const json& f = j["frames"][i];
         const std::string where = fmt::format("frames[{}].", i);
-        if (!f.is_object()) throw InputError("field '" + where.substr(0, where.size() - 1) + "'", file, "must be an object");
+        if (!f.is_object())
+            throw InputError("field '" + where.substr(0, where.size() - 1) + "'", file, "must be an object");
         Frame fr;
         if (!f.contains("image") || !f["image"].is_string())
             throw InputError("field '" + where + "image'", file, "must be a file name");
@@ -120,11 +121,15 @@ FrameSet readFrames(const fs::path& path) {
 }
 
 void writeFrames(const fs::path& path, const FrameSet& set) {
-    json j{{"units", set.units}, {"gamma", set.gamma}, {"light", {{"offset", set.lightOffset}}}, {"frames", json::array()}};
+    json j{{"units", set.units},
+           {"gamma", set.gamma},
+           {"light", {{"offset", set.lightOffset}}},
+           {"frames", json::array()}};
     for (const Frame& f : set.frames) {
         json m = json::array();
         for (const auto& row : f.cameraToWorld) m.push_back(row);
-        json k{{"width", f.K.width}, {"height", f.K.height}, {"fx", f.K.fx}, {"fy", f.K.fy}, {"cx", f.K.cx}, {"cy", f.K.cy}};
+        json k{{"width", f.K.width}, {"height", f.K.height}, {"fx", f.K.fx},
+               {"fy", f.K.fy},       {"cx", f.K.cx},         {"cy", f.K.cy}};
         if (f.K.k1 != 0 || f.K.k2 != 0) {
             k["k1"] = f.K.k1;
             k["k2"] = f.K.k2;
@@ -134,7 +139,9 @@ void writeFrames(const fs::path& path, const FrameSet& set) {
     writeFileAtomic(path, j.dump(2) + "\n");
 }
 
-Vec3d cameraCentre(const Mat4& m) noexcept { return {m[0][3], m[1][3], m[2][3]}; }
+Vec3d cameraCentre(const Mat4& m) noexcept {
+    return {m[0][3], m[1][3], m[2][3]};
+}
 
 Mat4 invertRigid(const Mat4& m) noexcept {
     Mat4 r{};

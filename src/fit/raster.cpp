@@ -16,8 +16,8 @@ namespace mucosa::fit {
 namespace {
 
 struct ClipVertex {
-    double x, y, z;   // camera space
-    double b1, b2;    // barycentrics w.r.t. the original triangle
+    double x, y, z;  // camera space
+    double b1, b2;   // barycentrics w.r.t. the original triangle
 };
 
 ClipVertex mix(const ClipVertex& a, const ClipVertex& b, double t) {

@@ -46,9 +46,10 @@ std::string svgPlot(const std::string& title, const std::string& xlabel, const s
     s += fmt::format(R"(<text x="{}" y="18" text-anchor="middle" font-size="14">{}</text>)"
                      "\n",
                      W / 2, title);
-    s += fmt::format(R"(<line x1="{0}" y1="{1}" x2="{2}" y2="{1}" stroke="black"/><line x1="{0}" y1="{3}" x2="{0}" y2="{1}" stroke="black"/>)"
-                     "\n",
-                     L, H - B, W - R, T);
+    s += fmt::format(
+        R"(<line x1="{0}" y1="{1}" x2="{2}" y2="{1}" stroke="black"/><line x1="{0}" y1="{3}" x2="{0}" y2="{1}" stroke="black"/>)"
+        "\n",
+        L, H - B, W - R, T);
     for (int i = 0; i <= 4; ++i) {
         const double xv = x0 + (x1 - x0) * i / 4, yv = y0 + (y1 - y0) * i / 4;
         s += fmt::format(R"(<text x="{:.1f}" y="{}" text-anchor="middle">{:.2f}</text>)"
@@ -103,28 +104,40 @@ void writeFitOutputs(const FitResult& r, const fs::path& dir) {
     }
 
     const BrdfParams& b = r.brdf;
-    const std::string rhoSvg = svgPlot("rho(gamma): view-angle shading", "gamma = cos(V, N)", "rho", 0.0, 1.0,
-                                       [&](double g) { return b.rho(g); }, r.rhoBins);
-    const std::string deltaSvg =
-        svgPlot(fmt::format("delta(r): distance shading, z in [{:.1f}, {:.1f}] mm", b.zmin, b.zmax),
-                "r = (z - zmin) / (zmax - zmin)", "delta", 0.0, 1.0, [&](double x) { return b.delta(x); }, r.deltaBins);
+    const std::string rhoSvg = svgPlot(
+        "rho(gamma): view-angle shading", "gamma = cos(V, N)", "rho", 0.0, 1.0, [&](double g) { return b.rho(g); },
+        r.rhoBins);
+    const std::string deltaSvg = svgPlot(
+        fmt::format("delta(r): distance shading, z in [{:.1f}, {:.1f}] mm", b.zmin, b.zmax),
+        "r = (z - zmin) / (zmax - zmin)", "delta", 0.0, 1.0, [&](double x) { return b.delta(x); }, r.deltaBins);
 
     json rep{{"brdf", brdf},
              {"covered_fraction", r.coveredFraction},
-             {"solve", {{"samples", r.solveSamples}, {"texels", r.solveTexels}, {"iterations", r.solverIterations},
-                        {"seconds", r.solveSeconds}}},
+             {"solve",
+              {{"samples", r.solveSamples},
+               {"texels", r.solveTexels},
+               {"iterations", r.solverIterations},
+               {"seconds", r.solveSeconds}}},
              {"total_seconds", r.totalSeconds},
              {"frames", json::array()},
              {"holdout", json::array()}};
     for (std::size_t i = 0; i < r.perFrame.size(); ++i) {
         const auto& s = r.perFrame[i];
-        rep["frames"].push_back({{"frame", i}, {"pixels", s.pixels}, {"hits", s.hits}, {"back_facing", s.backFacing},
-                                 {"saturated", s.saturated}, {"grazing", s.grazing}, {"samples", s.samples}});
+        rep["frames"].push_back({{"frame", i},
+                                 {"pixels", s.pixels},
+                                 {"hits", s.hits},
+                                 {"back_facing", s.backFacing},
+                                 {"saturated", s.saturated},
+                                 {"grazing", s.grazing},
+                                 {"samples", s.samples}});
     }
     std::string holdoutRows;
     for (const auto& h : r.holdout) {
-        rep["holdout"].push_back(
-            {{"frame", h.frame}, {"image", h.image}, {"psnr_db", h.psnr}, {"compared", h.compared}, {"masked", h.masked}});
+        rep["holdout"].push_back({{"frame", h.frame},
+                                  {"image", h.image},
+                                  {"psnr_db", h.psnr},
+                                  {"compared", h.compared},
+                                  {"masked", h.masked}});
         holdoutRows += fmt::format("<tr><td>{}</td><td>{}</td><td>{:.2f}</td><td>{}</td><td>{}</td></tr>\n", h.frame,
                                    h.image, h.psnr, h.compared, h.masked);
     }

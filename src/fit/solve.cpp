@@ -10,10 +10,10 @@
 #include <random>
 #include <unordered_map>
 
-#include <Eigen/Dense>
 #include <ceres/ceres.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <Eigen/Dense>
 
 #include <fmt/format.h>
 
@@ -266,7 +266,6 @@ int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::si
     if (summary.termination_type == ceres::FAILURE)
         throw InputError("fit", "", "the solver failed: " + summary.message);
     return static_cast<int>(summary.iterations.size());
-
 }
 
 }  // namespace
@@ -289,7 +288,8 @@ BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, Fi
         vmin = std::min(vmin, s.v);
         vmax = std::max(vmax, s.v);
     }
-    if (!(zmax > zmin)) throw InputError("samples", "", "all samples are at the same distance: delta(r) cannot be fitted");
+    if (!(zmax > zmin))
+        throw InputError("samples", "", "all samples are at the same distance: delta(r) cannot be fitted");
     out.zmin = zmin;
     out.zmax = zmax;
 
@@ -306,8 +306,10 @@ BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, Fi
     std::vector<std::uint8_t> multi(firstFrame.size(), 0);
     for (const Sample& s : samples) {
         const int c = cellOf(s);
-        if (firstFrame[c] == UINT32_MAX) firstFrame[c] = s.frame;
-        else if (firstFrame[c] != s.frame) multi[c] = 1;
+        if (firstFrame[c] == UINT32_MAX)
+            firstFrame[c] = s.frame;
+        else if (firstFrame[c] != s.frame)
+            multi[c] = 1;
     }
     std::vector<std::size_t> usable;
     for (std::size_t i = 0; i < samples.size(); ++i)
@@ -343,7 +345,8 @@ BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, Fi
         for (int k = 0; k < 3; ++k) albedo[t][k] /= count[t];
 
     std::vector<std::uint32_t> slotOf(usable.size());
-    for (std::size_t j = 0; j < usable.size(); ++j) slotOf[j] = static_cast<std::uint32_t>(slot[cellOf(samples[usable[j]])]);
+    for (std::size_t j = 0; j < usable.size(); ++j)
+        slotOf[j] = static_cast<std::uint32_t>(slot[cellOf(samples[usable[j]])]);
     int iterations = 0;
     if (o.solver == Solver::Schur)
         iterations = schurLevenbergMarquardt(samples, usable, slotOf, out, o, cd, albedo);

@@ -77,8 +77,7 @@ void pushPull(image::ImageF& color, const image::ImageF& weight) {
     }
     const Level& f = levels[0];
     for (std::size_t i = 0; i < weight.size(); ++i)
-        for (int k = 0; k < 3; ++k)
-            color.data()[3 * i + k] = f.wt[i] > 0 ? f.c[3 * i + k] / f.wt[i] : 0.0f;
+        for (int k = 0; k < 3; ++k) color.data()[3 * i + k] = f.wt[i] > 0 ? f.c[3 * i + k] / f.wt[i] : 0.0f;
 }
 
 void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, const FitOptions& o, FitResult& r) {

@@ -121,9 +121,9 @@ void writeBlock(BitWriter& bw, const std::uint8_t* data, std::size_t n, bool las
     while (hclen > 4 && clLen[static_cast<std::size_t>(kCodeLengthOrder[hclen - 1])] == 0) --hclen;
 
     bw.put(last ? 1u : 0u, 1);
-    bw.put(2u, 2);    // dynamic Huffman
-    bw.put(0u, 5);    // HLIT = 257 - 257
-    bw.put(1u, 5);    // HDIST = 2 - 1
+    bw.put(2u, 2);  // dynamic Huffman
+    bw.put(0u, 5);  // HLIT = 257 - 257
+    bw.put(1u, 5);  // HDIST = 2 - 1
     bw.put(static_cast<std::uint32_t>(hclen - 4), 4);
     for (int i = 0; i < hclen; ++i) bw.put(clLen[static_cast<std::size_t>(kCodeLengthOrder[i])], 3);
     for (std::uint8_t l : litLen) bw.put(clCode[l], clLen[l]);

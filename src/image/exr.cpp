@@ -17,10 +17,14 @@ namespace mucosa::image {
 namespace {
 std::vector<std::string> channelNames(int channels) {
     switch (channels) {
-        case 1: return {"Y"};
-        case 2: return {"Y", "A"};
-        case 3: return {"R", "G", "B"};
-        default: return {"R", "G", "B", "A"};
+        case 1:
+            return {"Y"};
+        case 2:
+            return {"Y", "A"};
+        case 3:
+            return {"R", "G", "B"};
+        default:
+            return {"R", "G", "B", "A"};
     }
 }
 }  // namespace

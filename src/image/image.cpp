@@ -18,7 +18,8 @@ Image<T>::Image(int width, int height, int channels) : width_(width), height_(he
     if (width < 1 || height < 1 || channels < 1 || channels > 4)
         throw InputError("image size", "", fmt::format("{}x{}x{} is not a valid image", width, height, channels));
     requireMemory(imageBytes(width, height, channels, sizeof(T)), fmt::format("a {}x{} image", width, height));
-    data_.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * static_cast<std::size_t>(channels));
+    data_.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) *
+                 static_cast<std::size_t>(channels));
 }
 
 template class Image<std::uint8_t>;

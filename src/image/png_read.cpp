@@ -102,7 +102,9 @@ PngImage decodePng(const std::vector<std::byte>& bytes, const std::string& name)
     return result;
 }
 
-PngImage readPng(const std::filesystem::path& path) { return decodePng(readFile(path), path.string()); }
+PngImage readPng(const std::filesystem::path& path) {
+    return decodePng(readFile(path), path.string());
+}
 
 Image8 to8(const PngImage& png) {
     const Image16& src = png.pixels;

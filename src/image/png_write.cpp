@@ -13,16 +13,16 @@
 
 #include <algorithm>
 #include <array>
-#include <cstring>
 #include <cstdlib>
+#include <cstring>
 #include <thread>
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/core/parallel.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/core/parallel.hpp>
 
 #include "core/simd.hpp"
 #include "deflate_huffman.hpp"
@@ -55,7 +55,9 @@ inline int paeth(int a, int b, int c) {
     return (pa <= pb && pa <= pc) ? a : bc;
 }
 
-inline int absResidual(int r) { return r < 128 ? r : 256 - r; }
+inline int absResidual(int r) {
+    return r < 128 ? r : 256 - r;
+}
 
 // Sum of |signed residual| of each filter type over one row (bytes >= bpp;
 // the first bpp bytes are added by the caller). One pass, pure reductions.
@@ -77,16 +79,17 @@ MUCOSA_TARGET_CLONES void filterCosts(const std::uint8_t* __restrict cur, const 
     cost[4] += c4;
 }
 
-MUCOSA_TARGET_CLONES void applyFilter(int type, const std::uint8_t* __restrict cur,
-                                      const std::uint8_t* __restrict prev, std::size_t n, std::size_t bpp,
-                                      std::uint8_t* __restrict out) {
+MUCOSA_TARGET_CLONES void applyFilter(int type, const std::uint8_t* __restrict cur, const std::uint8_t* __restrict prev,
+                                      std::size_t n, std::size_t bpp, std::uint8_t* __restrict out) {
     for (std::size_t i = 0; i < std::min(bpp, n); ++i) {
         const int x = cur[i], b = prev[i];
         const int pred = type == 2 || type == 4 ? b : (type == 3 ? (b >> 1) : 0);
         out[i] = static_cast<std::uint8_t>(x - pred);
     }
     switch (type) {
-        case 0: std::memcpy(out + bpp, cur + bpp, n - bpp); break;
+        case 0:
+            std::memcpy(out + bpp, cur + bpp, n - bpp);
+            break;
         case 1:
             for (std::size_t i = bpp; i < n; ++i) out[i] = static_cast<std::uint8_t>(cur[i] - cur[i - bpp]);
             break;
@@ -106,8 +109,8 @@ MUCOSA_TARGET_CLONES void applyFilter(int type, const std::uint8_t* __restrict c
 
 // Filters one row (PNG spec 9.2) into out[0] = type, out[1..] = bytes; picks
 // the filter with the smallest sum of |signed residual| (libpng's heuristic).
-void filterRow(const std::uint8_t* cur, const std::uint8_t* prev, std::size_t n, std::size_t bpp,
-               std::uint8_t* out, std::vector<std::uint8_t>& zeros) {
+void filterRow(const std::uint8_t* cur, const std::uint8_t* prev, std::size_t n, std::size_t bpp, std::uint8_t* out,
+               std::vector<std::uint8_t>& zeros) {
     if (!prev) {
         zeros.assign(n, 0);
         prev = zeros.data();
@@ -150,8 +153,8 @@ bool huffmanWins(const std::uint8_t* data, std::size_t n) {
     return static_cast<double>(zlen) > 0.9 * huffmanBytes;
 }
 
-void deflatePiece(const std::uint8_t* data, std::size_t begin, std::size_t end, bool last,
-                  const PngWriteOptions& opt, Piece& out) {
+void deflatePiece(const std::uint8_t* data, std::size_t begin, std::size_t end, bool last, const PngWriteOptions& opt,
+                  Piece& out) {
     const std::size_t n = end - begin;
     out.adler = adler32(1L, data + begin, static_cast<uInt>(n));
     out.length = n;
@@ -238,7 +241,9 @@ std::vector<std::byte> encode(const Image<T>& img, const PngWriteOptions& opt) {
     for (const Piece& p : pieces) zsize += p.deflated.size();
     zdata.reserve(zsize);
     // RFC 1950 header: deflate, 32 KiB window, FLEVEL from the level, FCHECK.
-    const int flevel = opt.compression == PngCompression::Auto ? 2 : opt.level <= 1 ? 0 : (opt.level <= 5 ? 1 : (opt.level == 6 ? 2 : 3));
+    const int flevel = opt.compression == PngCompression::Auto ? 2
+                       : opt.level <= 1                        ? 0
+                                                               : (opt.level <= 5 ? 1 : (opt.level == 6 ? 2 : 3));
     const unsigned cmf = 0x78, flg0 = static_cast<unsigned>(flevel) << 6;
     const unsigned flg = flg0 + (31 - ((cmf * 256 + flg0) % 31)) % 31;
     zdata.push_back(static_cast<std::byte>(cmf));
@@ -272,8 +277,12 @@ std::vector<std::byte> encode(const Image<T>& img, const PngWriteOptions& opt) {
 
 }  // namespace
 
-std::vector<std::byte> encodePng(const Image8& img, const PngWriteOptions& opt) { return encode(img, opt); }
-std::vector<std::byte> encodePng(const Image16& img, const PngWriteOptions& opt) { return encode(img, opt); }
+std::vector<std::byte> encodePng(const Image8& img, const PngWriteOptions& opt) {
+    return encode(img, opt);
+}
+std::vector<std::byte> encodePng(const Image16& img, const PngWriteOptions& opt) {
+    return encode(img, opt);
+}
 
 void writePng(const std::filesystem::path& path, const Image8& img, const PngWriteOptions& opt) {
     writeFileAtomic(path, encode(img, opt));

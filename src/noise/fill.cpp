@@ -11,9 +11,9 @@
 
 #include <algorithm>
 #include <array>
-#include <type_traits>
 #include <cmath>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include <tbb/blocked_range.h>
@@ -114,8 +114,8 @@ struct SpanCoeffs {
 //                lerp(v, lerp(u, g001, g101), lerp(u, g011, g111))).
 template <class T, bool kTurbulence>
 __attribute__((always_inline)) inline void spanKernel(T* __restrict acc, const T* __restrict xf,
-                                                      const T* __restrict xf1, const T* __restrict uu,
-                                                      int n, const SpanCoeffs<T>& k) {
+                                                      const T* __restrict xf1, const T* __restrict uu, int n,
+                                                      const SpanCoeffs<T>& k) {
     const T s0 = k.s[0], s1 = k.s[1], s2 = k.s[2], s3 = k.s[3];
     const T s4 = k.s[4], s5 = k.s[5], s6 = k.s[6], s7 = k.s[7];
     const T C0 = k.C[0], C1 = k.C[1], C2 = k.C[2], C3 = k.C[3];
@@ -161,11 +161,10 @@ __attribute__((always_inline)) inline void rowBody(const RowJob<T>& job, T* row,
             const int A = p[sp.X0] + r.Y0, B = p[sp.X1] + r.Y0;
             const int A1 = p[sp.X0] + r.Y1, B1 = p[sp.X1] + r.Y1;
             // Corner order: g000, g100, g010, g110, g001, g101, g011, g111.
-            const Corner c[8] = {
-                corner(p[p[A] + r.Z0], r.yf, r.zf), corner(p[p[B] + r.Z0], r.yf, r.zf),
-                corner(p[p[A1] + r.Z0], y1, r.zf),  corner(p[p[B1] + r.Z0], y1, r.zf),
-                corner(p[p[A] + r.Z1], r.yf, z1),   corner(p[p[B] + r.Z1], r.yf, z1),
-                corner(p[p[A1] + r.Z1], y1, z1),    corner(p[p[B1] + r.Z1], y1, z1)};
+            const Corner c[8] = {corner(p[p[A] + r.Z0], r.yf, r.zf), corner(p[p[B] + r.Z0], r.yf, r.zf),
+                                 corner(p[p[A1] + r.Z0], y1, r.zf),  corner(p[p[B1] + r.Z0], y1, r.zf),
+                                 corner(p[p[A] + r.Z1], r.yf, z1),   corner(p[p[B] + r.Z1], r.yf, z1),
+                                 corner(p[p[A1] + r.Z1], y1, z1),    corner(p[p[B1] + r.Z1], y1, z1)};
             for (int i = 0; i < 8; ++i) {
                 k.s[i] = static_cast<T>(c[i].s);
                 k.C[i] = static_cast<T>(c[i].C);
@@ -194,10 +193,16 @@ struct GradTable {
         for (int h = 0; h < 16; ++h) {
             const double su = (h & 1) ? -1.0 : 1.0, sv = (h & 2) ? -1.0 : 1.0;
             gx[h] = gy[h] = gz[h] = 0.0;
-            if (h < 8) gx[h] += su; else gy[h] += su;                    // u = x or y
-            if (h < 4) gy[h] += sv;                                       // v = y
-            else if (h == 12 || h == 14) gx[h] += sv;                    // v = x
-            else gz[h] += sv;                                             // v = z
+            if (h < 8)
+                gx[h] += su;
+            else
+                gy[h] += su;  // u = x or y
+            if (h < 4)
+                gy[h] += sv;  // v = y
+            else if (h == 12 || h == 14)
+                gx[h] += sv;  // v = x
+            else
+                gz[h] += sv;  // v = z
         }
     }
 };
@@ -205,8 +210,8 @@ const GradTable kGrad;
 
 template <bool kTurbulence>
 __attribute__((always_inline)) inline void foldedKernel(float* __restrict acc, const float* __restrict xf,
-                                                        const float* __restrict uu, int n, float P, float Q,
-                                                        float R, float S) {
+                                                        const float* __restrict uu, int n, float P, float Q, float R,
+                                                        float S) {
     for (int i = 0; i < n; ++i) {
         const float x = xf[i];
         const float val = (P * x + Q) + uu[i] * (R * x + S);
@@ -262,9 +267,12 @@ void buildCornerTables(Octave<float>& oct, const std::uint8_t* p, int height, do
             for (int k = 0; k < 4; ++k) {
                 const int ha = p[p[p[sp.X0] + Ys[k]] + Zs[k]] & 15;
                 const int hb = p[p[p[sp.X1] + Ys[k]] + Zs[k]] & 15;
-                const float f[7] = {static_cast<float>(kGrad.gx[ha]), static_cast<float>(kGrad.gx[hb] - kGrad.gx[ha]),
-                                    static_cast<float>(kGrad.gy[ha]), static_cast<float>(kGrad.gz[ha]),
-                                    static_cast<float>(kGrad.gx[hb]), static_cast<float>(kGrad.gy[hb] - kGrad.gy[ha]),
+                const float f[7] = {static_cast<float>(kGrad.gx[ha]),
+                                    static_cast<float>(kGrad.gx[hb] - kGrad.gx[ha]),
+                                    static_cast<float>(kGrad.gy[ha]),
+                                    static_cast<float>(kGrad.gz[ha]),
+                                    static_cast<float>(kGrad.gx[hb]),
+                                    static_cast<float>(kGrad.gy[hb] - kGrad.gy[ha]),
                                     static_cast<float>(kGrad.gz[hb] - kGrad.gz[ha])};
                 for (int q = 0; q < 7; ++q) t[static_cast<std::size_t>(7 * k + q) * nsp + j] = f[q];
             }
@@ -356,8 +364,12 @@ MUCOSA_CLONES void rowsFloat(const RowJob<float>& job, float* out, int width, in
         rowBodyFolded(job, out + static_cast<std::size_t>(y) * width, width, static_cast<double>(y) / height, scratch);
 }
 
-void rows(const RowJob<double>& job, double* out, int w, int h, int y0, int y1) { rowsDouble(job, out, w, h, y0, y1); }
-void rows(const RowJob<float>& job, float* out, int w, int h, int y0, int y1) { rowsFloat(job, out, w, h, y0, y1); }
+void rows(const RowJob<double>& job, double* out, int w, int h, int y0, int y1) {
+    rowsDouble(job, out, w, h, y0, y1);
+}
+void rows(const RowJob<float>& job, float* out, int w, int h, int y0, int y1) {
+    rowsFloat(job, out, w, h, y0, y1);
+}
 
 template <class T>
 std::vector<Octave<T>> buildOctaves(const FractalParams& prm, int width) {

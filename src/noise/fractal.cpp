@@ -9,7 +9,9 @@
 namespace mucosa::noise {
 
 namespace {
-bool isWhole(double x) { return std::isfinite(x) && std::floor(x) == x; }
+bool isWhole(double x) {
+    return std::isfinite(x) && std::floor(x) == x;
+}
 }  // namespace
 
 void validate(const FractalParams& p) {
@@ -29,14 +31,17 @@ void validate(const FractalParams& p) {
     }
     if (!p.tileable) return;
     if (!isWhole(p.frequency))
-        throw InputError("frequency", "", fmt::format("a tileable map needs a whole number of cycles, got {}", p.frequency));
+        throw InputError("frequency", "",
+                         fmt::format("a tileable map needs a whole number of cycles, got {}", p.frequency));
     if (!isWhole(p.lacunarity))
-        throw InputError("lacunarity", "", fmt::format("a tileable map needs a whole-number lacunarity, got {}", p.lacunarity));
+        throw InputError("lacunarity", "",
+                         fmt::format("a tileable map needs a whole-number lacunarity, got {}", p.lacunarity));
     f = p.frequency;
     for (int i = 0; i < p.octaves; ++i, f *= p.lacunarity) {
         if (f > 256 && std::fmod(f, 256.0) != 0)
-            throw InputError("frequency", "",
-                             fmt::format("octave {} has {} cycles: above 256 a tileable period must be a multiple of 256", i, f));
+            throw InputError(
+                "frequency", "",
+                fmt::format("octave {} has {} cycles: above 256 a tileable period must be a multiple of 256", i, f));
     }
 }
 

@@ -9,21 +9,18 @@ namespace {
 
 // Perlin 2002, ImprovedNoise.java: the reference permutation.
 constexpr std::array<std::uint8_t, 256> kReference = {
-    151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225, 140, 36,
-    103, 30,  69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148, 247, 120, 234, 75,
-    0,   26,  197, 62,  94,  252, 219, 203, 117, 35,  11,  32,  57,  177, 33,  88,  237, 149,
-    56,  87,  174, 20,  125, 136, 171, 168, 68,  175, 74,  165, 71,  134, 139, 48,  27,  166,
-    77,  146, 158, 231, 83,  111, 229, 122, 60,  211, 133, 230, 220, 105, 92,  41,  55,  46,
-    245, 40,  244, 102, 143, 54,  65,  25,  63,  161, 1,   216, 80,  73,  209, 76,  132, 187,
-    208, 89,  18,  169, 200, 196, 135, 130, 116, 188, 159, 86,  164, 100, 109, 198, 173, 186,
-    3,   64,  52,  217, 226, 250, 124, 123, 5,   202, 38,  147, 118, 126, 255, 82,  85,  212,
-    207, 206, 59,  227, 47,  16,  58,  17,  182, 189, 28,  42,  223, 183, 170, 213, 119, 248,
-    152, 2,   44,  154, 163, 70,  221, 153, 101, 155, 167, 43,  172, 9,   129, 22,  39,  253,
-    19,  98,  108, 110, 79,  113, 224, 232, 178, 185, 112, 104, 218, 246, 97,  228, 251, 34,
-    242, 193, 238, 210, 144, 12,  191, 179, 162, 241, 81,  51,  145, 235, 249, 14,  239, 107,
-    49,  192, 214, 31,  181, 199, 106, 157, 184, 84,  204, 176, 115, 121, 50,  45,  127, 4,
-    150, 254, 138, 236, 205, 93,  222, 114, 67,  29,  24,  72,  243, 141, 128, 195, 78,  66,
-    215, 61,  156, 180};
+    151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225, 140, 36,  103, 30,  69,  142,
+    8,   99,  37,  240, 21,  10,  23,  190, 6,   148, 247, 120, 234, 75,  0,   26,  197, 62,  94,  252, 219, 203,
+    117, 35,  11,  32,  57,  177, 33,  88,  237, 149, 56,  87,  174, 20,  125, 136, 171, 168, 68,  175, 74,  165,
+    71,  134, 139, 48,  27,  166, 77,  146, 158, 231, 83,  111, 229, 122, 60,  211, 133, 230, 220, 105, 92,  41,
+    55,  46,  245, 40,  244, 102, 143, 54,  65,  25,  63,  161, 1,   216, 80,  73,  209, 76,  132, 187, 208, 89,
+    18,  169, 200, 196, 135, 130, 116, 188, 159, 86,  164, 100, 109, 198, 173, 186, 3,   64,  52,  217, 226, 250,
+    124, 123, 5,   202, 38,  147, 118, 126, 255, 82,  85,  212, 207, 206, 59,  227, 47,  16,  58,  17,  182, 189,
+    28,  42,  223, 183, 170, 213, 119, 248, 152, 2,   44,  154, 163, 70,  221, 153, 101, 155, 167, 43,  172, 9,
+    129, 22,  39,  253, 19,  98,  108, 110, 79,  113, 224, 232, 178, 185, 112, 104, 218, 246, 97,  228, 251, 34,
+    242, 193, 238, 210, 144, 12,  191, 179, 162, 241, 81,  51,  145, 235, 249, 14,  239, 107, 49,  192, 214, 31,
+    181, 199, 106, 157, 184, 84,  204, 176, 115, 121, 50,  45,  127, 4,   150, 254, 138, 236, 205, 93,  222, 114,
+    67,  29,  24,  72,  243, 141, 128, 195, 78,  66,  215, 61,  156, 180};
 
 std::uint64_t splitmix64(std::uint64_t& state) noexcept {
     std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
@@ -36,8 +33,8 @@ std::uint64_t splitmix64(std::uint64_t& state) noexcept {
 // lattice indices already reduced (X0, X1 = next corner, etc.). Shared by the
 // plain and the periodic variant; the plain one passes X1 = X0 + 1, which the
 // doubled table absorbs exactly as the Java code does.
-inline double evaluate(const std::uint8_t* p, int X0, int X1, int Y0, int Y1, int Z0, int Z1,
-                       double x, double y, double z) noexcept {
+inline double evaluate(const std::uint8_t* p, int X0, int X1, int Y0, int Y1, int Z0, int Z1, double x, double y,
+                       double z) noexcept {
     const double u = fade(x), v = fade(y), w = fade(z);
     const int A = p[X0] + Y0, AA = p[A] + Z0, AB = p[p[X0] + Y1] + Z0;
     const int B = p[X1] + Y0, BA = p[B] + Z0, BB = p[p[X1] + Y1] + Z0;
@@ -99,8 +96,7 @@ double perlin(double x, double y, double z) noexcept {
     return perlin(Permutation::reference(), x, y, z);
 }
 
-double perlinPeriodic(const Permutation& perm, double x, double y, double z, int px, int py,
-                      int pz) noexcept {
+double perlinPeriodic(const Permutation& perm, double x, double y, double z, int px, int py, int pz) noexcept {
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) return 0.0;
     px = px < 1 ? 1 : (px > 256 ? 256 : px);
     py = py < 1 ? 1 : (py > 256 ? 256 : py);
@@ -113,8 +109,7 @@ double perlinPeriodic(const Permutation& perm, double x, double y, double z, int
     x -= fx;
     y -= fy;
     z -= fz;
-    return evaluate(perm.table().data(), X0, (X0 + 1) % px, Y0, (Y0 + 1) % py, Z0, (Z0 + 1) % pz,
-                    x, y, z);
+    return evaluate(perm.table().data(), X0, (X0 + 1) % px, Y0, (Y0 + 1) % py, Z0, (Z0 + 1) % pz, x, y, z);
 }
 
 }  // namespace mucosa::noise

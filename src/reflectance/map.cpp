@@ -38,7 +38,8 @@ std::string lower(std::string s) {
 
 void validate(const MapParams& p) {
     if (p.size < 1) throw InputError("size", "", fmt::format("must be at least 1, got {}", p.size));
-    if (p.size > kMaxSize) throw InputError("size", "", fmt::format("{} exceeds the limit of {} texels", p.size, kMaxSize));
+    if (p.size > kMaxSize)
+        throw InputError("size", "", fmt::format("{} exceeds the limit of {} texels", p.size, kMaxSize));
     if (!std::isfinite(p.strength) || p.strength < 0)
         throw InputError("strength", "", fmt::format("must be a number >= 0, got {}", p.strength));
     if (p.bits != 8 && p.bits != 16) throw InputError("bits", "", fmt::format("must be 8 or 16, got {}", p.bits));
@@ -171,8 +172,10 @@ MapReport generateMap(const MapParams& p, const MapOutputs& out, int threads) {
     HeightFormat hf = HeightFormat::Png16;
     if (out.height) {
         const std::string e = lower(out.height->extension().string());
-        if (e == ".exr") hf = HeightFormat::Exr;
-        else if (e != ".png") throw InputError("height output", out.height->string(), "must end in .png or .exr");
+        if (e == ".exr")
+            hf = HeightFormat::Exr;
+        else if (e != ".png")
+            throw InputError("height output", out.height->string(), "must end in .png or .exr");
         if (fs::weakly_canonical(*out.height) == fs::weakly_canonical(out.map))
             throw InputError("height output", out.height->string(), "is the same file as the map");
     }

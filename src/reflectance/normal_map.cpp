@@ -30,8 +30,8 @@ inline Stencil stencil(int i, int n, Edges edges) noexcept {
 }
 
 // Paper eq. 1-2 with central differences; derivatives per map width/height.
-inline std::array<double, 3> normalFrom(const float* H, int w, int h, int x, int y, double strength,
-                                        const Stencil& sx, const Stencil& sy) noexcept {
+inline std::array<double, 3> normalFrom(const float* H, int w, int h, int x, int y, double strength, const Stencil& sx,
+                                        const Stencil& sy) noexcept {
     const auto at = [&](int xx, int yy) { return static_cast<double>(H[static_cast<std::size_t>(yy) * w + xx]); };
     const double su = sx.span ? strength * w / sx.span : 0.0;
     const double sv = sy.span ? strength * h / sy.span : 0.0;
@@ -55,8 +55,10 @@ inline std::uint16_t quantize16(double c) noexcept {
 
 template <class T>
 inline T quantize(double c) noexcept {
-    if constexpr (sizeof(T) == 1) return quantize8(c);
-    else return quantize16(c);
+    if constexpr (sizeof(T) == 1)
+        return quantize8(c);
+    else
+        return quantize16(c);
 }
 
 // Interior columns of one row: the same arithmetic as normalFrom with span 2,

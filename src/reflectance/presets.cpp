@@ -31,11 +31,9 @@ const std::vector<Preset>& presets() {
          "Bronchial mucosa: fine, dense irregularities that break highlights into many small glints "
          "(the paper's look; default).",
          make(16, 6, 2.0, 0.5, 0.008, false, "bronchial")},
-        {"serosa",
-         "Smooth wet serosa: broad, gentle undulations; highlights stay large and coherent.",
+        {"serosa", "Smooth wet serosa: broad, gentle undulations; highlights stay large and coherent.",
          make(4, 3, 2.0, 0.4, 0.02, false, "serosa")},
-        {"rough",
-         "Rough or ridged tissue (inflamed, cobblestoned): turbulence gives creases and sharp ridges.",
+        {"rough", "Rough or ridged tissue (inflamed, cobblestoned): turbulence gives creases and sharp ridges.",
          make(8, 5, 2.0, 0.55, 0.022, true, "rough")},
         {"fine",
          "High-frequency variant of bronchial (the paper's Fig. 3, right): same amplitude, 4x the "

@@ -11,7 +11,9 @@ using mucosa::test::TempDir;
 
 namespace {
 
-int lineCount(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
+int lineCount(const std::string& s) {
+    return static_cast<int>(std::count(s.begin(), s.end(), '\n'));
+}
 
 std::vector<std::string> listDir(const std::filesystem::path& p) {
     std::vector<std::string> names;
@@ -43,10 +45,11 @@ TEST(MapCli, WritesMapSidecarAndHeight) {
 
 TEST(MapCli, FromSidecarRegeneratesIdenticalBytes) {
     TempDir dir;
-    ASSERT_EQ(runCli("map -o a.png --size 200 --frequency 5 --octaves 4 --seed 9 --turbulence --tileable --strength 0.02",
-                     dir.path())
-                  .exitCode,
-              0);
+    ASSERT_EQ(
+        runCli("map -o a.png --size 200 --frequency 5 --octaves 4 --seed 9 --turbulence --tileable --strength 0.02",
+               dir.path())
+            .exitCode,
+        0);
     ASSERT_EQ(runCli("map --from a.json -o b.png", dir.path()).exitCode, 0);
     EXPECT_EQ(readBytes(dir / "a.png"), readBytes(dir / "b.png"));
     // Options given with --from override the sidecar.
@@ -93,9 +96,7 @@ TEST(MapCli, WarnsAboutUnresolvableOctavesAndSaysHowMany) {
 
 TEST(MapCli, BadSidecarNamesTheField) {
     TempDir dir;
-    {
-        std::ofstream(dir / "s.json") << R"({"params": {"size": 64, "octaves": "many"}})";
-    }
+    { std::ofstream(dir / "s.json") << R"({"params": {"size": 64, "octaves": "many"}})"; }
     const auto r = runCli("map --from s.json -o m.png", dir.path());
     EXPECT_NE(r.exitCode, 0);
     EXPECT_NE(r.err.find("field 'octaves'"), std::string::npos) << r.err;

@@ -64,8 +64,9 @@ TEST(Categories, RenderEveryCategoryAtTheFramesPosesAndMatchTheRealFrames) {
     const auto images = fit::renderCategories(tube, frames, model, dir / "stimuli", {});
     // MUCOSA_CATEGORIES_EXAMPLE_DIR=path keeps the images (README picture).
     if (const char* keep = std::getenv("MUCOSA_CATEGORIES_EXAMPLE_DIR"))
-        std::filesystem::copy(dir / "stimuli", keep,
-                              std::filesystem::copy_options::recursive | std::filesystem::copy_options::overwrite_existing);
+        std::filesystem::copy(
+            dir / "stimuli", keep,
+            std::filesystem::copy_options::recursive | std::filesystem::copy_options::overwrite_existing);
     ASSERT_EQ(images.size(), 30u);
     // The manifest is the study kit's input.
     const auto manifest = study::readManifest(dir / "stimuli" / "images.json");

@@ -15,7 +15,9 @@ using namespace mucosa;
 
 namespace {
 
-void writeJson(const std::filesystem::path& p, const std::string& text) { std::ofstream(p) << text; }
+void writeJson(const std::filesystem::path& p, const std::string& text) {
+    std::ofstream(p) << text;
+}
 
 }  // namespace
 
@@ -23,8 +25,9 @@ TEST(FitInput, FramesFileErrorsNameTheField) {
     test::TempDir dir;
     writeJson(dir / "a.json", R"({"frames": []})");
     EXPECT_THROW(fit::readFrames(dir / "a.json"), InputError);
-    writeJson(dir / "b.json",
-              R"({"frames": [{"image": "f.png", "intrinsics": {"width": 32, "height": 32, "fx": -1, "fy": 1, "cx": 16, "cy": 16},
+    writeJson(
+        dir / "b.json",
+        R"({"frames": [{"image": "f.png", "intrinsics": {"width": 32, "height": 32, "fx": -1, "fy": 1, "cx": 16, "cy": 16},
                  "camera_to_world": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
     try {
         fit::readFrames(dir / "b.json");
@@ -32,8 +35,9 @@ TEST(FitInput, FramesFileErrorsNameTheField) {
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("frames[0].intrinsics.fx"), std::string::npos) << e.what();
     }
-    writeJson(dir / "c.json",
-              R"({"frames": [{"image": "f.png", "intrinsics": {"width": 32, "height": 32, "fx": 1, "fy": 1, "cx": 16, "cy": 16},
+    writeJson(
+        dir / "c.json",
+        R"({"frames": [{"image": "f.png", "intrinsics": {"width": 32, "height": 32, "fx": 1, "fy": 1, "cx": 16, "cy": 16},
                  "camera_to_world": [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
     EXPECT_THROW(fit::readFrames(dir / "c.json"), InputError);  // not rigid
     writeJson(dir / "d.json", R"({"units": "m", "frames": [1]})");

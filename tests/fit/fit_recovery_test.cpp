@@ -73,9 +73,12 @@ TEST_F(FitRecovery, RecoversRhoDeltaAndTextureWithTheRobustLoss) {
     // MUCOSA_FIT_EXAMPLE_DIR=path keeps the outputs (README pictures).
     if (const char* keep = std::getenv("MUCOSA_FIT_EXAMPLE_DIR")) fit::writeFitOutputs(r, keep);
     const Errors e = compare(r, truth_);
-    std::printf("robust fit (%d solver iterations): max |rho error| %.4f over gamma in [0.3, 1], max delta error %.2f %% over z in [%.1f, %.1f] mm, texture PSNR %.1f dB, "
-                "covered %.1f %%, %zu samples, %.2f s solve\n",
-                r.solverIterations, e.rho, 100 * e.delta, r.zObserved[0], r.zObserved[1], e.psnr, 100 * r.coveredFraction, r.brdf.samples, r.solveSeconds);
+    std::printf(
+        "robust fit (%d solver iterations): max |rho error| %.4f over gamma in [0.3, 1], max delta error %.2f %% over "
+        "z in [%.1f, %.1f] mm, texture PSNR %.1f dB, "
+        "covered %.1f %%, %zu samples, %.2f s solve\n",
+        r.solverIterations, e.rho, 100 * e.delta, r.zObserved[0], r.zObserved[1], e.psnr, 100 * r.coveredFraction,
+        r.brdf.samples, r.solveSeconds);
     EXPECT_LE(e.rho, 0.02);
     EXPECT_LE(e.delta, 0.02);
     EXPECT_GE(e.psnr, 30.0);
@@ -116,8 +119,8 @@ TEST_F(FitRecovery, TheSpecialisedSolverAgreesWithCeres) {
     const fit::FitResult fast = fit::fitFrames(*tube_, *frames_, o);
     o.solver = fit::Solver::Ceres;
     const fit::FitResult ref = fit::fitFrames(*tube_, *frames_, o);
-    std::printf("Schur LM: %d iterations %.3f s; Ceres: %d iterations %.3f s\n", fast.solverIterations, fast.solveSeconds,
-                ref.solverIterations, ref.solveSeconds);
+    std::printf("Schur LM: %d iterations %.3f s; Ceres: %d iterations %.3f s\n", fast.solverIterations,
+                fast.solveSeconds, ref.solverIterations, ref.solveSeconds);
     for (double g = 0.3; g <= 1.0; g += 0.05) EXPECT_NEAR(fast.brdf.rho(g), ref.brdf.rho(g), 2e-4) << g;
     for (double x = 0; x <= 1.0; x += 0.05) EXPECT_NEAR(fast.brdf.delta(x), ref.brdf.delta(x), 2e-4) << x;
 }

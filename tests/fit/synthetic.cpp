@@ -15,10 +15,11 @@ mesh::Mesh makeTube(double R, double L, int around, int along) {
     for (int j = 0; j <= along; ++j)
         for (int i = 0; i <= around; ++i) {
             const double a = 2 * M_PI * i / around, z = L * j / along;
-            m.positions.push_back({static_cast<float>(R * std::cos(a)), static_cast<float>(R * std::sin(a)),
-                                   static_cast<float>(z)});
+            m.positions.push_back(
+                {static_cast<float>(R * std::cos(a)), static_cast<float>(R * std::sin(a)), static_cast<float>(z)});
             m.normals.push_back({static_cast<float>(-std::cos(a)), static_cast<float>(-std::sin(a)), 0.f});
-            m.uvs.push_back({static_cast<float>(static_cast<double>(i) / around), static_cast<float>(static_cast<double>(j) / along)});
+            m.uvs.push_back({static_cast<float>(static_cast<double>(i) / around),
+                             static_cast<float>(static_cast<double>(j) / along)});
         }
     const auto idx = [&](int i, int j) { return static_cast<std::uint32_t>(j * (around + 1) + i); };
     for (int j = 0; j < along; ++j)
@@ -79,7 +80,8 @@ fit::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const 
                     fit::Vec3d P{}, N{};
                     double u = 0, v = 0;
                     for (int c = 0; c < 3; ++c) {
-                        P[c] = b0 * tube.positions[id[0]][c] + b1 * tube.positions[id[1]][c] + b2 * tube.positions[id[2]][c];
+                        P[c] = b0 * tube.positions[id[0]][c] + b1 * tube.positions[id[1]][c] +
+                               b2 * tube.positions[id[2]][c];
                         N[c] = b0 * tube.normals[id[0]][c] + b1 * tube.normals[id[1]][c] + b2 * tube.normals[id[2]][c];
                     }
                     N = norm(N);
@@ -98,8 +100,7 @@ fit::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const 
                     Nb = norm(Nb);
                     const double ndv = std::max(0.0, Nb[0] * V[0] + Nb[1] * V[1] + Nb[2] * V[2]);
                     const double spec = o.specular * std::pow(ndv, 300.0);
-                    for (int c = 0; c < 3; ++c)
-                        I[c] = a[c] * truth.rho(std::max(0.0, gamma)) * truth.delta(z) + spec;
+                    for (int c = 0; c < 3; ++c) I[c] = a[c] * truth.rho(std::max(0.0, gamma)) * truth.delta(z) + spec;
                 }
                 for (int c = 0; c < 3; ++c) {
                     const double n = std::clamp(I[c] + o.noise * gauss(rng), 0.0, 1.0);

@@ -53,7 +53,8 @@ Image<T> smoothImage(int w, int h, int c) {
     Image<T> img(w, h, c);
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
-            for (int k = 0; k < c; ++k) img.at(x, y, k) = static_cast<T>((x / 7 + y / 5 + k * 40) * (sizeof(T) == 2 ? 97 : 1));
+            for (int k = 0; k < c; ++k)
+                img.at(x, y, k) = static_cast<T>((x / 7 + y / 5 + k * 40) * (sizeof(T) == 2 ? 97 : 1));
     return img;
 }
 

@@ -28,13 +28,13 @@ FractalParams params(double f, int oct, double lac, double gain, std::uint64_t s
 
 const std::vector<FractalParams>& cases() {
     static const std::vector<FractalParams> c = {
-        params(8, 6, 2.0, 0.5, 0, false, false),        // the benchmark job
-        params(8, 6, 2.0, 0.5, 0, false, true),         // tileable
-        params(5, 4, 3.0, 0.6, 0, true, true, 0.37),    // turbulence, lacunarity 3
+        params(8, 6, 2.0, 0.5, 0, false, false),             // the benchmark job
+        params(8, 6, 2.0, 0.5, 0, false, true),              // tileable
+        params(5, 4, 3.0, 0.6, 0, true, true, 0.37),         // turbulence, lacunarity 3
         params(3.7, 5, 1.93, 0.45, 99, false, false, 11.5),  // irrational-ish, seeded
-        params(1, 1, 2.0, 0.5, 5, false, false),         // one octave: plain noise
-        params(300, 2, 2.0, 0.5, 0, false, false),       // cells narrower than a vector
-        params(16, 3, 2.0, 0.5, 0, true, true, -2.25),   // negative z slice
+        params(1, 1, 2.0, 0.5, 5, false, false),             // one octave: plain noise
+        params(300, 2, 2.0, 0.5, 0, false, false),           // cells narrower than a vector
+        params(16, 3, 2.0, 0.5, 0, true, true, -2.25),       // negative z slice
     };
     return c;
 }
@@ -141,7 +141,7 @@ TEST(FractalValidation, RejectsParametersThatCannotBeEvaluated) {
     EXPECT_THROW(validate(params(4.5, 4, 2, 0.5, 0, false, true)), InputError);  // tileable needs whole cycles
     EXPECT_THROW(validate(params(4, 4, 1.5, 0.5, 0, false, true)), InputError);
     EXPECT_THROW(validate(params(3, 9, 2, 0.5, 0, false, true)), InputError);  // 384 cycles: not a multiple of 256
-    EXPECT_NO_THROW(validate(params(4, 8, 2, 0.5, 0, false, true)));          // 512 cycles: fine
+    EXPECT_NO_THROW(validate(params(4, 8, 2, 0.5, 0, false, true)));           // 512 cycles: fine
     try {
         validate(params(-1, 4, 2, 0.5, 0, false, false));
     } catch (const InputError& e) {

@@ -18,7 +18,9 @@ image::ImageF bronchialHeight(int size, bool tileable) {
     return heightField(p, 2);
 }
 
-double length(const std::array<double, 3>& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+double length(const std::array<double, 3>& v) {
+    return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+}
 
 }  // namespace
 

@@ -51,7 +51,8 @@ inline RunResult runCli(const std::string& args, const std::filesystem::path& cw
     const auto outFile = tmp / ("mucosa-cli-out-" + tag), errFile = tmp / ("mucosa-cli-err-" + tag);
     std::string cmd;
     if (!cwd.empty()) cmd += "cd '" + cwd.string() + "' && ";
-    cmd += std::string("'") + MUCOSA_CLI + "' " + args + " >'" + outFile.string() + "' 2>'" + errFile.string() + "' </dev/null";
+    cmd += std::string("'") + MUCOSA_CLI + "' " + args + " >'" + outFile.string() + "' 2>'" + errFile.string() +
+           "' </dev/null";
     const int status = std::system(cmd.c_str());
     RunResult r;
     r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);

@@ -57,8 +57,8 @@ namespace detail {
 
 }  // namespace mucosa
 
-#define MUCOSA_CHECK(cond, msg)                                                  \
-    do {                                                                         \
+#define MUCOSA_CHECK(cond, msg)                                                       \
+    do {                                                                              \
         if (!(cond)) ::mucosa::detail::checkFailed(#cond, __FILE__, __LINE__, (msg)); \
     } while (false)
 

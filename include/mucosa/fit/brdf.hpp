@@ -22,9 +22,7 @@ struct BrdfParams {
     std::size_t samples = 0;        // samples the fit used
     double rms = 0.0;               // RMS residual of inliers, linear intensity 0..1
 
-    double rho(double gamma) const noexcept {
-        return c[0] + gamma * (c[1] + gamma * (c[2] + gamma * c[3]));
-    }
+    double rho(double gamma) const noexcept { return c[0] + gamma * (c[1] + gamma * (c[2] + gamma * c[3])); }
     double r(double z) const noexcept { return (z - zmin) / (zmax - zmin); }
     double delta(double rr) const noexcept { return 1.0 + rr * (d[0] + rr * (d[1] + rr * d[2])); }
     double shading(double gamma, double z) const noexcept { return rho(gamma) * delta(r(z)); }

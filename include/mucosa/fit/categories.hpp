@@ -36,7 +36,7 @@ std::array<float, 16> glProjectionMatrix(const Intrinsics& K, double nearMm, dou
 
 struct CategoriesOptions {
     std::string patient = "patient";
-    int lowResDivisor = 8;  // category 2: the atlas reduced by this factor
+    int lowResDivisor = 8;             // category 2: the atlas reduced by this factor
     std::string preset = "bronchial";  // reflectance map of category 4
     double mapTiling = 4.0;
     std::function<void(int done, int total)> progress;

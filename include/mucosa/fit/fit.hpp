@@ -24,8 +24,8 @@ namespace mucosa::fit {
 
 // One observation of a surface point.
 struct Sample {
-    float u = 0, v = 0;      // texture coordinates (OpenGL convention)
-    float gamma = 0, z = 0;  // cos(V, N) and distance to the viewpoint (mm)
+    float u = 0, v = 0;        // texture coordinates (OpenGL convention)
+    float gamma = 0, z = 0;    // cos(V, N) and distance to the viewpoint (mm)
     std::array<float, 3> I{};  // linear intensity, 0..1
     std::uint32_t frame = 0;
 };
@@ -43,31 +43,31 @@ enum class Solver {
 
 struct FitOptions {
     Solver solver = Solver::Schur;
-    int textureSize = 1024;              // output atlas, texels per side
-    int holdout = 0;                     // frames held out for validation (evenly spaced)
-    bool robust = true;                  // Cauchy loss; off: plain least squares
-    double cauchyScale = 0.02;           // residual scale of the loss, linear intensity
-    double minGamma = 0.1;               // grazing views are dropped
-    double saturation = 0.99;            // pixels at or above this (before linearising) are dropped
-    int fitGrid = 128;                   // albedo grid of the joint solve (coarser than the atlas)
+    int textureSize = 1024;                // output atlas, texels per side
+    int holdout = 0;                       // frames held out for validation (evenly spaced)
+    bool robust = true;                    // Cauchy loss; off: plain least squares
+    double cauchyScale = 0.02;             // residual scale of the loss, linear intensity
+    double minGamma = 0.1;                 // grazing views are dropped
+    double saturation = 0.99;              // pixels at or above this (before linearising) are dropped
+    int fitGrid = 128;                     // albedo grid of the joint solve (coarser than the atlas)
     std::size_t maxSolveSamples = 150000;  // samples the joint solve uses at most (random subset)
-    std::size_t minSamples = 2000;       // fewer usable samples is an error
+    std::size_t minSamples = 2000;         // fewer usable samples is an error
     int threads = 0;
     std::uint64_t seed = 1;
-    Progress progress;                   // optional
+    Progress progress;  // optional
 };
 
 struct HoldoutResult {
     std::size_t frame = 0;
     std::string image;
-    double psnr = 0;          // dB over compared pixels
+    double psnr = 0;  // dB over compared pixels
     std::size_t compared = 0, masked = 0;
 };
 
 struct FitResult {
     BrdfParams brdf;
-    image::ImageF texture;    // 3 channels, linear albedo; first row = top (v = 1)
-    image::ImageF coverage;   // 1 channel, blend weight per texel (0 = filled by inpainting)
+    image::ImageF texture;                          // 3 channels, linear albedo; first row = top (v = 1)
+    image::ImageF coverage;                         // 1 channel, blend weight per texel (0 = filled by inpainting)
     std::array<float, 2> uvMin{0, 0}, uvMax{1, 1};  // the atlas spans this UV rectangle
     double coveredFraction = 0;
     std::vector<BackprojectStats> perFrame;

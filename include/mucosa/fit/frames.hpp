@@ -28,7 +28,7 @@ struct Frame {
 
 struct FrameSet {
     std::string units = "mm";
-    double gamma = 1.0;      // linear = (value / max) ^ gamma
+    double gamma = 1.0;  // linear = (value / max) ^ gamma
     Vec3d lightOffset{0, 0, 0};
     std::vector<Frame> frames;
 };

@@ -31,9 +31,7 @@ public:
         return static_cast<std::size_t>(width_) * static_cast<std::size_t>(channels_);
     }
     T& at(int x, int y, int c = 0) noexcept { return row(y)[static_cast<std::size_t>(x) * channels_ + c]; }
-    const T& at(int x, int y, int c = 0) const noexcept {
-        return row(y)[static_cast<std::size_t>(x) * channels_ + c];
-    }
+    const T& at(int x, int y, int c = 0) const noexcept { return row(y)[static_cast<std::size_t>(x) * channels_ + c]; }
 
     bool operator==(const Image&) const = default;
 

@@ -57,10 +57,8 @@ struct FillOptions {
 // run time) and multi-threaded over rows. The double version equals fractal()
 // exactly (up to the sign of zero); the float version stays within 1e-5 of it.
 // Output is identical for every thread count.
-void fillFractal(const FractalParams& p, std::span<double> out, int width, int height,
-                 const FillOptions& options = {});
-void fillFractal(const FractalParams& p, std::span<float> out, int width, int height,
-                 const FillOptions& options = {});
+void fillFractal(const FractalParams& p, std::span<double> out, int width, int height, const FillOptions& options = {});
+void fillFractal(const FractalParams& p, std::span<float> out, int width, int height, const FillOptions& options = {});
 
 // Which instruction set the fast path dispatched to on this machine
 // ("avx512f", "avx2" or "default").

@@ -39,13 +39,16 @@ double perlin(const Permutation& p, double x, double y, double z) noexcept;
 // Periodic improved noise: the lattice wraps with integer periods px, py, pz
 // (each in 1..256), so noise(x + px, y, z) == noise(x, y, z). With all periods
 // 256 it equals the plain noise.
-double perlinPeriodic(const Permutation& p, double x, double y, double z, int px, int py,
-                      int pz) noexcept;
+double perlinPeriodic(const Permutation& p, double x, double y, double z, int px, int py, int pz) noexcept;
 
 // The reference's building blocks (Perlin 2002), exposed so that the fast path
 // and the GLSL port can be checked against them term by term.
-constexpr double fade(double t) noexcept { return t * t * t * (t * (t * 6 - 15) + 10); }
-constexpr double lerp(double t, double a, double b) noexcept { return a + t * (b - a); }
+constexpr double fade(double t) noexcept {
+    return t * t * t * (t * (t * 6 - 15) + 10);
+}
+constexpr double lerp(double t, double a, double b) noexcept {
+    return a + t * (b - a);
+}
 constexpr double grad(int hash, double x, double y, double z) noexcept {
     const int h = hash & 15;
     const double u = h < 8 ? x : y;

@@ -71,7 +71,7 @@ MapParams mapParamsFromJson(const nlohmann::json& j, const std::string& file);
 
 struct Sidecar {
     MapParams params;
-    std::filesystem::path map;                    // resolved against the sidecar's folder
+    std::filesystem::path map;  // resolved against the sidecar's folder
     std::optional<std::filesystem::path> height;
 };
 Sidecar readSidecar(const std::filesystem::path& path);
