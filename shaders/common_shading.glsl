@@ -20,12 +20,17 @@ const int kModeUv = 6;             // debug: fract(u), fract(v)
 const int kModeDepth = 7;          // debug: 1 - r, r = depth ratio of eq. 10
 const int kModeBrdf = 8;           // patient-specific: texture x rho(gamma) delta(r), nothing else (Category 3)
 const int kModeBrdfNoise = 9;      // kModeBrdf plus the method's noise-based specular (Category 4)
+const int kModeProcedural = 10;    // the method with run-time noise (procedural_noise.glsl), no map
 
 // Below this, a decoded map normal's z is clamped: a map texel with blue <= 0.5
 // (a back-facing normal, impossible in a valid map) must not give NaN.
 const float kMinNormalZ = 0.001f;
 // Guards against division by zero for degenerate inputs (zero-length vectors).
 const float kTiny = 1e-6f;
+// The reflectance map's mip levels carry the slope deviation sigma of the
+// texels they average in alpha, as a = sigma / kMapSigmaMax
+// (reflectance::specularMipChain).
+const float kMapSigmaMax = 0.5f;
 
 // Material and light: the parameter registry's values (src/shading/params.cpp),
 // packed by shading::glsl::packMaterial.
@@ -53,6 +58,7 @@ struct Frame {
     vec3 eye;
     vec3 light;
     float normalSign;  // +1, or -1 to view a mesh from the side its normals point away from
+    int specularAA;    // 1: specular anti-aliasing (Toksvig on the map's mips; octave fade procedurally)
 };
 
 // Everything the vertex stage hands the fragment stage (all interpolated
@@ -68,6 +74,7 @@ struct Varyings {
     float diffuseLight;  // I_L att rho delta (per vertex in every mode)
     float specular;      // I_L att k_s, times the Phong lobe in vertex-phong
     vec2 sphereUv;       // multitexture: highlight-texture coordinates (highlightCoord)
+    vec3 P;              // world position (mm): procedural noise in object space, per-pixel L and V
 };
 
 // Paper eq. 1-2 inverted: rgb = 0.5 N + 0.5 -> N; the bump scale tilts the
@@ -108,6 +115,31 @@ float diffuseShading(float gamma, float z, Material m) {
 float phongLobe(vec3 N, vec3 L, vec3 V, float shininess) {
     vec3 R = reflect(-L, N);
     return pow(max(dot(R, V), 0.0f), shininess);
+}
+
+// Toksvig 2005, "Mipmapping normal maps", for the Phong lobe: a normal that
+// varies inside the pixel with per-axis slope variance sigma2 widens the
+// lobe. Phong's (R.V)^n is Blinn-Phong's (N.H)^(4n) near the peak, and
+// Toksvig's s' = s / (1 + s sigma2) for the Blinn exponent s gives
+// n' = n / (1 + 4 n sigma2) (docs/theory.md, "Specular anti-aliasing").
+float toksvigShininess(float shininess, float sigma2) {
+    return shininess / (1.0f + 4.0f * shininess * sigma2);
+}
+
+// The method's specular lobe for the perturbed normal Np with slope variance
+// sigma2 (0: a sharp normal, the plain Phong lobe). The widened lobe is scaled
+// by (n' + 1) / (n + 1), the ratio of the lobes' integrals, so a pixel keeps
+// the energy its sub-pixel glints would have reflected.
+float methodSpecular(vec3 Np, vec3 L, vec3 V, float sigma2, float shininess) {
+    if (sigma2 <= 0.0f) return phongLobe(Np, L, V, shininess);
+    float n = toksvigShininess(shininess, sigma2);
+    return phongLobe(Np, L, V, n) * ((n + 1.0f) / (shininess + 1.0f));
+}
+
+// Slope variance stored in a map sample's alpha (kMapSigmaMax).
+float mapSlopeVariance(float a) {
+    float sigma = a * kMapSigmaMax;
+    return sigma * sigma;
 }
 
 // The mucous layer's colour and transparency (paper, Results): light scattered
@@ -162,6 +194,7 @@ Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, in
     o.diffuseLight = 0.0f;
     o.specular = 0.0f;
     o.sphereUv = vec2(0.0f);
+    o.P = P;
     // The diffuse term (paper eq. 11) and the light's fall-off are per vertex
     // in every mode: the modes differ only in how the highlight is made, and
     // the per-pixel work of the method is the specular term alone.
@@ -191,17 +224,68 @@ vec2 reflectanceMapCoord(vec2 uv, Material m) {
     return uv * m.mapTiling;
 }
 
+// Where the procedural path evaluates its noise: texture space in map widths
+// (u, -v) (the map's v runs down its rows, texture v up), or the world
+// position in map widths (solid noise). Unwrapped: the caller takes the
+// footprint from its screen-space derivatives.
+vec3 proceduralCoord(Varyings v, Material m, Procedural pr) {
+    if (pr.space == kSpaceObject) return v.P * (1.0f / pr.scaleMm);
+    return vec3(v.uv.x * m.mapTiling, -(v.uv.y * m.mapTiling), 0.0f);
+}
+
+// The pixel footprint in noise coordinates from the screen-space derivatives
+// of proceduralCoord (dFdx, dFdy in GLSL).
+float noiseFootprint(vec3 qdx, vec3 qdy) {
+    return max(length(qdx), length(qdy));
+}
+
+// The map's slope variance in a (filtered) map sample when anti-aliasing.
+float mapSampleVariance(vec4 mapSample, Material m, Frame f) {
+    if (f.specularAA == 0) return 0.0f;
+    return mapSlopeVariance(mapSample.w) * m.bumpScale * m.bumpScale;
+}
+
 // Fragment stage, after the caller sampled the textures: albedoTex at v.uv,
-// mapRgb at reflectanceMapCoord(v.uv), highlight at v.sphereUv. Returns linear
-// display values; the caller clamps to [0, 1].
-vec3 tissueFragment(Varyings v, vec3 albedoTex, vec3 mapRgb, float highlight, Material m, int mode) {
+// mapSample at reflectanceMapCoord(v.uv) (rgb = 0.5 N + 0.5, a = slope
+// deviation, see kMapSigmaMax), highlight at v.sphereUv, and footprint =
+// noiseFootprint of proceduralCoord. Returns linear display values; the
+// caller clamps to [0, 1].
+vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight, float footprint, Material m,
+                    Procedural pr, Frame f, int mode) {
     vec3 albedo = mucusAlbedo(albedoTex * m.baseColor, m);
+    vec3 mapRgb = vec3(mapSample);
     if (mode == kModeNoise) {
         // Per pixel: the map's normal and the Phong lobe (paper, "Lighting in
         // tangent space"), with L and V interpolated in tangent space.
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
-        float spec = phongLobe(Nm, normalize(v.Lt), normalize(v.Vt), m.shininess);
+        float spec = methodSpecular(Nm, normalize(v.Lt), normalize(v.Vt), mapSampleVariance(mapSample, m, f),
+                                    m.shininess);
         return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * spec);
+    }
+    if (mode == kModeProcedural) {
+        // The noise gradient as a surface gradient (Mikkelsen 2010): the
+        // normal tilts against it, scaled by strength x bump scale.
+        vec3 q = proceduralCoord(v, m, pr);
+        if (pr.space == kSpaceUv && pr.tileable != 0) q = fract(q);
+        FractalSample s = fractalNoise(q, footprint, pr);
+        float slope = pr.strength * m.bumpScale;
+        float sigma2 = slope * slope * s.fadedVariance;
+        float specP = 0.0f;
+        if (pr.space == kSpaceUv) {
+            // In tangent coordinates the surface gradient is (Hu, Hv, 0), with
+            // Hu = dH/du and Hv = -dH/dq.y (texture v runs against q.y), as
+            // the map's normals are made (reflectance::encodeNormals8).
+            vec3 Nt = normalize(vec3(-(slope * s.h.y), slope * s.h.z, 1.0f));
+            specP = methodSpecular(Nt, normalize(v.Lt), normalize(v.Vt), sigma2, m.shininess);
+        } else {
+            // Solid noise h(P) = strength scale H(P / scale): grad h =
+            // strength grad_q H; its part in the surface's plane tilts N.
+            vec3 N = normalize(v.N);
+            vec3 g = vec3(s.h.y, s.h.z, s.h.w) * slope;
+            vec3 Np = normalize(N - (g - N * dot(N, g)));
+            specP = methodSpecular(Np, normalize(f.light - v.P), normalize(f.eye - v.P), sigma2, m.shininess);
+        }
+        return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * specP);
     }
     if (mode == kModeDiffuse) {
         return albedo * (m.ambient + v.diffuseLight);
@@ -211,7 +295,8 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec3 mapRgb, float highlight, Ma
     }
     if (mode == kModeBrdfNoise) {
         vec3 Nb = decodeReflectanceNormal(mapRgb, m.bumpScale);
-        float specB = phongLobe(Nb, normalize(v.Lt), normalize(v.Vt), m.shininess);
+        float specB = methodSpecular(Nb, normalize(v.Lt), normalize(v.Vt), mapSampleVariance(mapSample, m, f),
+                                     m.shininess);
         return albedoTex * v.diffuseLight + vec3(v.specular * specB);
     }
     if (mode == kModeVertexPhong) {

@@ -1,10 +1,14 @@
 // surface_tissue.frag: every shading mode's fragment stage. Samples the
 // textures (the only part the C++ reference does differently: it has its own
 // sampler, src/shading/sampler.cpp) and calls tissueFragment().
-// Textures are uploaded with the file's first row at v = 1 (render/textures.cpp).
+// Textures are uploaded with the file's first row at v = 1 (render/renderer.cpp).
+// The procedural mode reads no texture besides the diffuse one: its noise
+// needs only the permutation (uPerm, see the renderer's prelude).
 uniform Material uMaterial;
+uniform Frame uFrame;
+uniform Procedural uProcedural;
 uniform sampler2D uDiffuse;      // subject texture (RGB)
-uniform sampler2D uReflectance;  // reflectance map, rgb = 0.5 N + 0.5
+uniform sampler2D uReflectance;  // reflectance map, rgb = 0.5 N + 0.5, a = slope deviation (mips)
 uniform sampler2D uHighlight;    // multitexture: sphere-mapped highlight (R)
 
 in vec3 vLt;
@@ -16,6 +20,7 @@ in vec3 vN;
 in float vDiffuseLight;
 in float vSpecular;
 in vec2 vSphereUv;
+in vec3 vP;
 
 out vec4 fragColor;
 
@@ -30,16 +35,27 @@ void main() {
     v.diffuseLight = vDiffuseLight;
     v.specular = vSpecular;
     v.sphereUv = vSphereUv;
+    v.P = vP;
     vec3 albedoTex = vec3(1.0f);
-    vec3 mapRgb = vec3(0.5f, 0.5f, 1.0f);
+    vec4 mapSample = vec4(0.5f, 0.5f, 1.0f, 0.0f);
     float highlight = 0.0f;
     if (MUCOSA_MODE != kModeNormals && MUCOSA_MODE != kModeTangents && MUCOSA_MODE != kModeUv &&
         MUCOSA_MODE != kModeDepth)
         albedoTex = texture(uDiffuse, vUv).rgb;
-    if (MUCOSA_MODE == kModeNoise || MUCOSA_MODE == kModeNormals || MUCOSA_MODE == kModeBrdfNoise)
-        mapRgb = texture(uReflectance, reflectanceMapCoord(vUv, uMaterial)).rgb;
+    if (MUCOSA_MODE == kModeNoise || MUCOSA_MODE == kModeNormals || MUCOSA_MODE == kModeBrdfNoise) {
+        // Anti-aliased: the filtered mip chain and its slope variance
+        // (Toksvig); otherwise the full-resolution map, as the paper sampled it.
+        vec2 mc = reflectanceMapCoord(vUv, uMaterial);
+        mapSample = uFrame.specularAA != 0 ? texture(uReflectance, mc) : textureLod(uReflectance, mc, 0.0f);
+    }
+    float footprint = 0.0f;
+    if (MUCOSA_MODE == kModeProcedural) {
+        vec3 q = proceduralCoord(v, uMaterial, uProcedural);
+        footprint = noiseFootprint(dFdx(q), dFdy(q));
+    }
     if (MUCOSA_MODE == kModeMultitexture)
         highlight = texture(uHighlight, vSphereUv).r;
-    vec3 color = tissueFragment(v, albedoTex, mapRgb, highlight, uMaterial, MUCOSA_MODE);
+    vec3 color =
+        tissueFragment(v, albedoTex, mapSample, highlight, footprint, uMaterial, uProcedural, uFrame, MUCOSA_MODE);
     fragColor = vec4(clamp(color, 0.0f, 1.0f), 1.0f);
 }

@@ -1,6 +1,6 @@
 // surface_tissue.vert: every shading mode's vertex stage. The renderer
-// prepends "#version 330 core", "#define MUCOSA_MODE <k>" and
-// common_shading.glsl; the work is in tissueVertex().
+// prepends "#version 330 core", "#define MUCOSA_MODE <k>", the permutation
+// uniform, procedural_noise.glsl and common_shading.glsl; the work is in tissueVertex().
 layout(location = 0) in vec3 aPosition;
 layout(location = 1) in vec3 aNormal;
 layout(location = 2) in vec4 aTangent;
@@ -18,6 +18,7 @@ out vec3 vN;
 out float vDiffuseLight;
 out float vSpecular;
 out vec2 vSphereUv;
+out vec3 vP;
 
 void main() {
     Varyings v = tissueVertex(aPosition, aNormal, aTangent, aUv, uFrame, uMaterial, MUCOSA_MODE);
@@ -30,5 +31,6 @@ void main() {
     vDiffuseLight = v.diffuseLight;
     vSpecular = v.specular;
     vSphereUv = v.sphereUv;
+    vP = v.P;
     gl_Position = tissueClipPosition(aPosition, uFrame);
 }

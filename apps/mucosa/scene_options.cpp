@@ -14,6 +14,12 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
     c->add_option("scene", o.sceneFile, "Scene file (.json, see README \"Scene files\"); default: the airway phantom");
     c->add_option("--mode", o.mode, "Shading mode: " + shading::modeList() + " [noise]");
     if (withSize) c->add_option("--size", o.size, "Frame size WxH [640x480, or the scene's resolution]");
+    c->add_option("--noise-space", o.noiseSpace,
+                  "Procedural mode: evaluate the map's noise in texture space (uv) or as solid noise on the surface "
+                  "(object: needs no UVs or tangents) [uv, or the scene's noise_space]");
+    c->add_option("--specular-aa", o.specularAA,
+                  "Specular anti-aliasing: on (Toksvig on the map's mips; octave fade procedurally) or off (the "
+                  "full-resolution map, every octave) [on, or the scene's specular_aa]");
     c->add_option(
         "--set", o.sets,
         "Override a parameter, e.g. --set material.shininess=80 (repeatable). Parameters:\n" + shading::registryHelp());
@@ -36,6 +42,16 @@ render::Scene resolveScene(const SceneOptions& o) {
     render::Scene s = o.sceneFile.empty() ? render::defaultScene() : render::loadScene(o.sceneFile);
     if (!o.mode.empty()) s.mode = shading::parseMode(o.mode, "--mode");
     if (!o.size.empty()) std::tie(s.width, s.height) = parseSize(o.size);
+    if (!o.noiseSpace.empty()) {
+        if (o.noiseSpace != "uv" && o.noiseSpace != "object")
+            throw InputError("--noise-space", "", "'" + o.noiseSpace + "' is not uv or object");
+        s.noiseSpace = o.noiseSpace == "uv" ? shading::NoiseSpace::Uv : shading::NoiseSpace::Object;
+    }
+    if (!o.specularAA.empty()) {
+        if (o.specularAA != "on" && o.specularAA != "off")
+            throw InputError("--specular-aa", "", "'" + o.specularAA + "' is not on or off");
+        s.specularAA = o.specularAA == "on";
+    }
     for (const std::string& kv : o.sets) {
         const auto eq = kv.find('=');
         if (eq == std::string::npos) throw InputError("--set", "", "'" + kv + "' is not group.name=value");

@@ -1,6 +1,7 @@
 #pragma once
 // Options shared by render, compare and view: the scene file and overrides
-// (--mode, --size, --set group.name=value from the parameter registry).
+// (--mode, --size, --noise-space, --specular-aa, --set group.name=value from
+// the parameter registry).
 #include <memory>
 #include <string>
 #include <vector>
@@ -15,10 +16,12 @@ struct SceneOptions {
     std::string sceneFile;
     std::string mode;
     std::string size;
+    std::string noiseSpace;
+    std::string specularAA;
     std::vector<std::string> sets;
 };
 
-// Adds [scene.json], --mode, --size, --set to `c`.
+// Adds [scene.json], --mode, --size, --noise-space, --specular-aa, --set to `c`.
 void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize = true);
 
 // Loads the scene (or the default one) and applies the overrides; InputError

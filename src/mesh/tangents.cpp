@@ -143,4 +143,11 @@ TangentReport computeTangents(Mesh& mesh, int threads) {
     return rep;
 }
 
+Vec4 fallbackTangent(const Vec3& n) noexcept {
+    const float sign = std::copysign(1.0f, n[2]);
+    const float a = -1.0f / (sign + n[2]);
+    const float b = n[0] * n[1] * a;
+    return {1.0f + sign * n[0] * n[0] * a, sign * b, -sign * n[0], 1.0f};
+}
+
 }  // namespace mucosa::mesh

@@ -1,5 +1,7 @@
 #include <mucosa/noise/fractal.hpp>
 
+#include <mucosa/noise/gradient.hpp>
+
 #include <cmath>
 
 #include <fmt/format.h>
@@ -71,6 +73,44 @@ double fractal(const FractalParams& p, const Permutation& perm, double u, double
             n = perlin(perm, f * u, f * v, p.z);
         }
         sum += a * (p.turbulence ? std::fabs(n) : n);
+        f *= p.lacunarity;
+        a *= p.gain;
+    }
+    return sum;
+}
+
+NoiseGradient fractalGradient(const FractalParams& p, const Permutation& perm, double u, double v) noexcept {
+    NoiseGradient sum;
+    double f = p.frequency, a = 1.0;
+    for (int i = 0; i < p.octaves; ++i) {
+        NoiseGradient n;
+        if (p.tileable) {
+            const int period = f > 256 ? 256 : static_cast<int>(f);
+            n = perlinPeriodicGradient(perm, f * u, f * v, p.z, period, period, 256);
+        } else {
+            n = perlinGradient(perm, f * u, f * v, p.z);
+        }
+        const double s = p.turbulence && n.value < 0 ? -1.0 : 1.0;
+        sum.value += a * (p.turbulence ? std::fabs(n.value) : n.value);
+        sum.dx += a * s * f * n.dx;  // chain rule: d n(f u) / du = f n_x
+        sum.dy += a * s * f * n.dy;
+        f *= p.lacunarity;
+        a *= p.gain;
+    }
+    return sum;
+}
+
+NoiseGradient solidFractalGradient(const FractalParams& p, const Permutation& perm, double x, double y,
+                                   double z) noexcept {
+    NoiseGradient sum;
+    double f = p.frequency, a = 1.0;
+    for (int i = 0; i < p.octaves; ++i) {
+        const NoiseGradient n = perlinGradient(perm, f * x, f * y, f * z);
+        const double s = p.turbulence && n.value < 0 ? -1.0 : 1.0;
+        sum.value += a * s * n.value;
+        sum.dx += a * s * f * n.dx;
+        sum.dy += a * s * f * n.dy;
+        sum.dz += a * s * f * n.dz;
         f *= p.lacunarity;
         a *= p.gain;
     }

@@ -9,6 +9,9 @@
 #include <fmt/format.h>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/mesh/tangents.hpp>
+#include <mucosa/noise/perlin.hpp>
+#include <mucosa/reflectance/specular_mips.hpp>
 #include <mucosa/render/context.hpp>
 
 #include "render/embedded_shaders.hpp"
@@ -43,7 +46,7 @@ struct Program {
     std::vector<GLint> loc;
 };
 
-constexpr std::array<const char*, 24> kUniformNames = {"uFrame.viewProj",
+constexpr std::array<const char*, 36> kUniformNames = {"uFrame.viewProj",
                                                        "uFrame.view",
                                                        "uFrame.eye",
                                                        "uFrame.light",
@@ -65,7 +68,19 @@ constexpr std::array<const char*, 24> kUniformNames = {"uFrame.viewProj",
                                                        "uDiffuse",
                                                        "uReflectance",
                                                        "uHighlight",
-                                                       "",
+                                                       "uFrame.specularAA",
+                                                       "uProcedural.frequency",
+                                                       "uProcedural.octaves",
+                                                       "uProcedural.lacunarity",
+                                                       "uProcedural.gain",
+                                                       "uProcedural.z",
+                                                       "uProcedural.turbulence",
+                                                       "uProcedural.tileable",
+                                                       "uProcedural.strength",
+                                                       "uProcedural.space",
+                                                       "uProcedural.scaleMm",
+                                                       "uProcedural.antialias",
+                                                       "uPerm",
                                                        ""};
 
 enum U {
@@ -90,12 +105,33 @@ enum U {
     kLightRange,
     kDiffuseSampler,
     kReflectanceSampler,
-    kHighlightSampler
+    kHighlightSampler,
+    kSpecularAA,
+    kProcFrequency,
+    kProcOctaves,
+    kProcLacunarity,
+    kProcGain,
+    kProcZ,
+    kProcTurbulence,
+    kProcTileable,
+    kProcStrength,
+    kProcSpace,
+    kProcScaleMm,
+    kProcAntialias,
+    kPerm
 };
+
+// GLSL side of procedural_noise.glsl's permAt: the permutation (256 entries,
+// the doubled table's first half) packed four to an ivec4. A uniform array,
+// not a texture: the procedural path uses no texture memory.
+constexpr const char* kPermutationPrelude =
+    "uniform ivec4 uPerm[64];\n"
+    "int permAt(int i) { int j = i & 255; return uPerm[j >> 2][j & 3]; }\n";
 
 Program link(int mode) {
     const std::string header = fmt::format("#version 330 core\n#define MUCOSA_MODE {}\n", mode);
-    const std::string common(shaderSource("common_shading.glsl"));
+    const std::string common = std::string(kPermutationPrelude) + std::string(shaderSource("procedural_noise.glsl")) +
+                               std::string(shaderSource("common_shading.glsl"));
     const std::string name =
         fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
     GLuint vs = compile(GL_VERTEX_SHADER, header + common + std::string(shaderSource("surface_tissue.vert")), name);
@@ -130,10 +166,11 @@ struct Texture {
     bool user = false;
 };
 
-void upload(GLuint id, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
+// One level of the bound texture, rows flipped: OpenGL's first row is t = 0,
+// the bottom, so the file's rows go up bottom-up and v = 1 samples the first
+// row (docs/theory.md, "Conventions").
+void uploadLevel(GLint level, const image::Image8& img) {
     const int w = img.width(), h = img.height(), ch = img.channels();
-    // OpenGL's first row is t = 0, the bottom: upload the file's rows bottom-up
-    // so that v = 1 samples the first row (docs/theory.md, "Conventions").
     std::vector<std::uint8_t> rows(img.size());
     for (int y = 0; y < h; ++y)
         std::copy(img.row(h - 1 - y), img.row(h - 1 - y) + img.rowStride(),
@@ -142,29 +179,51 @@ void upload(GLuint id, const image::Image8& img, shading::Filter filter, shading
     if (ch == 1) format = GL_RED, internal = GL_R8;
     if (ch == 2) format = GL_RG, internal = GL_RG8;
     if (ch == 4) format = GL_RGBA, internal = GL_RGBA8;
-    glBindTexture(GL_TEXTURE_2D, id);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexImage2D(GL_TEXTURE_2D, 0, static_cast<GLint>(internal), w, h, 0, format, GL_UNSIGNED_BYTE, rows.data());
-    if (ch == 1) {  // grey: replicate into green and blue as the reference does
-        const GLint swizzle[] = {GL_RED, GL_RED, GL_RED, GL_ONE};
-        glTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_SWIZZLE_RGBA, swizzle);
-    } else if (ch == 2) {
-        const GLint swizzle[] = {GL_RED, GL_RED, GL_RED, GL_GREEN};
-        glTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_SWIZZLE_RGBA, swizzle);
-    }
+    glTexImage2D(GL_TEXTURE_2D, level, static_cast<GLint>(internal), w, h, 0, format, GL_UNSIGNED_BYTE, rows.data());
+}
+
+void setSampling(int channels, shading::Filter filter, shading::Wrap wrap) {
+    GLint swizzle[] = {GL_RED, GL_GREEN, GL_BLUE, GL_ALPHA};
+    if (channels == 3) swizzle[3] = GL_ZERO;  // alpha 0: no slope variance (reflectance maps without mips)
+    if (channels == 1) swizzle[1] = swizzle[2] = GL_RED, swizzle[3] = GL_ONE;  // grey, as the reference reads it
+    if (channels == 2) swizzle[1] = swizzle[2] = GL_RED, swizzle[3] = GL_GREEN;
+    glTexParameteriv(GL_TEXTURE_2D, GL_TEXTURE_SWIZZLE_RGBA, swizzle);
     const GLint wrapMode = wrap == shading::Wrap::Repeat ? GL_REPEAT : GL_CLAMP_TO_EDGE;
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, wrapMode);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, wrapMode);
     GLint minFilter = GL_LINEAR, magFilter = GL_LINEAR;
     if (filter == shading::Filter::Nearest) minFilter = magFilter = GL_NEAREST;
-    if (filter == shading::Filter::Trilinear || filter == shading::Filter::Mipmap) {
-        // Mipmap: bilinear in the nearest mip level, ~20 % cheaper than
-        // trilinear on llvmpipe (bench_render) and hardly different to the eye.
-        minFilter = filter == shading::Filter::Trilinear ? GL_LINEAR_MIPMAP_LINEAR : GL_LINEAR_MIPMAP_NEAREST;
-        glGenerateMipmap(GL_TEXTURE_2D);
-    }
+    // Mipmap: bilinear in the nearest mip level, ~20 % cheaper than trilinear
+    // on llvmpipe (bench_render) and hardly different to the eye.
+    if (filter == shading::Filter::Trilinear) minFilter = GL_LINEAR_MIPMAP_LINEAR;
+    if (filter == shading::Filter::Mipmap) minFilter = GL_LINEAR_MIPMAP_NEAREST;
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, minFilter);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, magFilter);
+}
+
+bool mipmapped(shading::Filter filter) {
+    return filter == shading::Filter::Trilinear || filter == shading::Filter::Mipmap;
+}
+
+void upload(GLuint id, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
+    glBindTexture(GL_TEXTURE_2D, id);
+    uploadLevel(0, img);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 1000);
+    if (mipmapped(filter)) glGenerateMipmap(GL_TEXTURE_2D);
+    setSampling(img.channels(), filter, wrap);
+}
+
+// A reflectance map: with mipmaps, the specular anti-aliasing chain (averaged
+// normals + slope variance in alpha, reflectance::specularMipChain) instead of
+// glGenerateMipmap's averages of encoded colours.
+void uploadReflectance(GLuint id, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
+    if (!mipmapped(filter) || img.channels() < 3) return upload(id, img, filter, wrap);
+    const std::vector<image::Image8> chain = reflectance::specularMipChain(img);
+    glBindTexture(GL_TEXTURE_2D, id);
+    for (std::size_t k = 0; k < chain.size(); ++k) uploadLevel(static_cast<GLint>(k), chain[k]);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, static_cast<GLint>(chain.size() - 1));
+    setSampling(4, filter, wrap);
 }
 
 image::Image8 solid(std::uint8_t r, std::uint8_t g, std::uint8_t b) {
@@ -261,6 +320,10 @@ struct Renderer::Impl {
     std::vector<GLsizei> drawCounts;
     std::size_t lastDrawnTriangles = 0;
     std::array<Texture, 3> textures;
+    bool meshHasUvs = false;
+    std::uint64_t permutationSeed = ~std::uint64_t{0};  // seed of the table in uPerm (per program)
+    std::array<std::uint64_t, shading::kModeCount> programSeed{};
+    std::array<GLint, 256> permutation{};
     float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
 };
 
@@ -291,19 +354,19 @@ std::size_t Renderer::lastDrawnTriangles() const noexcept {
 }
 
 void Renderer::setMesh(const mesh::Mesh& mesh) {
-    std::string missing;
-    if (!mesh.hasNormals()) missing += " normals";
-    if (!mesh.hasUvs()) missing += " texture-coordinates";
-    if (!mesh.hasTangents()) missing += " tangents";
-    if (!missing.empty()) throw InputError("mesh", "", "the renderer needs per-vertex" + missing);
+    if (!mesh.hasNormals()) throw InputError("mesh", "", "the renderer needs per-vertex normals");
+    // Without texture coordinates (a raw CT surface) the modes that read none
+    // still render; draw() refuses the others (shading::modeNeedsUvs).
+    const bool uvs = mesh.hasUvs() && mesh.hasTangents();
     constexpr int kStride = 12;  // position 3, normal 3, tangent 4, uv 2
     std::vector<float> data(mesh.vertexCount() * kStride);
     for (std::size_t i = 0; i < mesh.vertexCount(); ++i) {
         float* d = data.data() + i * kStride;
         std::copy(mesh.positions[i].begin(), mesh.positions[i].end(), d);
         std::copy(mesh.normals[i].begin(), mesh.normals[i].end(), d + 3);
-        std::copy(mesh.tangents[i].begin(), mesh.tangents[i].end(), d + 6);
-        std::copy(mesh.uvs[i].begin(), mesh.uvs[i].end(), d + 10);
+        const mesh::Vec4 t = uvs ? mesh.tangents[i] : mesh::fallbackTangent(mesh.normals[i]);
+        std::copy(t.begin(), t.end(), d + 6);
+        if (uvs) std::copy(mesh.uvs[i].begin(), mesh.uvs[i].end(), d + 10);
     }
     glBindVertexArray(impl_->vao);
     glBindBuffer(GL_ARRAY_BUFFER, impl_->vbo);
@@ -322,13 +385,17 @@ void Renderer::setMesh(const mesh::Mesh& mesh) {
     }
     glBindVertexArray(0);
     impl_->indexCount = static_cast<GLsizei>(mesh.indices.size());
+    impl_->meshHasUvs = uvs;
 }
 
 void Renderer::setTexture(TextureSlot slot, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
     if (img.empty() || img.channels() < 1 || img.channels() > 4)
         throw InputError("texture", "", "needs a non-empty image with 1 to 4 channels");
     Texture& t = impl_->textures[static_cast<std::size_t>(slot)];
-    upload(t.id, img, filter, wrap);
+    if (slot == TextureSlot::Reflectance)
+        uploadReflectance(t.id, img, filter, wrap);
+    else
+        upload(t.id, img, filter, wrap);
     t.user = true;
 }
 
@@ -352,8 +419,14 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     using namespace shading::glsl;
     const int mode = static_cast<int>(frame.mode);
     const Program& p = impl_->programs[static_cast<std::size_t>(mode)];
+    if (shading::modeNeedsUvs(frame) && !impl_->meshHasUvs)
+        throw InputError("mode", "",
+                         fmt::format("'{}' needs texture coordinates and tangents, which the mesh lacks (procedural "
+                                     "noise in object space needs neither; or add UVs with mucosa mesh --uv centerline)",
+                                     shading::modeName(frame.mode)));
     const Material m = packMaterial(frame.params);
     const Frame f = packFrame(frame);
+    const Procedural pr = packProcedural(frame);
 
     Texture& hl = impl_->textures[static_cast<std::size_t>(TextureSlot::Highlight)];
     if (frame.mode == shading::Mode::Multitexture && !hl.user && impl_->highlightShininess != m.shininess) {
@@ -398,6 +471,31 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     glUniform1f(p.loc[kDepthMax], m.depthMax);
     glUniform1f(p.loc[kLightIntensity], m.lightIntensity);
     glUniform1f(p.loc[kLightRange], m.lightRange);
+    glUniform1i(p.loc[kSpecularAA], f.specularAA);
+    glUniform1f(p.loc[kProcFrequency], pr.frequency);
+    glUniform1i(p.loc[kProcOctaves], pr.octaves);
+    glUniform1f(p.loc[kProcLacunarity], pr.lacunarity);
+    glUniform1f(p.loc[kProcGain], pr.gain);
+    glUniform1f(p.loc[kProcZ], pr.z);
+    glUniform1i(p.loc[kProcTurbulence], pr.turbulence);
+    glUniform1i(p.loc[kProcTileable], pr.tileable);
+    glUniform1f(p.loc[kProcStrength], pr.strength);
+    glUniform1i(p.loc[kProcSpace], pr.space);
+    glUniform1f(p.loc[kProcScaleMm], pr.scaleMm);
+    glUniform1i(p.loc[kProcAntialias], pr.antialias);
+    if (frame.mode == shading::Mode::Procedural) {
+        const std::uint64_t seed = frame.procedural.noise.seed;
+        if (impl_->permutationSeed != seed) {
+            const noise::Permutation perm = noise::Permutation::fromSeed(seed);
+            for (int i = 0; i < 256; ++i) impl_->permutation[static_cast<std::size_t>(i)] = perm[i];
+            impl_->permutationSeed = seed;
+        }
+        // Uniform values live in the program: upload when this program last saw another table.
+        if (impl_->programSeed[static_cast<std::size_t>(mode)] != seed + 1) {
+            glUniform4iv(p.loc[kPerm], 64, impl_->permutation.data());
+            impl_->programSeed[static_cast<std::size_t>(mode)] = seed + 1;
+        }
+    }
     for (GLuint unit = 0; unit < 3; ++unit) {
         glActiveTexture(GL_TEXTURE0 + unit);
         glBindTexture(GL_TEXTURE_2D, impl_->textures[unit].id);

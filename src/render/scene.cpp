@@ -213,7 +213,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     P.object(j, "scene");
     P.known(j, "",
             {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
-             "light", "camera", "resolution", "frames"});
+             "light", "camera", "resolution", "frames", "noise_space", "specular_aa"});
     Scene s = defaultScene();
     s.file = fileForErrors;
     if (!j.contains("mesh")) P.fail("mesh", "is missing (a file, \"phantom\" or \"tube\")");
@@ -285,6 +285,12 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
             P.fail("filter", "must be nearest, linear, mipmap or trilinear, not '" + v + "'");
     }
     if (j.contains("mode")) s.mode = shading::parseMode(P.string(j["mode"], "mode"), "mode", P.file);
+    if (j.contains("noise_space")) {
+        const std::string v = P.string(j["noise_space"], "noise_space");
+        if (v != "uv" && v != "object") P.fail("noise_space", "must be \"uv\" or \"object\", not '" + v + "'");
+        s.noiseSpace = v == "uv" ? shading::NoiseSpace::Uv : shading::NoiseSpace::Object;
+    }
+    if (j.contains("specular_aa")) s.specularAA = P.boolean(j["specular_aa"], "specular_aa");
     if (j.contains("material")) P.registryGroup(j["material"], "material", s.params);
     // "fit": the output folder of mucosa fit: its brdf.json sets c0..c3,
     // d1..d3 and the depth range, its texture.png is the diffuse texture
@@ -393,10 +399,19 @@ SceneAssets loadAssets(const Scene& scene, int threads) {
         mesh::LoadInfo info;
         a.mesh = mesh::load(scene.mesh.file, {}, &info);
         for (const std::string& w : info.warnings) a.notes.push_back("mesh: " + w);
-        if (!a.mesh.hasUvs())
-            throw InputError("mesh", scene.mesh.file.string(),
-                             "has no texture coordinates (the reflectance map needs them; add UVs with mucosa mesh)");
-        if (!a.mesh.hasTangents()) {
+        if (!a.mesh.hasUvs()) {
+            shading::FrameSetup f;
+            f.mode = scene.mode;
+            f.procedural.space = scene.noiseSpace;
+            if (shading::modeNeedsUvs(f))
+                throw InputError("mesh", scene.mesh.file.string(),
+                                 fmt::format("has no texture coordinates, which mode '{}' needs (render it with "
+                                             "--mode procedural --noise-space object, or add UVs with mucosa mesh "
+                                             "--uv centerline)",
+                                             shading::modeName(scene.mode)));
+            a.notes.push_back("mesh: no texture coordinates; modes that read none only (procedural in object space, "
+                              "vertex-phong, multitexture, diffuse, depth)");
+        } else if (!a.mesh.hasTangents()) {
             const mesh::TangentReport r = mesh::computeTangents(a.mesh, threads);
             a.notes.push_back(fmt::format("tangents computed ({} degenerate-UV triangles, {} mirrored vertices)",
                                           r.degenerateUvTriangles, r.mirroredVertices));
@@ -453,6 +468,10 @@ shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int
     f.cullBackFaces = scene.closed.value_or(scene.mesh.kind == "phantom");
     f.mode = scene.mode;
     f.params = scene.params;
+    f.procedural.noise = scene.mapParams.noise;
+    f.procedural.strength = static_cast<float>(scene.mapParams.strength);
+    f.procedural.space = scene.noiseSpace;
+    f.specularAA = scene.specularAA;
     f.width = width;
     f.height = height;
     return f;

@@ -1,7 +1,9 @@
 #pragma once
-// shaders/common_shading.glsl compiled as C++ with glm: the shading model's
-// C++ reference IS the GLSL source. Everything lands in an anonymous namespace
+// shaders/procedural_noise.glsl and shaders/common_shading.glsl compiled as
+// C++ with glm: the shading model's C++ reference IS the GLSL source. Everything lands in an anonymous namespace
 // (internal linkage), so any translation unit may include this header.
+#include <cstdint>
+
 #include <glm/glm.hpp>
 
 #include <mucosa/shading/params.hpp>
@@ -17,6 +19,13 @@ using namespace glm;
 #pragma GCC diagnostic ignored "-Wunused-function"
 #pragma GCC diagnostic ignored "-Wunused-variable"
 #endif
+// The permutation procedural_noise.glsl reads through permAt (in GLSL a
+// uniform array): set for the current thread by PermutationScope.
+inline thread_local const std::uint8_t* tPermutation = nullptr;
+inline int permAt(int i) {
+    return tPermutation[i & 255];
+}
+#include "../../shaders/procedural_noise.glsl"
 #include "../../shaders/common_shading.glsl"
 #if defined(__GNUC__)
 #pragma GCC diagnostic pop
@@ -44,6 +53,37 @@ inline Material packMaterial(const ParamSet& p) {
     return m;
 }
 
+// Binds a permutation table (noise::Permutation::table()) for permAt on this
+// thread while in scope.
+class PermutationScope {
+public:
+    explicit PermutationScope(const std::uint8_t* table) : previous_(tPermutation) { tPermutation = table; }
+    ~PermutationScope() { tPermutation = previous_; }
+    PermutationScope(const PermutationScope&) = delete;
+    PermutationScope& operator=(const PermutationScope&) = delete;
+
+private:
+    const std::uint8_t* previous_;
+};
+
+// The frame's procedural settings in the layout of the GLSL Procedural struct.
+inline Procedural packProcedural(const FrameSetup& f) {
+    const noise::FractalParams& n = f.procedural.noise;
+    Procedural p;
+    p.frequency = static_cast<float>(n.frequency);
+    p.octaves = n.octaves;
+    p.lacunarity = static_cast<float>(n.lacunarity);
+    p.gain = static_cast<float>(n.gain);
+    p.z = static_cast<float>(n.z);
+    p.turbulence = n.turbulence ? 1 : 0;
+    p.tileable = n.tileable ? 1 : 0;
+    p.strength = f.procedural.strength;
+    p.space = f.procedural.space == NoiseSpace::Object ? kSpaceObject : kSpaceUv;
+    p.scaleMm = f.params[Param::NoiseScale];
+    p.antialias = f.specularAA ? 1 : 0;
+    return p;
+}
+
 inline mat4 toMat4(const Mat4& a) {
     mat4 r;
     for (int c = 0; c < 4; ++c)
@@ -58,6 +98,7 @@ inline Frame packFrame(const FrameSetup& f) {
     o.eye = vec3(f.eye[0], f.eye[1], f.eye[2]);
     o.light = vec3(f.light[0], f.light[1], f.light[2]);
     o.normalSign = f.normalSign;
+    o.specularAA = f.specularAA ? 1 : 0;
     return o;
 }
 

@@ -11,7 +11,7 @@ namespace mucosa::shading {
 namespace {
 
 constexpr std::array<std::string_view, kModeCount> kModeNames = {
-    "noise", "vertex-phong", "multitexture", "diffuse", "normals", "tangents", "uv", "depth", "brdf", "brdf-noise"};
+    "noise", "vertex-phong", "multitexture", "diffuse", "normals", "tangents", "uv", "depth", "brdf", "brdf-noise", "procedural"};
 
 constexpr std::array<std::string_view, kModeCount> kModeDescriptions = {
     "the paper's method: per-pixel specular from the reflectance map over the diffuse texture",
@@ -24,6 +24,7 @@ constexpr std::array<std::string_view, kModeCount> kModeDescriptions = {
     "debug: 1 - r, the depth ratio of eq. 10",
     "patient-specific: texture x rho(gamma) delta(r) from mucosa fit, no ambient, tint or fall-off (Category 3)",
     "patient-specific plus the method's noise-based specular (Category 4)",
+    "the method with run-time noise: the map's fractal sum evaluated per pixel in texture or object space, no map",
 };
 
 using P = Param;
@@ -156,6 +157,16 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      100000.0f,
      "mm",
      "Distance at which the light falls to half: att = 1 / (1 + (dist / range)^2)",
+     false},
+    {P::NoiseScale,
+     "noise_scale_mm",
+     "material",
+     1,
+     {15.0f, 0, 0},
+     0.01f,
+     100000.0f,
+     "mm",
+     "Procedural mode in object space: mm of surface per map width (the map's frequency counts cycles per width)",
      false},
 }};
 

@@ -5,7 +5,11 @@
 #include <cstring>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include <mucosa/core/error.hpp>
+#include <mucosa/mesh/tangents.hpp>
+#include <mucosa/noise/perlin.hpp>
 
 #include "glsl.hpp"
 
@@ -15,7 +19,7 @@ namespace {
 
 using glsl::Varyings;
 constexpr int kVaryingFloats = static_cast<int>(sizeof(Varyings) / sizeof(float));
-static_assert(sizeof(Varyings) == 21 * sizeof(float), "Varyings must be tightly packed floats");
+static_assert(sizeof(Varyings) == 24 * sizeof(float), "Varyings must be tightly packed floats");
 
 struct ClipVertex {
     glm::vec4 clip;
@@ -69,8 +73,12 @@ inline bool topLeft(float ax, float ay, float bx, float by) {
     return (dy == 0 && dx < 0) || dy < 0;
 }
 
+// Shade(var, dvar/dx, dvar/dy): with `derivatives`, the varyings' screen-space
+// derivatives (GLSL dFdx, dFdy) as forward differences of the triangle's
+// perspective-correct interpolation one pixel right and one pixel up;
+// otherwise both are null.
 template <class Shade>
-void rasterTriangle(Target& t, ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, Shade shade) {
+void rasterTriangle(Target& t, ScreenVertex v0, ScreenVertex v1, ScreenVertex v2, bool derivatives, Shade shade) {
     float area = edge(v0.x, v0.y, v1.x, v1.y, v2.x, v2.y);
     if (area == 0 || !std::isfinite(area)) return;
     if (area < 0) {  // no culling: make it counter-clockwise
@@ -85,7 +93,16 @@ void rasterTriangle(Target& t, ScreenVertex v0, ScreenVertex v1, ScreenVertex v2
     const int y1 = std::min(t.height - 1, static_cast<int>(std::ceil(maxY - 0.5f)));
     const bool tl0 = topLeft(v1.x, v1.y, v2.x, v2.y), tl1 = topLeft(v2.x, v2.y, v0.x, v0.y),
                tl2 = topLeft(v0.x, v0.y, v1.x, v1.y);
-    float var[kVaryingFloats];
+    float var[kVaryingFloats], varDx[kVaryingFloats], varDy[kVaryingFloats];
+    // Perspective-correct varyings at (px, py), inside the triangle or not.
+    const auto interpolate = [&](float px, float py, float* out) {
+        const float l0 = edge(v1.x, v1.y, v2.x, v2.y, px, py) / area;
+        const float l1 = edge(v2.x, v2.y, v0.x, v0.y, px, py) / area;
+        const float l2 = edge(v0.x, v0.y, v1.x, v1.y, px, py) / area;
+        const float p0 = l0 * v0.invW, p1 = l1 * v1.invW, p2 = l2 * v2.invW;
+        const float s = p0 + p1 + p2;
+        for (int i = 0; i < kVaryingFloats; ++i) out[i] = (p0 * v0.var[i] + p1 * v1.var[i] + p2 * v2.var[i]) / s;
+    };
     for (int y = y0; y <= y1; ++y) {
         const float py = static_cast<float>(y) + 0.5f;
         for (int x = x0; x <= x1; ++x) {
@@ -105,7 +122,12 @@ void rasterTriangle(Target& t, ScreenVertex v0, ScreenVertex v1, ScreenVertex v2
             const float w0 = p0 / s, w1 = p1 / s, w2 = p2 / s;
             for (int i = 0; i < kVaryingFloats; ++i) var[i] = w0 * v0.var[i] + w1 * v1.var[i] + w2 * v2.var[i];
             t.depth[idx] = z;
-            t.color[idx] = shade(var);
+            if (derivatives) {
+                interpolate(px + 1.0f, py, varDx);
+                interpolate(px, py + 1.0f, varDy);
+                for (int i = 0; i < kVaryingFloats; ++i) varDx[i] -= var[i], varDy[i] -= var[i];
+            }
+            t.color[idx] = shade(var, derivatives ? varDx : nullptr, derivatives ? varDy : nullptr);
         }
     }
 }
@@ -182,19 +204,42 @@ image::Image8 highlightSphereMap(int size, float shininess) {
     return img;
 }
 
+bool modeNeedsUvs(const FrameSetup& f) noexcept {
+    switch (f.mode) {
+        case Mode::Noise:
+        case Mode::Normals:
+        case Mode::Tangents:
+        case Mode::Uv:
+        case Mode::Brdf:
+        case Mode::BrdfNoise:
+            return true;
+        case Mode::Procedural:
+            return f.procedural.space == NoiseSpace::Uv;
+        default:
+            return false;
+    }
+}
+
 image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures) {
-    if (!mesh.hasNormals() || !mesh.hasUvs() || !mesh.hasTangents())
-        throw InputError("mesh", "", "the reference renderer needs normals, texture coordinates and tangents");
+    if (!mesh.hasNormals()) throw InputError("mesh", "", "the reference renderer needs vertex normals");
+    if (modeNeedsUvs(frame) && (!mesh.hasUvs() || !mesh.hasTangents()))
+        throw InputError("mode", "",
+                         fmt::format("'{}' needs texture coordinates and tangents, which the mesh lacks",
+                                     modeName(frame.mode)));
     const glsl::Material m = glsl::packMaterial(frame.params);
     const glsl::Frame f = glsl::packFrame(frame);
+    const glsl::Procedural pr = glsl::packProcedural(frame);
+    const noise::Permutation perm = noise::Permutation::fromSeed(frame.procedural.noise.seed);
+    const glsl::PermutationScope permScope(perm.table().data());
     const int mode = static_cast<int>(frame.mode);
+    const bool derivatives = mode == glsl::kModeProcedural && frame.specularAA;
 
     std::vector<ClipVertex> verts(mesh.vertexCount());
     for (std::size_t i = 0; i < verts.size(); ++i) {
         const auto& p = mesh.positions[i];
         const auto& n = mesh.normals[i];
-        const auto& tg = mesh.tangents[i];
-        const auto& uv = mesh.uvs[i];
+        const auto& tg = mesh.hasTangents() ? mesh.tangents[i] : mesh::fallbackTangent(n);
+        const mesh::Vec2 uv = mesh.hasUvs() ? mesh.uvs[i] : mesh::Vec2{0, 0};
         const glm::vec3 P(p[0], p[1], p[2]);
         const Varyings v = glsl::tissueVertex(P, glm::vec3(n[0], n[1], n[2]), glm::vec4(tg[0], tg[1], tg[2], tg[3]),
                                               glm::vec2(uv[0], uv[1]), f, m, mode);
@@ -206,9 +251,19 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
              std::vector<glm::vec3>(static_cast<std::size_t>(frame.width) * frame.height, glm::vec3(0.0f))};
     const float W = static_cast<float>(frame.width), H = static_cast<float>(frame.height);
 
-    auto shade = [&](const float* var) {
+    auto shade = [&](const float* var, const float* varDx, const float* varDy) {
         Varyings v;
         std::memcpy(&v, var, sizeof v);
+        float footprint = 0.0f;
+        if (varDx != nullptr) {
+            float ax[kVaryingFloats], ay[kVaryingFloats];
+            for (int i = 0; i < kVaryingFloats; ++i) ax[i] = var[i] + varDx[i], ay[i] = var[i] + varDy[i];
+            Varyings vx, vy;
+            std::memcpy(&vx, ax, sizeof vx);
+            std::memcpy(&vy, ay, sizeof vy);
+            const glm::vec3 q = glsl::proceduralCoord(v, m, pr);
+            footprint = glsl::noiseFootprint(glsl::proceduralCoord(vx, m, pr) - q, glsl::proceduralCoord(vy, m, pr) - q);
+        }
         std::array<float, 3> albedo{1, 1, 1}, map{0.5f, 0.5f, 1.0f};
         float highlight = 0.0f;
         const bool debug = mode == glsl::kModeNormals || mode == glsl::kModeTangents || mode == glsl::kModeUv ||
@@ -220,8 +275,10 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         }
         if (mode == glsl::kModeMultitexture)
             highlight = sampleTexture(textures.highlight, v.sphereUv.x, v.sphereUv.y, {0, 0, 0})[0];
-        const glm::vec3 c = glsl::tissueFragment(v, glm::vec3(albedo[0], albedo[1], albedo[2]),
-                                                 glm::vec3(map[0], map[1], map[2]), highlight, m, mode);
+        // Level 0 only: its slope deviation (alpha) is 0 (reflectance::specularMipChain).
+        const glm::vec3 c =
+            glsl::tissueFragment(v, glm::vec3(albedo[0], albedo[1], albedo[2]), glm::vec4(map[0], map[1], map[2], 0.0f),
+                                 highlight, footprint, m, pr, f, mode);
         return glm::clamp(c, 0.0f, 1.0f);
     };
 
@@ -241,7 +298,7 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
             sv[i] = {(c.x * invW * 0.5f + 0.5f) * W, (c.y * invW * 0.5f + 0.5f) * H, c.z * invW * 0.5f + 0.5f, invW,
                      poly[i].var};
         }
-        for (std::size_t i = 1; i + 1 < sv.size(); ++i) rasterTriangle(t, sv[0], sv[i], sv[i + 1], shade);
+        for (std::size_t i = 1; i + 1 < sv.size(); ++i) rasterTriangle(t, sv[0], sv[i], sv[i + 1], derivatives, shade);
     }
 
     image::Image8 out(frame.width, frame.height, 3);

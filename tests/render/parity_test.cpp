@@ -3,6 +3,8 @@
 // per channel on >= 99.9 % of pixels (issue 4).
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <mucosa/camera/camera.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
@@ -127,6 +129,28 @@ TEST(RenderParity, SphereMatchesReferenceInEveryMode) {
         const Parity p = renderBoth(sphere, f, map, diffuse);
         expectParity(p, "parity_sphere_" + std::string(shading::modeName(static_cast<Mode>(mode))));
     }
+}
+
+TEST(RenderParity, ProceduralNoiseMatchesReferenceInBothSpacesWithAndWithoutAntiAliasing) {
+    const mesh::Mesh sphere = render::makeSphere(10.0f, 96, 48);
+    const image::Image8 map = testMap(64, "serosa");
+    const image::Image8 diffuse = testDiffuse(64);
+    for (const char* preset : {"bronchial", "rough"})
+        for (shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object})
+            for (bool aa : {true, false}) {
+                shading::FrameSetup f = frameFor(camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1}), 640,
+                                                 480, Mode::Procedural);
+                const reflectance::MapParams mp = reflectance::findPreset(preset).params;
+                f.procedural.noise = mp.noise;
+                f.procedural.noise.seed = 5;
+                f.procedural.strength = static_cast<float>(mp.strength);
+                f.procedural.space = space;
+                f.specularAA = aa;
+                f.params.set(shading::Param::NoiseScale, 12.0f);
+                const Parity p = renderBoth(sphere, f, map, diffuse);
+                expectParity(p, fmt::format("parity_procedural_{}_{}_aa_{}", preset,
+                                            space == shading::NoiseSpace::Uv ? "uv" : "object", aa ? "on" : "off"));
+            }
 }
 
 }  // namespace

@@ -22,4 +22,10 @@ struct TangentReport {
 // threads: 0 = all hardware threads; the result does not depend on it.
 TangentReport computeTangents(Mesh& mesh, int threads = 0);
 
+// A unit tangent perpendicular to the unit normal n (w = +1), for meshes with
+// no texture coordinates: any orthonormal frame will do for shading that does
+// not read the map (object-space procedural noise, vertex lighting). Duff et
+// al. 2017, "Building an orthonormal basis, revisited" (JCGT 6(1)).
+Vec4 fallbackTangent(const Vec3& n) noexcept;
+
 }  // namespace mucosa::mesh

@@ -44,6 +44,10 @@ struct Scene {
     shading::Filter filter = shading::Filter::Mipmap;
     shading::Mode mode = shading::Mode::Noise;
     shading::ParamSet params;
+    // "noise_space": where the procedural mode evaluates the map's noise
+    // ("uv" or "object"); its parameters are mapParams.
+    shading::NoiseSpace noiseSpace = shading::NoiseSpace::Uv;
+    bool specularAA = true;  // "specular_aa" (shading::FrameSetup::specularAA)
     float normalSign = 1.0f;  // "lit_side": "front" (+1) or "back" (-1)
     // "closed": the mesh is watertight and wound counter-clockwise seen from
     // the lit side, so back faces can be culled. Default: true for the

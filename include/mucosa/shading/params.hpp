@@ -25,8 +25,9 @@ enum class Mode : int {
     Depth = 7,
     Brdf = 8,       // patient-specific texture x fitted rho, delta (Category 3)
     BrdfNoise = 9,  // Brdf plus the method's specular (Category 4)
+    Procedural = 10,  // the method with run-time noise instead of the map (no texture)
 };
-inline constexpr int kModeCount = 10;
+inline constexpr int kModeCount = 11;
 
 std::string_view modeName(Mode m) noexcept;  // "noise", "vertex-phong", ...
 std::string_view modeDescription(Mode m) noexcept;
@@ -54,8 +55,9 @@ enum class Param : int {
     DepthMax,
     LightIntensity,
     LightRange,
+    NoiseScale,
 };
-inline constexpr std::size_t kParamCount = 19;
+inline constexpr std::size_t kParamCount = 20;
 
 struct ParamInfo {
     Param id;

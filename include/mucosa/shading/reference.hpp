@@ -8,12 +8,29 @@
 
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
+#include <mucosa/noise/fractal.hpp>
 #include <mucosa/shading/params.hpp>
 
 namespace mucosa::shading {
 
 // 4x4 matrix, column-major (OpenGL's layout): m[col * 4 + row].
 using Mat4 = std::array<float, 16>;
+
+// Where the procedural mode evaluates its noise.
+enum class NoiseSpace {
+    Uv,      // texture space: the map's fractal sum at the map's coordinates (needs UVs and tangents)
+    Object,  // solid noise at the surface point: no UVs or tangents needed
+};
+
+// The procedural mode's noise: the reflectance map's parameters (the scene's
+// map, reflectance::MapParams), so switching between the map and the
+// procedural path needs no retuning. Object space also reads the registry's
+// noise_scale_mm (mm of surface per map width).
+struct ProceduralSetup {
+    noise::FractalParams noise;  // frequency, octaves, lacunarity, gain, seed, z, turbulence, tileable
+    float strength = 0.01f;      // slope scale, as reflectance::MapParams::strength
+    NoiseSpace space = NoiseSpace::Uv;
+};
 
 // Everything a frame needs besides the mesh and the textures; the GL renderer
 // (render::Renderer::draw) takes the same struct.
@@ -31,6 +48,12 @@ struct FrameSetup {
     bool cullBackFaces = false;
     Mode mode = Mode::Noise;
     ParamSet params;
+    ProceduralSetup procedural;
+    // Specular anti-aliasing: the map path samples the mip chain and widens
+    // the lobe by its slope variance (Toksvig); the procedural path fades
+    // octaves out at the pixel footprint. Off: the full-resolution map and
+    // every octave (the paper's look, which sparkles in the distance).
+    bool specularAA = true;
     int width = 640, height = 480;
 };
 
@@ -66,9 +89,15 @@ std::array<float, 3> sampleTexture(const TextureView& t, float u, float v, std::
 // in shaders/common_shading.glsl). Row order as files (first row = t = 1).
 image::Image8 highlightSphereMap(int size, float shininess);
 
-// Renders `mesh` (positions, normals, uvs, tangents all present) into an RGB8
-// image, first row = top, background black. Throws InputError if the mesh
-// lacks an attribute.
+// Whether the frame's mode reads texture coordinates and tangents (the map,
+// the patient texture, texture-space noise, the debug views of them). The
+// others render meshes that have neither (vertex-phong, multitexture,
+// diffuse, depth, procedural in object space).
+bool modeNeedsUvs(const FrameSetup& f) noexcept;
+
+// Renders `mesh` (positions and normals; uvs and tangents when
+// modeNeedsUvs) into an RGB8 image, first row = top, background black.
+// Throws InputError if the mesh lacks what the mode needs.
 image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures);
 
 }  // namespace mucosa::shading

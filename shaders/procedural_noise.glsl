@@ -1,0 +1,159 @@
+// procedural_noise.glsl: Perlin's improved noise and its fractal sums, with
+// analytic gradients, at run time (the paper's "future work": noise moved
+// from pre-processing to the interactive stage).
+//
+// Compiled twice like common_shading.glsl: as GLSL 3.30 (the renderer
+// prepends it) and as C++20 with glm (src/shading/glsl.hpp). The caller
+// provides int permAt(int i), the permutation of the noise module
+// (noise::Permutation, 0 <= i < 512); in GLSL it reads a uniform array, so the
+// procedural path needs no texture at all. Same lattice, hashes, fade,
+// gradients and octave sums as src/noise (perlin.cpp, fractal.cpp): the GL
+// values agree with mucosa::noise to float precision (tests/render/
+// gpu_noise_test.cpp). Notation: docs/theory.md, "Procedural noise".
+
+// Octave limit of the fractal sums (noise::validate allows 1..32).
+const int kMaxOctaves = 32;
+// Var(dn/dx) of improved noise over uniformly distributed 3D points
+// (noise::perlinGradientComponentVariance(), checked by a test): the slope
+// variance one octave of unit amplitude and frequency carries. (A fixed
+// slice z = const varies by about 12 %: 0.424 at z = 0.5, 0.51 at z = 0.1.)
+const float kNoiseSlopeVariance = 0.48196f;
+// Anti-aliasing: an octave fades out as its frequency goes from kFadeStart to
+// kFadeEnd cycles per pixel (Nyquist: 0.5).
+const float kFadeStart = 0.2f;
+const float kFadeEnd = 0.5f;
+
+// Perlin 2002: 6t^5 - 15t^4 + 10t^3 and its derivative 30 t^2 (t - 1)^2.
+float noiseFade(float t) {
+    return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);
+}
+float noiseFadeDerivative(float t) {
+    return 30.0f * t * t * (t * (t - 2.0f) + 1.0f);
+}
+float noiseLerp(float t, float a, float b) {
+    return a + t * (b - a);
+}
+
+// The reference's grad(hash, x, y, z) = g . (x, y, z) and its vector g.
+vec3 noiseGradientVector(int hash) {
+    int h = hash & 15;
+    float su = (h & 1) == 0 ? 1.0f : -1.0f;
+    float sv = (h & 2) == 0 ? 1.0f : -1.0f;
+    // u axis: x if h < 8 else y; v axis: y if h < 4, x if h is 12 or 14, else z.
+    vec3 g = vec3(0.0f);
+    if (h < 8) g.x = su; else g.y = su;
+    if (h < 4) g.y = sv;
+    else if (h == 12 || h == 14) g.x = sv;
+    else g.z = sv;
+    return g;
+}
+
+// A lattice cell index reduced modulo the period (1..256; 256 = plain noise).
+int noiseWrap(float cell, float period) {
+    return int(cell - period * floor(cell / period));
+}
+
+// Improved noise at p on a lattice that wraps with the given periods:
+// vec4(n, dn/dx, dn/dy, dn/dz).
+vec4 perlinNoiseGradient(vec3 p, vec3 period) {
+    vec3 cell = floor(p);
+    float x = p.x - cell.x;
+    float y = p.y - cell.y;
+    float z = p.z - cell.z;
+    int X0 = noiseWrap(cell.x, period.x);
+    int Y0 = noiseWrap(cell.y, period.y);
+    int Z0 = noiseWrap(cell.z, period.z);
+    int X1 = X0 + 1 == int(period.x) ? 0 : X0 + 1;
+    int Y1 = Y0 + 1 == int(period.y) ? 0 : Y0 + 1;
+    int Z1 = Z0 + 1 == int(period.z) ? 0 : Z0 + 1;
+    // The reference's hashes (Perlin 2002, with the periodic wrap of perlinPeriodic).
+    int A = permAt(X0) + Y0;
+    int B = permAt(X1) + Y0;
+    int A1 = permAt(X0) + Y1;
+    int B1 = permAt(X1) + Y1;
+    int hA = permAt(permAt(A) + Z0), hB = permAt(permAt(B) + Z0);
+    int hC = permAt(permAt(A1) + Z0), hD = permAt(permAt(B1) + Z0);
+    int hE = permAt(permAt(A) + Z1), hF = permAt(permAt(B) + Z1);
+    int hG = permAt(permAt(A1) + Z1), hH = permAt(permAt(B1) + Z1);
+    vec3 gA = noiseGradientVector(hA), gB = noiseGradientVector(hB);
+    vec3 gC = noiseGradientVector(hC), gD = noiseGradientVector(hD);
+    vec3 gE = noiseGradientVector(hE), gF = noiseGradientVector(hF);
+    vec3 gG = noiseGradientVector(hG), gH = noiseGradientVector(hH);
+    float a = dot(gA, vec3(x, y, z)), b = dot(gB, vec3(x - 1.0f, y, z));
+    float c = dot(gC, vec3(x, y - 1.0f, z)), d = dot(gD, vec3(x - 1.0f, y - 1.0f, z));
+    float e = dot(gE, vec3(x, y, z - 1.0f)), f = dot(gF, vec3(x - 1.0f, y, z - 1.0f));
+    float g = dot(gG, vec3(x, y - 1.0f, z - 1.0f)), h = dot(gH, vec3(x - 1.0f, y - 1.0f, z - 1.0f));
+    float u = noiseFade(x), v = noiseFade(y), w = noiseFade(z);
+    float x1 = noiseLerp(u, a, b), x2 = noiseLerp(u, c, d);
+    float x3 = noiseLerp(u, e, f), x4 = noiseLerp(u, g, h);
+    float y1 = noiseLerp(v, x1, x2), y2 = noiseLerp(v, x3, x4);
+    float n = noiseLerp(w, y1, y2);
+    // Gradient: the corner gradients blended as the values are, plus the
+    // fade's derivative times the difference along each axis.
+    vec3 blend = mix(mix(mix(gA, gB, u), mix(gC, gD, u), v), mix(mix(gE, gF, u), mix(gG, gH, u), v), w);
+    float dx = blend.x + noiseFadeDerivative(x) * noiseLerp(w, noiseLerp(v, b - a, d - c), noiseLerp(v, f - e, h - g));
+    float dy = blend.y + noiseFadeDerivative(y) * noiseLerp(w, x2 - x1, x4 - x3);
+    float dz = blend.z + noiseFadeDerivative(z) * (y2 - y1);
+    return vec4(n, dx, dy, dz);
+}
+
+// Fractal-sum settings: the reflectance map's parameters (reflectance::MapParams,
+// the same registry as `mucosa map`), packed by shading::glsl::packProcedural.
+struct Procedural {
+    float frequency;   // cycles of the base octave per map width
+    int octaves;
+    float lacunarity;
+    float gain;
+    float z;           // the slice of 3D noise a map samples
+    int turbulence;    // 1: sum |n|
+    int tileable;      // 1: periodic lattice, one map width per period (as the map)
+    float strength;    // slope scale: Hu = strength dH/du, u in map widths
+    int space;         // 0: texture (UV) space, 1: object space (solid noise)
+    float scaleMm;     // object space: mm of surface per map width
+    int antialias;     // 1: octaves fade out at the pixel footprint
+};
+
+const int kSpaceUv = 0;
+const int kSpaceObject = 1;
+
+// A fractal sum at q with its gradient, and the slope variance of the
+// octaves the footprint faded out.
+struct FractalSample {
+    vec4 h;               // (H, dH/dq)
+    float fadedVariance;  // per-axis slope variance removed by anti-aliasing (before strength)
+};
+
+// H(q) = sum_i gain^i n(f_i q): in texture space q = (u, v) of the map and
+// n(f_i u, f_i v, z) (the map's sum, noise::fractal); in object space q is a
+// 3D point in map widths (noise::solidFractalGradient). `footprint` is the
+// size of a pixel in units of q; 0 turns the fade off.
+FractalSample fractalNoise(vec3 q, float footprint, Procedural pr) {
+    FractalSample s;
+    s.h = vec4(0.0f);
+    s.fadedVariance = 0.0f;
+    float f = pr.frequency;
+    float a = 1.0f;
+    for (int i = 0; i < kMaxOctaves; ++i) {
+        if (i >= pr.octaves) break;
+        float weight = 1.0f;
+        if (pr.antialias != 0) weight = 1.0f - smoothstep(kFadeStart, kFadeEnd, f * footprint);
+        if (weight > 0.0f) {
+            vec4 n;
+            if (pr.space == kSpaceUv) {
+                float per = 256.0f;
+                if (pr.tileable != 0) per = f > 256.0f ? 256.0f : floor(f);
+                n = perlinNoiseGradient(vec3(f * q.x, f * q.y, pr.z), vec3(per, per, 256.0f));
+                n.w = 0.0f;  // the slice z is fixed
+            } else {
+                n = perlinNoiseGradient(q * f, vec3(256.0f));
+            }
+            if (pr.turbulence != 0 && n.x < 0.0f) n = -n;
+            s.h = s.h + (a * weight) * vec4(n.x, f * n.y, f * n.z, f * n.w);
+        }
+        s.fadedVariance = s.fadedVariance + (1.0f - weight * weight) * (a * f) * (a * f);
+        f = f * pr.lacunarity;
+        a = a * pr.gain;
+    }
+    s.fadedVariance = s.fadedVariance * kNoiseSlopeVariance;
+    return s;
+}
