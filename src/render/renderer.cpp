@@ -10,12 +10,12 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/mesh/tangents.hpp>
-#include <mucosa/noise/perlin.hpp>
 #include <mucosa/reflectance/specular_mips.hpp>
 #include <mucosa/render/context.hpp>
 
 #include "render/embedded_shaders.hpp"
 #include "render/gl.hpp"
+#include "render/procedural_uniforms.hpp"
 #include "shading/glsl.hpp"
 
 namespace mucosa::render {
@@ -44,9 +44,10 @@ struct Program {
     GLuint id = 0;
     // Uniform locations, in the order of kUniformNames.
     std::vector<GLint> loc;
+    ProceduralUniforms procedural;
 };
 
-constexpr std::array<const char*, 36> kUniformNames = {"uFrame.viewProj",
+constexpr std::array<const char*, 24> kUniformNames = {"uFrame.viewProj",
                                                        "uFrame.view",
                                                        "uFrame.eye",
                                                        "uFrame.light",
@@ -69,18 +70,6 @@ constexpr std::array<const char*, 36> kUniformNames = {"uFrame.viewProj",
                                                        "uReflectance",
                                                        "uHighlight",
                                                        "uFrame.specularAA",
-                                                       "uProcedural.frequency",
-                                                       "uProcedural.octaves",
-                                                       "uProcedural.lacunarity",
-                                                       "uProcedural.gain",
-                                                       "uProcedural.z",
-                                                       "uProcedural.turbulence",
-                                                       "uProcedural.tileable",
-                                                       "uProcedural.strength",
-                                                       "uProcedural.space",
-                                                       "uProcedural.scaleMm",
-                                                       "uProcedural.antialias",
-                                                       "uPerm",
                                                        ""};
 
 enum U {
@@ -106,31 +95,12 @@ enum U {
     kDiffuseSampler,
     kReflectanceSampler,
     kHighlightSampler,
-    kSpecularAA,
-    kProcFrequency,
-    kProcOctaves,
-    kProcLacunarity,
-    kProcGain,
-    kProcZ,
-    kProcTurbulence,
-    kProcTileable,
-    kProcStrength,
-    kProcSpace,
-    kProcScaleMm,
-    kProcAntialias,
-    kPerm
+    kSpecularAA
 };
-
-// GLSL side of procedural_noise.glsl's permAt: the permutation (256 entries,
-// the doubled table's first half) packed four to an ivec4. A uniform array,
-// not a texture: the procedural path uses no texture memory.
-constexpr const char* kPermutationPrelude =
-    "uniform ivec4 uPerm[64];\n"
-    "int permAt(int i) { int j = i & 255; return uPerm[j >> 2][j & 3]; }\n";
 
 Program link(int mode) {
     const std::string header = fmt::format("#version 330 core\n#define MUCOSA_MODE {}\n", mode);
-    const std::string common = std::string(kPermutationPrelude) + std::string(shaderSource("procedural_noise.glsl")) +
+    const std::string common = std::string(permutationPrelude()) + std::string(shaderSource("procedural_noise.glsl")) +
                                std::string(shaderSource("common_shading.glsl"));
     const std::string name =
         fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
@@ -154,6 +124,7 @@ Program link(int mode) {
         throw GraphicsError("shader " + name, "", "does not link: " + log);
     }
     for (const char* u : kUniformNames) p.loc.push_back(*u ? glGetUniformLocation(p.id, u) : -1);
+    p.procedural = ProceduralUniforms(p.id);
     glUseProgram(p.id);
     glUniform1i(p.loc[kDiffuseSampler], 0);
     glUniform1i(p.loc[kReflectanceSampler], 1);
@@ -426,7 +397,6 @@ void Renderer::draw(const shading::FrameSetup& frame) {
                                      shading::modeName(frame.mode)));
     const Material m = packMaterial(frame.params);
     const Frame f = packFrame(frame);
-    const Procedural pr = packProcedural(frame);
 
     Texture& hl = impl_->textures[static_cast<std::size_t>(TextureSlot::Highlight)];
     if (frame.mode == shading::Mode::Multitexture && !hl.user && impl_->highlightShininess != m.shininess) {
@@ -472,27 +442,16 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     glUniform1f(p.loc[kLightIntensity], m.lightIntensity);
     glUniform1f(p.loc[kLightRange], m.lightRange);
     glUniform1i(p.loc[kSpecularAA], f.specularAA);
-    glUniform1f(p.loc[kProcFrequency], pr.frequency);
-    glUniform1i(p.loc[kProcOctaves], pr.octaves);
-    glUniform1f(p.loc[kProcLacunarity], pr.lacunarity);
-    glUniform1f(p.loc[kProcGain], pr.gain);
-    glUniform1f(p.loc[kProcZ], pr.z);
-    glUniform1i(p.loc[kProcTurbulence], pr.turbulence);
-    glUniform1i(p.loc[kProcTileable], pr.tileable);
-    glUniform1f(p.loc[kProcStrength], pr.strength);
-    glUniform1i(p.loc[kProcSpace], pr.space);
-    glUniform1f(p.loc[kProcScaleMm], pr.scaleMm);
-    glUniform1i(p.loc[kProcAntialias], pr.antialias);
+    p.procedural.set(frame);
     if (frame.mode == shading::Mode::Procedural) {
         const std::uint64_t seed = frame.procedural.noise.seed;
         if (impl_->permutationSeed != seed) {
-            const noise::Permutation perm = noise::Permutation::fromSeed(seed);
-            for (int i = 0; i < 256; ++i) impl_->permutation[static_cast<std::size_t>(i)] = perm[i];
+            impl_->permutation = permutationUniform(seed);
             impl_->permutationSeed = seed;
         }
         // Uniform values live in the program: upload when this program last saw another table.
         if (impl_->programSeed[static_cast<std::size_t>(mode)] != seed + 1) {
-            glUniform4iv(p.loc[kPerm], 64, impl_->permutation.data());
+            p.procedural.setPermutation(impl_->permutation);
             impl_->programSeed[static_cast<std::size_t>(mode)] = seed + 1;
         }
     }

@@ -1,0 +1,54 @@
+#include "render/procedural_uniforms.hpp"
+
+#include <mucosa/noise/perlin.hpp>
+
+#include "shading/glsl.hpp"
+
+namespace mucosa::render {
+
+namespace {
+
+constexpr std::array<const char*, 11> kNames = {
+    "uProcedural.frequency", "uProcedural.octaves", "uProcedural.lacunarity", "uProcedural.gain",
+    "uProcedural.z",         "uProcedural.turbulence", "uProcedural.tileable", "uProcedural.strength",
+    "uProcedural.space",     "uProcedural.scaleMm",    "uProcedural.antialias"};
+
+}  // namespace
+
+std::string_view permutationPrelude() noexcept {
+    return "uniform ivec4 uPerm[64];\n"
+           "int permAt(int i) { int j = i & 255; return uPerm[j >> 2][j & 3]; }\n";
+}
+
+std::array<GLint, 256> permutationUniform(std::uint64_t seed) {
+    const noise::Permutation perm = noise::Permutation::fromSeed(seed);
+    std::array<GLint, 256> t{};
+    for (int i = 0; i < 256; ++i) t[static_cast<std::size_t>(i)] = perm[i];
+    return t;
+}
+
+ProceduralUniforms::ProceduralUniforms(GLuint program) {
+    for (std::size_t i = 0; i < kNames.size(); ++i) loc_[i] = glGetUniformLocation(program, kNames[i]);
+    perm_ = glGetUniformLocation(program, "uPerm");
+}
+
+void ProceduralUniforms::set(const shading::FrameSetup& frame) const {
+    const shading::glsl::Procedural p = shading::glsl::packProcedural(frame);
+    glUniform1f(loc_[0], p.frequency);
+    glUniform1i(loc_[1], p.octaves);
+    glUniform1f(loc_[2], p.lacunarity);
+    glUniform1f(loc_[3], p.gain);
+    glUniform1f(loc_[4], p.z);
+    glUniform1i(loc_[5], p.turbulence);
+    glUniform1i(loc_[6], p.tileable);
+    glUniform1f(loc_[7], p.strength);
+    glUniform1i(loc_[8], p.space);
+    glUniform1f(loc_[9], p.scaleMm);
+    glUniform1i(loc_[10], p.antialias);
+}
+
+void ProceduralUniforms::setPermutation(const std::array<GLint, 256>& table) const {
+    glUniform4iv(perm_, 64, table.data());
+}
+
+}  // namespace mucosa::render
