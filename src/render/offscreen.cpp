@@ -49,6 +49,21 @@ image::Image8 OffscreenSession::render(const camera::Pose& pose, std::optional<s
     return framebuffer_->readRgb();
 }
 
+image::Image8 OffscreenSession::renderFrame(const shading::FrameSetup& frame) {
+    if (frame.width != framebuffer_->width() || frame.height != framebuffer_->height()) {
+        framebuffer_.reset();
+        framebuffer_ = std::make_unique<Framebuffer>(frame.width, frame.height);
+    }
+    framebuffer_->bind();
+    renderer_->draw(frame);
+    image::Image8 img = framebuffer_->readRgb();
+    if (frame.width != width_ || frame.height != height_) {
+        framebuffer_.reset();
+        framebuffer_ = std::make_unique<Framebuffer>(width_, height_);
+    }
+    return img;
+}
+
 std::filesystem::path frameName(const std::filesystem::path& output, int index) {
     std::filesystem::path p = output;
     const std::string ext = output.has_extension() ? output.extension().string() : ".png";

@@ -25,6 +25,9 @@ public:
     // One frame; `mode`/`params` default to the scene's.
     image::Image8 render(const camera::Pose& pose, std::optional<shading::Mode> mode = std::nullopt,
                          const shading::ParamSet* params = nullptr);
+    // One frame of any setup (render::frameSetup(scene, ...) with changes:
+    // a jittered projection, another size, anti-aliasing off, ...).
+    image::Image8 renderFrame(const shading::FrameSetup& frame);
     // Draws without reading back (benchmarks call glFinish through finish()).
     void draw(const camera::Pose& pose, shading::Mode mode);
     void finish();
