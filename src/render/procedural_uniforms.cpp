@@ -8,10 +8,10 @@ namespace mucosa::render {
 
 namespace {
 
-constexpr std::array<const char*, 11> kNames = {
+constexpr std::array<const char*, 12> kNames = {
     "uProcedural.frequency", "uProcedural.octaves", "uProcedural.lacunarity", "uProcedural.gain",
     "uProcedural.z",         "uProcedural.turbulence", "uProcedural.tileable", "uProcedural.strength",
-    "uProcedural.space",     "uProcedural.scaleMm",    "uProcedural.antialias"};
+    "uProcedural.space",     "uProcedural.scaleMm",    "uProcedural.antialias", "uProcedural.texels"};
 
 }  // namespace
 
@@ -45,6 +45,7 @@ void ProceduralUniforms::set(const shading::FrameSetup& frame) const {
     glUniform1i(loc_[8], p.space);
     glUniform1f(loc_[9], p.scaleMm);
     glUniform1i(loc_[10], p.antialias);
+    glUniform1f(loc_[11], p.texels);
 }
 
 void ProceduralUniforms::setPermutation(const std::array<GLint, 256>& table) const {

@@ -28,7 +28,7 @@ public:
     void setPermutation(const std::array<GLint, 256>& table) const;
 
 private:
-    std::array<GLint, 11> loc_{};
+    std::array<GLint, 12> loc_{};
     GLint perm_ = -1;
 };
 

@@ -471,6 +471,7 @@ shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int
     f.procedural.noise = scene.mapParams.noise;
     f.procedural.strength = static_cast<float>(scene.mapParams.strength);
     f.procedural.space = scene.noiseSpace;
+    f.procedural.texels = scene.mapParams.size;
     f.specularAA = scene.specularAA;
     f.width = width;
     f.height = height;

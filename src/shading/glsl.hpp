@@ -81,6 +81,7 @@ inline Procedural packProcedural(const FrameSetup& f) {
     p.space = f.procedural.space == NoiseSpace::Object ? kSpaceObject : kSpaceUv;
     p.scaleMm = f.params[Param::NoiseScale];
     p.antialias = f.specularAA ? 1 : 0;
+    p.texels = static_cast<float>(f.procedural.texels);
     return p;
 }
 

@@ -30,6 +30,11 @@ struct ProceduralSetup {
     noise::FractalParams noise;  // frequency, octaves, lacunarity, gain, seed, z, turbulence, tileable
     float strength = 0.01f;      // slope scale, as reflectance::MapParams::strength
     NoiseSpace space = NoiseSpace::Uv;
+    // The detail of a map this many texels wide (the map's size): each
+    // octave's slope passes through the map's central-difference response,
+    // so both paths have the same slope spectrum and look alike. 0: the
+    // unlimited analytic surface.
+    int texels = 0;
 };
 
 // Everything a frame needs besides the mesh and the textures; the GL renderer
