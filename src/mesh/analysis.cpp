@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <unordered_map>
 
 #include <mucosa/mesh/io.hpp>
 
@@ -49,8 +50,10 @@ MeshReport analyse(const Mesh& mesh) {
 
     std::vector<std::uint32_t> ids;
     r.uniquePositions = positionIds(mesh, ids);
+    // Boundary edges in the direction their triangle traverses them.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> boundary;
     for (const EdgeUse& e : edgeUses(mesh, ids)) {
-        if (e.count == 1) ++r.boundaryEdges;
+        if (e.count == 1) ++r.boundaryEdges, boundary.emplace_back(e.forward ? e.a : e.b, e.forward ? e.b : e.a);
         if (e.count > 2) ++r.nonManifoldEdges;
         if (e.count == 2 && e.forward != 1) ++r.inconsistentEdges;
     }
@@ -90,6 +93,38 @@ MeshReport analyse(const Mesh& mesh) {
         }
         if (r.hasNormals && std::isfinite(area2))
             for (std::uint32_t v : {a, b, c}) windingNormal[v] += n;
+    }
+    // An open surface (a CT airway with cut ends) encloses nothing: close
+    // each boundary loop with a fan to its centroid, so that the sign says
+    // which way the winding faces (the missing caps of a tube far from the
+    // origin otherwise dominate the sum and can flip its sign).
+    if (!boundary.empty()) {
+        std::unordered_map<std::uint32_t, std::uint32_t> next;
+        for (const auto& [from, to] : boundary) next.emplace(from, to);
+        std::unordered_map<std::uint32_t, char> done;
+        for (const auto& [start, unused] : boundary) {
+            if (done.count(start)) continue;
+            std::vector<std::uint32_t> loop;
+            for (std::uint32_t v = start; !done.count(v);) {
+                done[v] = 1;
+                loop.push_back(v);
+                const auto it = next.find(v);
+                if (it == next.end()) break;
+                v = it->second;
+            }
+            Vec3d c{0, 0, 0};
+            for (std::uint32_t v : loop) c += toD(mesh.positions[v]);
+            c = c * (1.0 / static_cast<double>(loop.size()));
+            for (std::uint32_t v : loop) {
+                const auto it = next.find(v);
+                if (it == next.end()) continue;
+                // Cap triangle (to, from, c): the edge reversed, as its neighbour would use it.
+                const Vec3d pf = toD(mesh.positions[v]), pt = toD(mesh.positions[it->second]);
+                if (finite(mesh.positions[v]) && finite(mesh.positions[it->second]))
+                    r.signedVolume += dot(pt, cross(pf, c)) / 6.0;
+            }
+            ++r.boundaryLoops;
+        }
     }
     if (r.hasNormals) {
         for (std::size_t v = 0; v < mesh.vertexCount(); ++v) {

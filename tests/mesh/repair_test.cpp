@@ -95,5 +95,23 @@ TEST(Repair, WeldKeepsUvSeams) {
     EXPECT_EQ(mesh::analyse(m).boundaryEdges, 4u) << "a UV seam is not a boundary";
 }
 
+TEST(Repair, OpenSurfaceVolumeCapsItsEndsSoFarFromTheOriginItKeepsItsSign) {
+    // The cube without its top: an open box (one boundary loop). Capped, its
+    // volume is the cube's, wherever it is; uncapped, the sum would depend on
+    // the origin and change sign when the box moves.
+    Mesh box = soupCube();
+    box.positions.erase(box.positions.begin() + 2 * 3, box.positions.begin() + 4 * 3);  // triangles 2, 3: z = 1
+    box.indices.resize(box.positions.size());
+    box.normals.clear();
+    mesh::weld(box);
+    for (float shift : {0.0f, 500.0f, -2000.0f}) {
+        Mesh moved = box;
+        for (auto& p : moved.positions) p = {p[0] + shift, p[1] - shift, p[2] + 2 * shift};
+        const auto r = mesh::analyse(moved);
+        EXPECT_EQ(r.boundaryLoops, 1u);
+        EXPECT_NEAR(r.signedVolume, 1.0, 1e-6) << shift;
+    }
+}
+
 }  // namespace
 }  // namespace mucosa::test

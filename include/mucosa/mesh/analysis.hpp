@@ -32,7 +32,10 @@ struct MeshReport {
     std::size_t unusedVertices = 0;
     Vec3 boundsMin{}, boundsMax{};
     double surfaceArea = 0;   // mm^2
-    double signedVolume = 0;  // mm^3; > 0: normals/winding face out of the enclosed volume
+    // mm^3; > 0: normals/winding face out of the enclosed volume. Open
+    // surfaces are closed first: each boundary loop gets a fan to its centroid.
+    double signedVolume = 0;
+    std::size_t boundaryLoops = 0;  // loops of boundary edges capped for the volume
     bool hasNormals = false, hasUvs = false, hasTangents = false;
     std::size_t badNormals = 0;             // not unit length (|1 - |N|| > 1e-3) or non-finite
     std::size_t normalsAgainstWinding = 0;  // vertex normal opposite to its triangles' winding
