@@ -58,12 +58,12 @@ void drawText(image::Image8& img, int x, int y, const std::string& text, std::ar
 
 image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const CompareOptions& o) {
     const int tw = o.tileWidth, th = o.tileHeight;
-    const int cols = 4;
+    const int cols = 5;
     const int labelW = 190, headerH = 64, colHeadH = 30, gap = 6;
-    const shading::Mode modes[cols] = {shading::Mode::Noise, shading::Mode::VertexPhong, shading::Mode::Multitexture,
-                                       shading::Mode::Diffuse};
+    const shading::Mode modes[cols] = {shading::Mode::Noise, shading::Mode::Procedural, shading::Mode::VertexPhong,
+                                       shading::Mode::Multitexture, shading::Mode::Diffuse};
     const int views = std::max(1, o.views);
-    const int rows = views + 2;  // views, frequency row, coarse patch
+    const int rows = views + 3;  // views, frequency row, anti-aliasing row, coarse patch
     const int width = labelW + cols * (tw + gap) + gap;
     const int height = headerH + colHeadH + rows * (th + gap) + colHeadH + gap;
     image::Image8 sheet(width, height, 3);
@@ -76,7 +76,7 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
                          scene.mapParams.size, scene.params[shading::Param::Shininess],
                          scene.params[shading::Param::SpecularStrength]),
              grey, 1);
-    const int total = views * cols + static_cast<int>(o.frequencies.size()) + cols;
+    const int total = views * cols + static_cast<int>(o.frequencies.size()) + 4 + cols;
     int done = 0;
     auto tick = [&] {
         ++done;
@@ -122,8 +122,23 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
         tick();
     }
     session.setReflectanceMap(assets.reflectanceMap);
+    // Specular anti-aliasing off / on for both paths (issue 5): the distant
+    // walls sparkle without it.
+    const int ar = views + 1;
+    drawText(sheet, gap, cellY(ar, 0) + th / 2 - 20, "specular", white, 2);
+    drawText(sheet, gap, cellY(ar, 0) + th / 2 + 4, "anti-aliasing", white, 2);
+    drawText(sheet, gap, cellY(ar, 0) + th / 2 + 28, "(view 1)", grey, 1);
+    for (int c = 0; c < 4; ++c) {
+        shading::FrameSetup f = frameSetup(scene, viewPoses[0], tw, th);
+        f.mode = c < 2 ? shading::Mode::Noise : shading::Mode::Procedural;
+        f.specularAA = c % 2 == 1;
+        blit(sheet, session.renderFrame(f), cellX(c), cellY(ar, 0));
+        drawText(sheet, cellX(c) + 8, cellY(ar, 0) + th - 22,
+                 fmt::format("{}, AA {}", c < 2 ? "map" : "procedural", f.specularAA ? "on" : "off"), white, 1);
+        tick();
+    }
     // A coarse surface patch: per-vertex lighting shows facets and polygonal highlights.
-    const int pr = views + 1;
+    const int pr = views + 2;
     drawText(sheet, gap, cellY(pr, 0) + th / 2 - 20, "coarse", white, 2);
     drawText(sheet, gap, cellY(pr, 0) + th / 2 + 4, "patch", white, 2);
     drawText(sheet, gap, cellY(pr, 0) + th / 2 + 28, "(16 x 40 quads)", grey, 1);
@@ -136,8 +151,9 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
     }
     session.renderer().setMesh(assets.mesh);
     drawText(sheet, gap, cellY(rows, 0) + 8,
-             "noise: per-pixel specular from the reflectance map | vertex-phong: per-vertex Phong (Gouraud) | "
-             "multitexture: per-vertex light + sphere-mapped highlight texture | diffuse: no specular",
+             "noise: per-pixel specular from the reflectance map | procedural: the map's noise evaluated per pixel | "
+             "vertex-phong: per-vertex Phong (Gouraud) | multitexture: per-vertex light + sphere-mapped highlight "
+             "texture | diffuse: no specular",
              grey, 1);
     return sheet;
 }

@@ -1,5 +1,6 @@
 #include <mucosa/render/viewer.hpp>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <vector>
@@ -60,7 +61,9 @@ image::Image8 regenerateMap(const reflectance::MapParams& p) {
 
 std::string viewerControls() {
     return "Space: play/pause the fly-through   W/S: forward/back   A/D: left/right   Q/E: down/up\n"
-           "Right mouse drag: look around   Shift: faster   1-8: shading mode   P: screenshot   Esc: quit";
+           "Right mouse drag: look around   Shift: faster   1-9, 0: shading modes 1-10   G: procedural\n"
+           "X: specular anti-aliasing on/off   O: procedural noise in texture/object space   P: screenshot   "
+           "Esc: quit";
 }
 
 ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) {
@@ -106,6 +109,13 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
         double lastX = 0, lastY = 0;
         bool dragging = false;
         int shots = 0;
+        std::array<bool, GLFW_KEY_LAST + 1> keyWasDown{};
+        const auto pressed = [&](int key) {  // down now, up last frame
+            const bool down = glfwGetKey(window, key) == GLFW_PRESS;
+            const bool edge = down && !keyWasDown[static_cast<std::size_t>(key)];
+            keyWasDown[static_cast<std::size_t>(key)] = down;
+            return edge;
+        };
         const auto start = std::chrono::steady_clock::now();
         auto last = start;
 
@@ -120,8 +130,13 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
             if (!io.WantCaptureKeyboard) {
                 if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Space))) playing = !playing && path.size() > 1;
                 if (ImGui::IsKeyPressed(ImGui::GetKeyIndex(ImGuiKey_Escape))) glfwSetWindowShouldClose(window, 1);
-                for (int k = 0; k < shading::kModeCount; ++k)
-                    if (glfwGetKey(window, GLFW_KEY_1 + k) == GLFW_PRESS) mode = k;
+                for (int k = 0; k < 10 && k < shading::kModeCount; ++k)
+                    if (glfwGetKey(window, k == 9 ? GLFW_KEY_0 : GLFW_KEY_1 + k) == GLFW_PRESS) mode = k;
+                if (glfwGetKey(window, GLFW_KEY_G) == GLFW_PRESS) mode = static_cast<int>(shading::Mode::Procedural);
+                if (pressed(GLFW_KEY_X)) scene.specularAA = !scene.specularAA;
+                if (pressed(GLFW_KEY_O))
+                    scene.noiseSpace = scene.noiseSpace == shading::NoiseSpace::Uv ? shading::NoiseSpace::Object
+                                                                                   : shading::NoiseSpace::Uv;
                 const float speed = (glfwGetKey(window, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS ? 60.0f : 15.0f) * dt;
                 const camera::Vec3 f = normalized(pose.forward);
                 const camera::Vec3 r = normalized(cross(f, pose.up));
@@ -191,6 +206,18 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
                 }
                 ImGui::EndCombo();
             }
+            ImGui::Checkbox("specular anti-aliasing (X)", &scene.specularAA);
+            if (ImGui::IsItemHovered())
+                ImGui::SetTooltip("map: Toksvig on the mip chain; procedural: octaves fade at the pixel footprint");
+            {
+                int space = scene.noiseSpace == shading::NoiseSpace::Object ? 1 : 0;
+                ImGui::Text("procedural noise (O):");
+                ImGui::SameLine();
+                ImGui::RadioButton("texture", &space, 0);
+                ImGui::SameLine();
+                ImGui::RadioButton("object", &space, 1);
+                scene.noiseSpace = space == 1 ? shading::NoiseSpace::Object : shading::NoiseSpace::Uv;
+            }
             if (path.size() > 1) {
                 ImGui::Checkbox("fly through", &playing);
                 ImGui::SameLine();
@@ -228,7 +255,12 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
                     mapParams.strength = strength;
                     mapDirty = true;
                 }
-                ImGui::TextDisabled("(regenerated when the slider is released)");
+                int octaves = mapParams.noise.octaves;
+                if (ImGui::SliderInt("octaves", &octaves, 1, 10)) {
+                    mapParams.noise.octaves = octaves;
+                    mapDirty = true;
+                }
+                ImGui::TextDisabled("(the map is regenerated when the slider is released;\n the procedural mode follows live)");
             }
             ImGui::TextWrapped("%s", viewerControls().c_str());
             ImGui::End();
@@ -245,6 +277,8 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
             glBindFramebuffer(GL_FRAMEBUFFER, 0);
             glViewport(0, 0, w, h);
             if (w > 0 && h > 0) {
+                scene.mapParams.noise = mapParams.noise;  // the procedural mode's parameters, live
+                scene.mapParams.strength = mapParams.strength;
                 shading::FrameSetup fs = frameSetup(scene, pose, w, h);
                 fs.mode = static_cast<shading::Mode>(mode);
                 renderer.draw(fs);

@@ -51,9 +51,10 @@ private:
 std::filesystem::path frameName(const std::filesystem::path& output, int index);
 
 // The paper's Figures 2 and 3 as one labelled picture: the same views in
-// every mode (columns: noise, vertex-phong, multitexture, diffuse), a coarse
-// surface patch (where the per-vertex baselines facet), and a row varying the
-// reflectance map's noise frequency.
+// every mode (columns: noise, procedural, vertex-phong, multitexture,
+// diffuse), a row varying the reflectance map's noise frequency, specular
+// anti-aliasing off/on for the map and the procedural path, and a coarse
+// surface patch (where the per-vertex baselines facet).
 struct CompareOptions {
     int tileWidth = 400, tileHeight = 300;
     std::vector<double> frequencies = {4, 8, 16, 32};
