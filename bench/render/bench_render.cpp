@@ -1,7 +1,10 @@
 // bench_render [scene.json] [--frames N] [--sizes 640x480,1280x1024] [--modes noise,vertex-phong,...]
+//              [--octaves 1,2,4,6,8]
 // Frames per second of each shading mode, headless: every frame is drawn and
 // finished with glFinish (no read-back), along the scene's camera path, after
 // a warm-up. Shader compilation and texture upload happen before timing.
+// Then the procedural mode's cost per octave: frame time at each octave count
+// (first size), and the least-squares slope.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -40,7 +43,8 @@ int main(int argc, char** argv) try {
     std::string sceneFile;
     int frames = 40;
     std::vector<std::string> sizes = {"640x480", "1280x1024"};
-    std::vector<std::string> modes = {"noise", "vertex-phong", "multitexture", "diffuse"};
+    std::vector<std::string> modes = {"noise", "procedural", "vertex-phong", "multitexture", "diffuse"};
+    std::vector<std::string> octaveCounts = {"1", "2", "4", "6", "8"};
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--frames" && i + 1 < argc)
@@ -49,8 +53,10 @@ int main(int argc, char** argv) try {
             sizes = split(argv[++i]);
         else if (a == "--modes" && i + 1 < argc)
             modes = split(argv[++i]);
+        else if (a == "--octaves" && i + 1 < argc)
+            octaveCounts = split(argv[++i]);
         else if (a == "--help") {
-            std::puts("bench_render [scene.json] [--frames N] [--sizes WxH,...] [--modes m,...]");
+            std::puts("bench_render [scene.json] [--frames N] [--sizes WxH,...] [--modes m,...] [--octaves k,...]");
             return 0;
         } else
             sceneFile = a;
@@ -60,6 +66,8 @@ int main(int argc, char** argv) try {
     for (const auto& n : assets.notes) std::printf("%s\n", n.c_str());
     const std::vector<camera::Pose> poses = render::cameraPoses(scene, assets, frames);
     std::map<std::string, std::map<std::string, double>> fps;
+    std::map<int, double> octaveFps;  // procedural, first size
+    double firstPixels = 0;
     std::string rendererName;
     std::size_t drawnTriangles = 0;
     for (const std::string& size : sizes) {
@@ -86,6 +94,28 @@ int main(int argc, char** argv) try {
                 drawnTriangles = drawn / static_cast<std::size_t>(frames);
                 std::fprintf(stderr, "round %d %s %s: %.1f fps\n", round + 1, size.c_str(), m.c_str(), frames / s);
             }
+        // Cost per octave: the procedural mode with 1, 2, 4, ... octaves.
+        if (&size == &sizes.front()) firstPixels = double(w) * h;
+        if (&size == &sizes.front())
+            for (int round = 0; round < kRounds; ++round)
+                for (const std::string& k : octaveCounts) {
+                    const int octaves = std::atoi(k.c_str());
+                    auto frame = [&](std::size_t i) {
+                        shading::FrameSetup f = render::frameSetup(scene, poses[i % poses.size()], w, h);
+                        f.mode = shading::Mode::Procedural;
+                        f.procedural.noise.octaves = octaves;
+                        return f;
+                    };
+                    session.draw(frame(0));
+                    session.finish();
+                    const auto t0 = std::chrono::steady_clock::now();
+                    for (int i = 0; i < frames; ++i) session.draw(frame(static_cast<std::size_t>(i)));
+                    session.finish();
+                    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                    octaveFps[octaves] = std::max(octaveFps[octaves], frames / s);
+                    std::fprintf(stderr, "round %d %s procedural, %d octaves: %.1f fps\n", round + 1, size.c_str(),
+                                 octaves, frames / s);
+                }
     }
     std::printf("GL_RENDERER: %s\n", rendererName.c_str());
     std::printf(
@@ -103,9 +133,35 @@ int main(int argc, char** argv) try {
         std::printf("\n");
     }
     if (fps.begin()->second.count("noise") && fps.begin()->second.count("vertex-phong")) {
-        std::printf("| cost ratio noise / vertex-phong |");
+        std::printf("| frame-time ratio noise / vertex-phong |");
         for (const auto& s : sizes) std::printf(" %.2f |", fps[s]["vertex-phong"] / fps[s]["noise"]);
         std::printf("\n");
+    }
+    if (fps.begin()->second.count("noise") && fps.begin()->second.count("procedural")) {
+        std::printf("| frame-time ratio procedural (%d octaves) / noise (map) |", scene.mapParams.noise.octaves);
+        for (const auto& s : sizes) std::printf(" %.2f |", fps[s]["noise"] / fps[s]["procedural"]);
+        std::printf("\n");
+    }
+    if (!octaveFps.empty()) {
+        // Least-squares slope of frame time against the octave count.
+        double sx = 0, sy = 0, sxx = 0, sxy = 0;
+        for (const auto& [k, f] : octaveFps) {
+            const double ms = 1000.0 / f;
+            sx += k, sy += ms, sxx += double(k) * k, sxy += k * ms;
+        }
+        const double n = static_cast<double>(octaveFps.size());
+        const double slope = (n * sxy - sx * sy) / std::max(n * sxx - sx * sx, 1e-12);
+        std::printf("\nprocedural mode at %s, cost per octave (phantom, %s preset):\n\n| octaves |", sizes.front().c_str(),
+                    scene.mapParams.preset.c_str());
+        for (const auto& [k, f] : octaveFps) std::printf(" %d |", k);
+        std::printf("\n|---|");
+        for (std::size_t i = 0; i < octaveFps.size(); ++i) std::printf("---|");
+        std::printf("\n| fps |");
+        for (const auto& [k, f] : octaveFps) std::printf(" %.1f |", f);
+        std::printf("\n| ms per frame |");
+        for (const auto& [k, f] : octaveFps) std::printf(" %.2f |", 1000.0 / f);
+        std::printf("\n\nslope: %.2f ms per octave per frame (%.1f ns per pixel per octave)\n", slope,
+                    slope * 1e6 / firstPixels);
     }
     return 0;
 } catch (const Error& e) {

@@ -35,6 +35,11 @@ void OffscreenSession::draw(const camera::Pose& pose, shading::Mode mode) {
     renderer_->draw(f);
 }
 
+void OffscreenSession::draw(const shading::FrameSetup& frame) {
+    framebuffer_->bind();
+    renderer_->draw(frame);
+}
+
 void OffscreenSession::finish() {
     glFinish();
 }

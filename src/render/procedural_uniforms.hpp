@@ -12,7 +12,7 @@
 
 namespace mucosa::render {
 
-// Declares uPerm (the 256-entry permutation, four to an ivec4) and permAt.
+// Declares uPerm (the 256-entry permutation, an int array) and permAt.
 std::string_view permutationPrelude() noexcept;
 
 // The permutation of `seed` as uPerm's 256 values.

@@ -30,6 +30,7 @@ public:
     image::Image8 renderFrame(const shading::FrameSetup& frame);
     // Draws without reading back (benchmarks call glFinish through finish()).
     void draw(const camera::Pose& pose, shading::Mode mode);
+    void draw(const shading::FrameSetup& frame);  // at the session's size
     void finish();
 
     void setReflectanceMap(const image::Image8& map);
