@@ -54,7 +54,7 @@ void printInfo(const Global& g, const std::string& file, const std::string& unit
                      r.boundsMax[1] - r.boundsMin[1], r.boundsMax[2] - r.boundsMin[2]));
     line(fmt::format("surface:       {:.1f} mm^2, enclosed volume {:.1f} mm^3{} ({})", r.surfaceArea, r.signedVolume,
                      r.boundaryLoops ? fmt::format(" with {} open ends capped", r.boundaryLoops) : "",
-                     r.signedVolume >= 0 ? "winding faces outward" : "winding faces inward: into the lumen"));
+                     r.signedVolume >= 0 ? "winding faces outward" : "winding faces inward"));
     line(fmt::format("components:    {}", r.components));
     line(fmt::format("topology:      {} boundary edges, {} non-manifold edges, {} edges with flipped winding{}",
                      r.boundaryEdges, r.nonManifoldEdges, r.inconsistentEdges, r.watertight() ? " (watertight)" : ""));
