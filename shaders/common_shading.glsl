@@ -59,6 +59,7 @@ struct Frame {
     vec3 light;
     float normalSign;  // +1, or -1 to view a mesh from the side its normals point away from
     int specularAA;    // 1: specular anti-aliasing (Toksvig on the map's mips; octave fade procedurally)
+    vec4 diffuseUvTransform;  // subject texture at uv * xy + zw (a fitted atlas spanning uv_min..uv_max)
 };
 
 // Everything the vertex stage hands the fragment stage (all interpolated
@@ -217,6 +218,13 @@ Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, in
         o.sphereUv = highlightCoord(N, Ln, Vn, f);
     }
     return o;
+}
+
+// Where the fragment stage samples the subject (diffuse) texture: the identity,
+// or a fitted atlas's rectangle mapped to [0, 1] (mucosa fit, scene key "fit").
+vec2 diffuseCoord(vec2 uv, Frame f) {
+    return vec2(uv.x * f.diffuseUvTransform.x + f.diffuseUvTransform.z,
+                uv.y * f.diffuseUvTransform.y + f.diffuseUvTransform.w);
 }
 
 // Where the fragment stage samples the reflectance map.

@@ -41,7 +41,7 @@ void main() {
     float highlight = 0.0f;
     if (MUCOSA_MODE != kModeNormals && MUCOSA_MODE != kModeTangents && MUCOSA_MODE != kModeUv &&
         MUCOSA_MODE != kModeDepth)
-        albedoTex = texture(uDiffuse, vUv).rgb;
+        albedoTex = texture(uDiffuse, diffuseCoord(vUv, uFrame)).rgb;
     if (MUCOSA_MODE == kModeNoise || MUCOSA_MODE == kModeNormals || MUCOSA_MODE == kModeBrdfNoise) {
         // Anti-aliased: the filtered mip chain and its slope variance
         // (Toksvig); otherwise the full-resolution map, as the paper sampled it.

@@ -47,7 +47,7 @@ struct Program {
     ProceduralUniforms procedural;
 };
 
-constexpr std::array<const char*, 24> kUniformNames = {"uFrame.viewProj",
+constexpr std::array<const char*, 25> kUniformNames = {"uFrame.viewProj",
                                                        "uFrame.view",
                                                        "uFrame.eye",
                                                        "uFrame.light",
@@ -70,6 +70,7 @@ constexpr std::array<const char*, 24> kUniformNames = {"uFrame.viewProj",
                                                        "uReflectance",
                                                        "uHighlight",
                                                        "uFrame.specularAA",
+                                                       "uFrame.diffuseUvTransform",
                                                        ""};
 
 enum U {
@@ -95,7 +96,8 @@ enum U {
     kDiffuseSampler,
     kReflectanceSampler,
     kHighlightSampler,
-    kSpecularAA
+    kSpecularAA,
+    kDiffuseUvTransform
 };
 
 Program link(int mode) {
@@ -442,6 +444,8 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     glUniform1f(p.loc[kLightIntensity], m.lightIntensity);
     glUniform1f(p.loc[kLightRange], m.lightRange);
     glUniform1i(p.loc[kSpecularAA], f.specularAA);
+    glUniform4f(p.loc[kDiffuseUvTransform], f.diffuseUvTransform.x, f.diffuseUvTransform.y, f.diffuseUvTransform.z,
+                f.diffuseUvTransform.w);
     p.procedural.set(frame);
     if (frame.mode == shading::Mode::Procedural) {
         const std::uint64_t seed = frame.procedural.noise.seed;

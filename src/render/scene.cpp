@@ -313,6 +313,20 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         if (!j.contains("diffuse")) {
             s.diffuse = dir / "texture.png";
             s.generatedDiffuse = false;
+            // The atlas spans the mesh's UV rectangle (brdf.json uv_min,
+            // uv_max; [0, 1] unless the UVs leave it, as centreline UVs do).
+            const json bj = json::parse(readTextFile(dir / "brdf.json"));  // readBrdf has checked it parses
+            if (bj.contains("uv_min") && bj.contains("uv_max")) {
+                const auto vec2 = [&](const json& v, const char* key) {
+                    if (!v.is_array() || v.size() != 2) P.fail("fit", fmt::format("brdf.json: {} must be [u, v]", key));
+                    return std::array<float, 2>{static_cast<float>(P.number(v[0], "fit")),
+                                                static_cast<float>(P.number(v[1], "fit"))};
+                };
+                const auto lo = vec2(bj["uv_min"], "uv_min"), hi = vec2(bj["uv_max"], "uv_max");
+                if (!(hi[0] > lo[0] && hi[1] > lo[1])) P.fail("fit", "brdf.json: uv_max must exceed uv_min");
+                s.diffuseUvTransform = {1.0f / (hi[0] - lo[0]), 1.0f / (hi[1] - lo[1]), -lo[0] / (hi[0] - lo[0]),
+                                        -lo[1] / (hi[1] - lo[1])};
+            }
         }
     }
     if (j.contains("brdf")) P.registryGroup(j["brdf"], "brdf", s.params);
@@ -473,6 +487,7 @@ shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int
     f.procedural.space = scene.noiseSpace;
     f.procedural.texels = scene.mapParams.size;
     f.specularAA = scene.specularAA;
+    f.diffuseUvTransform = scene.diffuseUvTransform;
     f.width = width;
     f.height = height;
     return f;

@@ -100,6 +100,8 @@ inline Frame packFrame(const FrameSetup& f) {
     o.light = vec3(f.light[0], f.light[1], f.light[2]);
     o.normalSign = f.normalSign;
     o.specularAA = f.specularAA ? 1 : 0;
+    o.diffuseUvTransform = vec4(f.diffuseUvTransform[0], f.diffuseUvTransform[1], f.diffuseUvTransform[2],
+                                f.diffuseUvTransform[3]);
     return o;
 }
 

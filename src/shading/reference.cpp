@@ -268,7 +268,10 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         float highlight = 0.0f;
         const bool debug = mode == glsl::kModeNormals || mode == glsl::kModeTangents || mode == glsl::kModeUv ||
                            mode == glsl::kModeDepth;
-        if (!debug) albedo = sampleTexture(textures.diffuse, v.uv.x, v.uv.y, {1, 1, 1});
+        if (!debug) {
+            const glm::vec2 dc = glsl::diffuseCoord(v.uv, f);
+            albedo = sampleTexture(textures.diffuse, dc.x, dc.y, {1, 1, 1});
+        }
         if (mode == glsl::kModeNoise || mode == glsl::kModeNormals || mode == glsl::kModeBrdfNoise) {
             const glm::vec2 mc = glsl::reflectanceMapCoord(v.uv, m);
             map = sampleTexture(textures.reflectance, mc.x, mc.y, {0.5f, 0.5f, 1.0f});

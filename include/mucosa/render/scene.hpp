@@ -48,6 +48,8 @@ struct Scene {
     // ("uv" or "object"); its parameters are mapParams.
     shading::NoiseSpace noiseSpace = shading::NoiseSpace::Uv;
     bool specularAA = true;  // "specular_aa" (shading::FrameSetup::specularAA)
+    // "fit": the fitted atlas spans uv_min..uv_max (shading::FrameSetup::diffuseUvTransform).
+    std::array<float, 4> diffuseUvTransform{1, 1, 0, 0};
     float normalSign = 1.0f;  // "lit_side": "front" (+1) or "back" (-1)
     // "closed": the mesh is watertight and wound counter-clockwise seen from
     // the lit side, so back faces can be culled. Default: true for the

@@ -59,6 +59,9 @@ struct FrameSetup {
     // octaves out at the pixel footprint. Off: the full-resolution map and
     // every octave (the paper's look, which sparkles in the distance).
     bool specularAA = true;
+    // The subject texture is sampled at uv * (x, y) + (z, w): the identity, or
+    // a fitted atlas spanning uv_min..uv_max mapped to [0, 1] (scene key "fit").
+    std::array<float, 4> diffuseUvTransform{1, 1, 0, 0};
     int width = 640, height = 480;
 };
 
