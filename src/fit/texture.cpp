@@ -6,6 +6,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <mucosa/core/parallel.hpp>
 #include <mucosa/fit/fit.hpp>
 
 namespace mucosa::fit {
@@ -25,59 +30,99 @@ struct Atlas {
 
 }  // namespace
 
-void pushPull(image::ImageF& color, const image::ImageF& weight) {
+void pushPull(image::ImageF& color, const image::ImageF& weight, int threads) {
+    tbb::task_arena arena(resolveThreads(threads));
+    arena.execute([&] { pushPullRows(color, weight); });
+}
+
+namespace {
+
+// Rows in parallel; every texel's value depends only on its own inputs, so
+// the result is the same for any thread count.
+template <class F>
+void forRows(int rows, F f) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, rows, 16), [&](const tbb::blocked_range<int>& r) {
+        for (int y = r.begin(); y < r.end(); ++y) f(y);
+    });
+}
+
+}  // namespace
+
+void pushPullRows(image::ImageF& color, const image::ImageF& weight) {
     // Pull: a pyramid of premultiplied colour and weight, halving each level.
+    // Level 0 is `color` itself (premultiplied in place), so the only new
+    // memory is the coarser levels (a third of the atlas).
     struct Level {
         int w, h;
         std::vector<float> c, wt;  // c premultiplied by wt, 3 channels
     };
+    const int w0 = color.width(), h0 = color.height();
+    float* c0 = color.data();
+    std::vector<float> wt0(weight.size());
+    forRows(h0, [&](int y) {
+        for (std::size_t i = static_cast<std::size_t>(y) * w0; i < static_cast<std::size_t>(y + 1) * w0; ++i) {
+            const float w = std::min(1.0f, weight.data()[i]);  // a seen texel is trusted fully
+            wt0[i] = w;
+            for (int k = 0; k < 3; ++k) c0[3 * i + k] *= w;
+        }
+    });
     std::vector<Level> levels;
-    Level base{color.width(), color.height(), {}, {}};
-    base.c.resize(color.size());
-    base.wt.resize(weight.size());
-    for (std::size_t i = 0; i < weight.size(); ++i) {
-        const float w = std::min(1.0f, weight.data()[i]);  // a seen texel is trusted fully
-        base.wt[i] = w;
-        for (int k = 0; k < 3; ++k) base.c[3 * i + k] = color.data()[3 * i + k] * w;
-    }
-    levels.push_back(std::move(base));
-    while (levels.back().w > 1 || levels.back().h > 1) {
-        const Level& f = levels.back();
-        Level c{std::max(1, (f.w + 1) / 2), std::max(1, (f.h + 1) / 2), {}, {}};
+    int fw = w0, fh = h0;
+    const float* fc = c0;
+    const float* fwt = wt0.data();
+    while (fw > 1 || fh > 1) {
+        Level c{std::max(1, (fw + 1) / 2), std::max(1, (fh + 1) / 2), {}, {}};
         c.c.assign(static_cast<std::size_t>(c.w) * c.h * 3, 0.f);
         c.wt.assign(static_cast<std::size_t>(c.w) * c.h, 0.f);
-        for (int y = 0; y < f.h; ++y)
-            for (int x = 0; x < f.w; ++x) {
-                const std::size_t fi = static_cast<std::size_t>(y) * f.w + x;
-                const std::size_t ci = static_cast<std::size_t>(y / 2) * c.w + x / 2;
-                c.wt[ci] += f.wt[fi];
-                for (int k = 0; k < 3; ++k) c.c[3 * ci + k] += f.c[3 * fi + k];
-            }
-        // Clamp weights at 1 so that well-covered areas stay opaque (Gortler 1996).
-        for (std::size_t i = 0; i < c.wt.size(); ++i)
-            if (c.wt[i] > 1.0f) {
-                for (int k = 0; k < 3; ++k) c.c[3 * i + k] /= c.wt[i];
-                c.wt[i] = 1.0f;
-            }
+        // One coarse row from its (up to) two fine rows; weights clamped at 1
+        // so that well-covered areas stay opaque (Gortler 1996).
+        forRows(c.h, [&](int cy) {
+            for (int y = 2 * cy; y < std::min(2 * cy + 2, fh); ++y)
+                for (int x = 0; x < fw; ++x) {
+                    const std::size_t fi = static_cast<std::size_t>(y) * fw + x;
+                    const std::size_t ci = static_cast<std::size_t>(cy) * c.w + x / 2;
+                    c.wt[ci] += fwt[fi];
+                    for (int k = 0; k < 3; ++k) c.c[3 * ci + k] += fc[3 * fi + k];
+                }
+            for (std::size_t i = static_cast<std::size_t>(cy) * c.w; i < static_cast<std::size_t>(cy + 1) * c.w; ++i)
+                if (c.wt[i] > 1.0f) {
+                    const float inv = 1.0f / c.wt[i];
+                    for (int k = 0; k < 3; ++k) c.c[3 * i + k] *= inv;
+                    c.wt[i] = 1.0f;
+                }
+        });
         levels.push_back(std::move(c));
+        fw = levels.back().w;
+        fh = levels.back().h;
+        fc = levels.back().c.data();
+        fwt = levels.back().wt.data();
     }
-    // Push: from coarse to fine, fill the missing weight from the coarser level.
-    for (int l = static_cast<int>(levels.size()) - 2; l >= 0; --l) {
-        Level& f = levels[static_cast<std::size_t>(l)];
-        const Level& c = levels[static_cast<std::size_t>(l) + 1];
-        for (int y = 0; y < f.h; ++y)
-            for (int x = 0; x < f.w; ++x) {
-                const std::size_t fi = static_cast<std::size_t>(y) * f.w + x;
+    // Push: from coarse to fine, fill the missing weight from the coarser
+    // level; at level 0, divide out the weight as well.
+    for (int l = static_cast<int>(levels.size()) - 1; l >= 0; --l) {
+        const Level& c = levels[static_cast<std::size_t>(l)];
+        const bool base = l == 0;
+        const int w = base ? w0 : levels[static_cast<std::size_t>(l) - 1].w;
+        const int h = base ? h0 : levels[static_cast<std::size_t>(l) - 1].h;
+        float* col = base ? c0 : levels[static_cast<std::size_t>(l) - 1].c.data();
+        float* wt = base ? wt0.data() : levels[static_cast<std::size_t>(l) - 1].wt.data();
+        forRows(h, [&](int y) {
+            for (int x = 0; x < w; ++x) {
+                const std::size_t fi = static_cast<std::size_t>(y) * w + x;
                 const std::size_t ci = static_cast<std::size_t>(y / 2) * c.w + x / 2;
-                const float missing = 1.0f - f.wt[fi];
-                if (missing <= 0 || c.wt[ci] <= 0) continue;
-                for (int k = 0; k < 3; ++k) f.c[3 * fi + k] += missing * c.c[3 * ci + k] / c.wt[ci];
-                f.wt[fi] = 1.0f;
+                const float missing = 1.0f - wt[fi];
+                if (missing > 0 && c.wt[ci] > 0) {
+                    const float s = missing / c.wt[ci];
+                    for (int k = 0; k < 3; ++k) col[3 * fi + k] += s * c.c[3 * ci + k];
+                    wt[fi] = 1.0f;
+                }
+                if (base) {
+                    const float inv = wt[fi] > 0 ? 1.0f / wt[fi] : 0.0f;
+                    for (int k = 0; k < 3; ++k) col[3 * fi + k] *= inv;
+                }
             }
+        });
     }
-    const Level& f = levels[0];
-    for (std::size_t i = 0; i < weight.size(); ++i)
-        for (int k = 0; k < 3; ++k) color.data()[3 * i + k] = f.wt[i] > 0 ? f.c[3 * i + k] / f.wt[i] : 0.0f;
 }
 
 void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, const FitOptions& o, FitResult& r) {
@@ -85,48 +130,61 @@ void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, co
     const Atlas atlas{N, r.uvMin, r.uvMax};
     r.texture = image::ImageF(N, N, 3);
     r.coverage = image::ImageF(N, N, 1);
-    std::vector<double> acc(static_cast<std::size_t>(N) * N * 3, 0.0), wsum(static_cast<std::size_t>(N) * N, 0.0);
-    std::vector<float> invShade(samples.size());
+    // Texel of every sample and its albedo estimate I / shading, computed once.
+    std::vector<std::uint32_t> texel(samples.size());
+    std::vector<float> invShade(samples.size()), weight(samples.size());
     for (std::size_t i = 0; i < samples.size(); ++i) {
-        const double shade = brdf.shading(samples[i].gamma, samples[i].z);
+        const Sample& s = samples[i];
+        const double shade = brdf.shading(s.gamma, s.z);
         invShade[i] = shade > 1e-4 ? static_cast<float>(1.0 / shade) : 0.0f;
+        texel[i] = static_cast<std::uint32_t>(atlas.index(s.u, s.v));
+        // Frontal and near views are sharper and less noisy.
+        weight[i] = static_cast<float>(s.gamma * (1.0 - 0.5 * std::clamp(brdf.r(s.z), 0.0, 1.0)));
     }
-    auto estimate = [&](const Sample& s, int k) { return static_cast<double>(s.I[k] * invShade[&s - samples.data()]); };
-    auto weightOf = [&](const Sample& s) { return s.gamma * (1.0 - 0.5 * std::clamp(brdf.r(s.z), 0.0, 1.0)); };
-    // Pass 1: a robust first estimate per texel (weighted mean).
-    for (const Sample& s : samples) {
-        const int t = atlas.index(s.u, s.v);
-        const double w = weightOf(s);
-        wsum[t] += w;
-        for (int k = 0; k < 3; ++k) acc[3 * t + k] += w * estimate(s, k);
+    // Pass 1: a robust first estimate per texel (weighted mean), accumulated
+    // in the output images themselves.
+    float* acc = r.texture.data();
+    float* wsum = r.coverage.data();
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const std::uint32_t t = texel[i];
+        wsum[t] += weight[i];
+        for (int k = 0; k < 3; ++k) acc[3 * t + k] += weight[i] * samples[i].I[k] * invShade[i];
     }
-    std::vector<float> first(acc.size());
-    for (std::size_t t = 0; t < wsum.size(); ++t)
-        for (int k = 0; k < 3; ++k) first[3 * t + k] = wsum[t] > 0 ? static_cast<float>(acc[3 * t + k] / wsum[t]) : 0.f;
+    // The first estimate's luminance at every sample.
+    std::vector<float> firstLum(samples.size());
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const std::uint32_t t = texel[i];
+        firstLum[i] = (acc[3 * t] + acc[3 * t + 1] + acc[3 * t + 2]) / wsum[t];
+    }
     // Pass 2: drop estimates far above the first (specular highlights) and blend.
-    std::fill(acc.begin(), acc.end(), 0.0);
-    std::fill(wsum.begin(), wsum.end(), 0.0);
-    for (const Sample& s : samples) {
-        const int t = atlas.index(s.u, s.v);
-        double lum = 0, ref = 0;
-        for (int k = 0; k < 3; ++k) {
-            lum += estimate(s, k);
-            ref += first[3 * t + k];
-        }
-        if (lum > 1.25 * ref + 0.03) continue;
-        const double w = weightOf(s);
-        wsum[t] += w;
-        for (int k = 0; k < 3; ++k) acc[3 * t + k] += w * estimate(s, k);
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const std::uint32_t t = texel[i];
+        acc[3 * t] = acc[3 * t + 1] = acc[3 * t + 2] = 0.0f;
+        wsum[t] = 0.0f;
     }
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const std::uint32_t t = texel[i];
+        const float lum = (samples[i].I[0] + samples[i].I[1] + samples[i].I[2]) * invShade[i];
+        if (lum > 1.25f * firstLum[i] + 0.03f) continue;
+        wsum[t] += weight[i];
+        for (int k = 0; k < 3; ++k) acc[3 * t + k] += weight[i] * samples[i].I[k] * invShade[i];
+    }
+    // Normalise each covered texel once (visiting texels through their
+    // samples: the atlas may be mostly empty); the sign marks "done".
     std::size_t covered = 0;
-    for (std::size_t t = 0; t < wsum.size(); ++t) {
-        r.coverage.data()[t] = static_cast<float>(wsum[t]);
-        if (wsum[t] > 0) ++covered;
-        for (int k = 0; k < 3; ++k)
-            r.texture.data()[3 * t + k] = wsum[t] > 0 ? static_cast<float>(acc[3 * t + k] / wsum[t]) : 0.f;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+        const std::uint32_t t = texel[i];
+        if (wsum[t] > 0) {
+            ++covered;
+            const float inv = 1.0f / wsum[t];
+            for (int k = 0; k < 3; ++k) acc[3 * t + k] *= inv;
+            wsum[t] = -wsum[t];
+        }
     }
-    r.coveredFraction = static_cast<double>(covered) / static_cast<double>(wsum.size());
-    pushPull(r.texture, r.coverage);
+    for (std::size_t i = 0; i < samples.size(); ++i)
+        if (wsum[texel[i]] < 0) wsum[texel[i]] = -wsum[texel[i]];
+    r.coveredFraction = static_cast<double>(covered) / (static_cast<double>(N) * N);
+    pushPull(r.texture, r.coverage, o.threads);
 }
 
 }  // namespace mucosa::fit
