@@ -74,6 +74,9 @@ TEST(RenderScene, BadScenesNameTheField) {
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "resolution": [0, 10]})"), "resolution[0]");
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "reflectance_map": {"preset": "velvet"}})"), "reflectance_map.preset");
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "reflectance_map": {"octaves": 99}})"), "reflectance_map.octaves");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "noise_space": "screen"})"), "noise_space");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "specular_aa": "yes"})"), "specular_aa");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"noise_scale_mm": 0}})"), "material.noise_scale_mm");
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "colour": 1})"), "colour");  // unknown key
     EXPECT_EQ(subjectOf(R"({"mesh": "tube",)"), "JSON");
 }
@@ -96,6 +99,15 @@ TEST(RenderScene, CliReportsOneErrorLineNamingTheField) {
     const auto mode = test::runCli("render --mode glossy -o '" + (dir / "o.png").string() + "'");
     EXPECT_EQ(mode.exitCode, 1);
     EXPECT_NE(mode.err.find("error: --mode"), std::string::npos) << mode.err;
+    for (const char* bad : {"--noise-space screen", "--specular-aa maybe"}) {
+        const auto r2 = test::runCli(std::string("render ") + bad + " -o '" + (dir / "o.png").string() + "'");
+        EXPECT_EQ(r2.exitCode, 1) << bad;
+        EXPECT_NE(r2.err.find(std::string("error: ") + std::string(bad).substr(0, std::string(bad).find(' '))),
+                  std::string::npos)
+            << r2.err;
+        EXPECT_EQ(std::count(r2.err.begin(), r2.err.end(), '\n'), 1) << r2.err;
+        EXPECT_FALSE(std::filesystem::exists(dir / "o.png"));
+    }
 }
 
 }  // namespace
