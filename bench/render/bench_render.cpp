@@ -151,8 +151,8 @@ int main(int argc, char** argv) try {
         }
         const double n = static_cast<double>(octaveFps.size());
         const double slope = (n * sxy - sx * sy) / std::max(n * sxx - sx * sx, 1e-12);
-        std::printf("\nprocedural mode at %s, cost per octave (phantom, %s preset):\n\n| octaves |", sizes.front().c_str(),
-                    scene.mapParams.preset.c_str());
+        std::printf("\nprocedural mode at %s, cost per octave (phantom, %s preset):\n\n| octaves |",
+                    sizes.front().c_str(), scene.mapParams.preset.c_str());
         for (const auto& [k, f] : octaveFps) std::printf(" %d |", k);
         std::printf("\n|---|");
         for (std::size_t i = 0; i < octaveFps.size(); ++i) std::printf("---|");

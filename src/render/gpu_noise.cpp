@@ -118,8 +118,8 @@ std::vector<std::array<float, 4>> evaluateNoiseOnGpu(const GpuNoiseRequest& requ
         shading::FrameSetup frame;
         frame.procedural.noise = request.params;
         frame.procedural.strength = 1.0f;
-        frame.procedural.space = request.function == GpuNoiseFunction::FractalSolid ? shading::NoiseSpace::Object
-                                                                                    : shading::NoiseSpace::Uv;
+        frame.procedural.space =
+            request.function == GpuNoiseFunction::FractalSolid ? shading::NoiseSpace::Object : shading::NoiseSpace::Uv;
         frame.specularAA = false;
         const ProceduralUniforms uniforms(program);
         uniforms.set(frame);

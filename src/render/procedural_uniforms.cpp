@@ -9,9 +9,9 @@ namespace mucosa::render {
 namespace {
 
 constexpr std::array<const char*, 12> kNames = {
-    "uProcedural.frequency", "uProcedural.octaves", "uProcedural.lacunarity", "uProcedural.gain",
-    "uProcedural.z",         "uProcedural.turbulence", "uProcedural.tileable", "uProcedural.strength",
-    "uProcedural.space",     "uProcedural.scaleMm",    "uProcedural.antialias", "uProcedural.texels"};
+    "uProcedural.frequency", "uProcedural.octaves",    "uProcedural.lacunarity", "uProcedural.gain",
+    "uProcedural.z",         "uProcedural.turbulence", "uProcedural.tileable",   "uProcedural.strength",
+    "uProcedural.space",     "uProcedural.scaleMm",    "uProcedural.antialias",  "uProcedural.texels"};
 
 }  // namespace
 

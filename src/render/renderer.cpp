@@ -393,10 +393,11 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     const int mode = static_cast<int>(frame.mode);
     const Program& p = impl_->programs[static_cast<std::size_t>(mode)];
     if (shading::modeNeedsUvs(frame) && !impl_->meshHasUvs)
-        throw InputError("mode", "",
-                         fmt::format("'{}' needs texture coordinates and tangents, which the mesh lacks (procedural "
-                                     "noise in object space needs neither; or add UVs with mucosa mesh --uv centerline)",
-                                     shading::modeName(frame.mode)));
+        throw InputError(
+            "mode", "",
+            fmt::format("'{}' needs texture coordinates and tangents, which the mesh lacks (procedural "
+                        "noise in object space needs neither; or add UVs with mucosa mesh --uv centerline)",
+                        shading::modeName(frame.mode)));
     const Material m = packMaterial(frame.params);
     const Frame f = packFrame(frame);
 

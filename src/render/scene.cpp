@@ -423,8 +423,9 @@ SceneAssets loadAssets(const Scene& scene, int threads) {
                                              "--mode procedural --noise-space object, or add UVs with mucosa mesh "
                                              "--uv centerline)",
                                              shading::modeName(scene.mode)));
-            a.notes.push_back("mesh: no texture coordinates; modes that read none only (procedural in object space, "
-                              "vertex-phong, multitexture, diffuse, depth)");
+            a.notes.push_back(
+                "mesh: no texture coordinates; modes that read none only (procedural in object space, "
+                "vertex-phong, multitexture, diffuse, depth)");
         } else if (!a.mesh.hasTangents()) {
             const mesh::TangentReport r = mesh::computeTangents(a.mesh, threads);
             a.notes.push_back(fmt::format("tangents computed ({} degenerate-UV triangles, {} mirrored vertices)",

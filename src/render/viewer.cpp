@@ -260,7 +260,8 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
                     mapParams.noise.octaves = octaves;
                     mapDirty = true;
                 }
-                ImGui::TextDisabled("(the map is regenerated when the slider is released;\n the procedural mode follows live)");
+                ImGui::TextDisabled(
+                    "(the map is regenerated when the slider is released;\n the procedural mode follows live)");
             }
             ImGui::TextWrapped("%s", viewerControls().c_str());
             ImGui::End();

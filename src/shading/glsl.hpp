@@ -25,7 +25,9 @@ inline thread_local const std::uint8_t* tPermutation = nullptr;
 inline int permAt(int i) {
     return tPermutation[i & 255];
 }
+// procedural_noise.glsl first: common_shading.glsl uses its Procedural struct.
 #include "../../shaders/procedural_noise.glsl"
+// (A separate block, so include sorting keeps the order.)
 #include "../../shaders/common_shading.glsl"
 #if defined(__GNUC__)
 #pragma GCC diagnostic pop
@@ -100,8 +102,8 @@ inline Frame packFrame(const FrameSetup& f) {
     o.light = vec3(f.light[0], f.light[1], f.light[2]);
     o.normalSign = f.normalSign;
     o.specularAA = f.specularAA ? 1 : 0;
-    o.diffuseUvTransform = vec4(f.diffuseUvTransform[0], f.diffuseUvTransform[1], f.diffuseUvTransform[2],
-                                f.diffuseUvTransform[3]);
+    o.diffuseUvTransform =
+        vec4(f.diffuseUvTransform[0], f.diffuseUvTransform[1], f.diffuseUvTransform[2], f.diffuseUvTransform[3]);
     return o;
 }
 

@@ -10,8 +10,9 @@ namespace mucosa::shading {
 
 namespace {
 
-constexpr std::array<std::string_view, kModeCount> kModeNames = {
-    "noise", "vertex-phong", "multitexture", "diffuse", "normals", "tangents", "uv", "depth", "brdf", "brdf-noise", "procedural"};
+constexpr std::array<std::string_view, kModeCount> kModeNames = {"noise",   "vertex-phong", "multitexture", "diffuse",
+                                                                 "normals", "tangents",     "uv",           "depth",
+                                                                 "brdf",    "brdf-noise",   "procedural"};
 
 constexpr std::array<std::string_view, kModeCount> kModeDescriptions = {
     "the paper's method: per-pixel specular from the reflectance map over the diffuse texture",

@@ -223,9 +223,9 @@ bool modeNeedsUvs(const FrameSetup& f) noexcept {
 image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures) {
     if (!mesh.hasNormals()) throw InputError("mesh", "", "the reference renderer needs vertex normals");
     if (modeNeedsUvs(frame) && (!mesh.hasUvs() || !mesh.hasTangents()))
-        throw InputError("mode", "",
-                         fmt::format("'{}' needs texture coordinates and tangents, which the mesh lacks",
-                                     modeName(frame.mode)));
+        throw InputError(
+            "mode", "",
+            fmt::format("'{}' needs texture coordinates and tangents, which the mesh lacks", modeName(frame.mode)));
     const glsl::Material m = glsl::packMaterial(frame.params);
     const glsl::Frame f = glsl::packFrame(frame);
     const glsl::Procedural pr = glsl::packProcedural(frame);
@@ -262,7 +262,8 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
             std::memcpy(&vx, ax, sizeof vx);
             std::memcpy(&vy, ay, sizeof vy);
             const glm::vec3 q = glsl::proceduralCoord(v, m, pr);
-            footprint = glsl::noiseFootprint(glsl::proceduralCoord(vx, m, pr) - q, glsl::proceduralCoord(vy, m, pr) - q);
+            footprint =
+                glsl::noiseFootprint(glsl::proceduralCoord(vx, m, pr) - q, glsl::proceduralCoord(vy, m, pr) - q);
         }
         std::array<float, 3> albedo{1, 1, 1}, map{0.5f, 0.5f, 1.0f};
         float highlight = 0.0f;

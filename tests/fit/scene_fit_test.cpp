@@ -102,7 +102,8 @@ TEST(SceneFit, AtlasSpanningUvsOutsideTheUnitSquareRendersLikeOneInside) {
     ASSERT_FLOAT_EQ(b.uvMin[0], 2.0f);
     ASSERT_FLOAT_EQ(b.uvMax[1], 1.0f);
     fit::writeFitOutputs(b, dir / "fitB");
-    const char* camera = R"("camera": {"pose": {"position": [2, 1, 12], "look_at": [-4, 0, 40]}}, "resolution": [128, 96])";
+    const char* camera =
+        R"("camera": {"pose": {"position": [2, 1, 12], "look_at": [-4, 0, 40]}}, "resolution": [128, 96])";
     std::ofstream(dir / "a.json") << R"({"mesh": "tube.ply", "fit": "fitA", "mode": "brdf", )" << camera << "}";
     std::ofstream(dir / "b.json") << R"({"mesh": "shifted.ply", "fit": "fitB", "mode": "brdf", )" << camera << "}";
     for (const char* s : {"a", "b"}) {

@@ -30,8 +30,8 @@ TEST(NoiseGradient, ValueIsThePlainNoiseBitForBitAndTheGradientMatchesDifference
         for (const Permutation* p : {&ref, &seeded}) {
             const NoiseGradient g = perlinGradient(*p, x, y, z);
             ASSERT_EQ(g.value, perlin(*p, x, y, z)) << x << " " << y << " " << z;
-            const auto fd = centralDifferences([&](double a, double b, double c) { return perlin(*p, a, b, c); }, x, y,
-                                               z);
+            const auto fd =
+                centralDifferences([&](double a, double b, double c) { return perlin(*p, a, b, c); }, x, y, z);
             worst = std::max({worst, std::fabs(g.dx - fd[0]), std::fabs(g.dy - fd[1]), std::fabs(g.dz - fd[2])});
         }
     }
@@ -81,8 +81,8 @@ TEST(NoiseGradient, FractalSumsMatchTheMapSumAndItsDifferences) {
                 const NoiseGradient g = fractalGradient(fp, perm, u, v);
                 ASSERT_EQ(g.value, fractal(fp, perm, u, v));
                 EXPECT_EQ(g.dz, 0.0);
-                const auto fd = centralDifferences(
-                    [&](double a, double b, double) { return fractal(fp, perm, a, b); }, u, v, 0.0);
+                const auto fd =
+                    centralDifferences([&](double a, double b, double) { return fractal(fp, perm, a, b); }, u, v, 0.0);
                 // |n| has a kink at n = 0: skip points within a step of one.
                 if (turbulence && std::fabs(fd[0] - g.dx) > 1e-3) continue;
                 EXPECT_NEAR(g.dx, fd[0], 1e-4 * (1 + std::fabs(g.dx)));
@@ -107,8 +107,7 @@ TEST(NoiseGradient, SolidFractalIsTheOctaveSumOfNoiseAndMatchesDifferences) {
         for (int k = 0; k < fp.octaves; ++k, f *= fp.lacunarity, a *= fp.gain) sum += a * perlin(f * x, f * y, f * z);
         EXPECT_NEAR(g.value, sum, 1e-12);
         const auto fd = centralDifferences(
-            [&](double a0, double b0, double c0) { return solidFractalGradient(fp, perm, a0, b0, c0).value; }, x, y,
-            z);
+            [&](double a0, double b0, double c0) { return solidFractalGradient(fp, perm, a0, b0, c0).value; }, x, y, z);
         EXPECT_NEAR(g.dx, fd[0], 1e-5);
         EXPECT_NEAR(g.dy, fd[1], 1e-5);
         EXPECT_NEAR(g.dz, fd[2], 1e-5);

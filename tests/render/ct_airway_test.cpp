@@ -68,8 +68,9 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
     const render::HighlightStats phong =
         render::highlightStats(image::to8(image::readPng(dir / "ct_phong.png")), 170, 2);
     EXPECT_LT(phong.components * 5, st.components);
-    if (std::getenv("MUCOSA_TEST_WRITE_IMAGES")) std::filesystem::copy_file(dir / "ct.png", "ct_airway_procedural.png",
-                                                                          std::filesystem::copy_options::overwrite_existing);
+    if (std::getenv("MUCOSA_TEST_WRITE_IMAGES"))
+        std::filesystem::copy_file(dir / "ct.png", "ct_airway_procedural.png",
+                                   std::filesystem::copy_options::overwrite_existing);
 
     // Flipped (normals away from the lumen), the same view lit from the back side is the same picture.
     r = test::runCli(fmt::format("mesh '{}' --flip -o '{}'", ct.string(), (dir / "flipped.glb").string()));
@@ -78,8 +79,8 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
     flipped.replace(flipped.find(ct.string()), ct.string().size(), (dir / "flipped.glb").string());
     flipped.replace(flipped.find("\"mode\""), 6, "\"lit_side\": \"back\", \"mode\"");
     std::ofstream(dir / "flipped.json") << flipped;
-    r = test::runCli(fmt::format("render '{}' -o '{}'", (dir / "flipped.json").string(),
-                                 (dir / "flipped.png").string()));
+    r = test::runCli(
+        fmt::format("render '{}' -o '{}'", (dir / "flipped.json").string(), (dir / "flipped.png").string()));
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const image::Image8 back = image::to8(image::readPng(dir / "flipped.png"));
     std::size_t differ = 0;
@@ -89,8 +90,8 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
     EXPECT_LT(double(differ) / (img.width() * img.height()), 0.01);
 
     // The map needs texture coordinates: one line naming the mesh and a way out.
-    r = test::runCli(fmt::format("render '{}' -o '{}' --mode noise", (dir / "ct.json").string(),
-                                 (dir / "bad.png").string()));
+    r = test::runCli(
+        fmt::format("render '{}' -o '{}' --mode noise", (dir / "ct.json").string(), (dir / "bad.png").string()));
     EXPECT_NE(r.exitCode, 0);
     EXPECT_NE(r.err.find("error: mesh in "), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("--noise-space object"), std::string::npos) << r.err;

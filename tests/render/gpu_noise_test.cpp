@@ -41,8 +41,8 @@ TEST(GpuNoise, ImprovedNoiseOnTheGpuEqualsTheReference) {
             const auto& p = points[i];
             const noise::NoiseGradient r = noise::perlinGradient(perm, p[0], p[1], p[2]);
             w.value = std::max(w.value, std::fabs(gpu[i][0] - r.value));
-            w.gradient = std::max({w.gradient, std::fabs(gpu[i][1] - r.dx), std::fabs(gpu[i][2] - r.dy),
-                                   std::fabs(gpu[i][3] - r.dz)});
+            w.gradient = std::max(
+                {w.gradient, std::fabs(gpu[i][1] - r.dx), std::fabs(gpu[i][2] - r.dy), std::fabs(gpu[i][3] - r.dz)});
         }
         std::printf("GPU noise, seed %llu, 50000 points in [-200, 200]^3: max |value diff| %.3g, gradient %.3g\n",
                     static_cast<unsigned long long>(seed), w.value, w.gradient);

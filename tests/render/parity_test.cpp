@@ -138,8 +138,8 @@ TEST(RenderParity, ProceduralNoiseMatchesReferenceInBothSpacesWithAndWithoutAnti
     for (const char* preset : {"bronchial", "rough"})
         for (shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object})
             for (bool aa : {true, false}) {
-                shading::FrameSetup f = frameFor(camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1}), 640,
-                                                 480, Mode::Procedural);
+                shading::FrameSetup f =
+                    frameFor(camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1}), 640, 480, Mode::Procedural);
                 const reflectance::MapParams mp = reflectance::findPreset(preset).params;
                 f.procedural.noise = mp.noise;
                 f.procedural.noise.seed = 5;

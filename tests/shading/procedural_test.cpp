@@ -145,12 +145,10 @@ TEST(SpecularAA, ToksvigWidensTheLobeAndKeepsItsEnergy) {
         return 2 * 3.141592653589793 * sum;
     };
     const glm::vec3 N(0, 0, 1), L(0, 0, 1);
-    const double sharp = integral([&](double t) {
-        return methodSpecular(N, L, glm::vec3(std::sin(t), 0, std::cos(t)), 0.0f, n);
-    });
-    const double wide = integral([&](double t) {
-        return methodSpecular(N, L, glm::vec3(std::sin(t), 0, std::cos(t)), sigma2, n);
-    });
+    const double sharp =
+        integral([&](double t) { return methodSpecular(N, L, glm::vec3(std::sin(t), 0, std::cos(t)), 0.0f, n); });
+    const double wide =
+        integral([&](double t) { return methodSpecular(N, L, glm::vec3(std::sin(t), 0, std::cos(t)), sigma2, n); });
     EXPECT_LT(methodSpecular(N, L, N, sigma2, n), 1.0f);  // lower peak
     EXPECT_NEAR(wide / sharp, 1.0, 0.02);                 // same energy
     EXPECT_GT(nEff, 1.0f);

@@ -13,8 +13,8 @@ namespace mucosa::render {
 shading::Mat4 jitteredProjection(const shading::Mat4& projection, float dx, float dy, int width, int height);
 
 struct AliasingOptions {
-    int jitterFrames = 16;  // frames of sub-pixel jitter (R2 sequence, offsets in [-0.5, 0.5) px)
-    int supersample = 4;    // the reference: supersample^2 samples per pixel (box filter), anti-aliasing off
+    int jitterFrames = 16;      // frames of sub-pixel jitter (R2 sequence, offsets in [-0.5, 0.5) px)
+    int supersample = 4;        // the reference: supersample^2 samples per pixel (box filter), anti-aliasing off
     int specularThreshold = 4;  // mask: pixels whose mean specular (0..255) exceeds this with AA off or on
 };
 

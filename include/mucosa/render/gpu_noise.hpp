@@ -20,7 +20,7 @@ enum class GpuNoiseFunction {
 
 struct GpuNoiseRequest {
     GpuNoiseFunction function = GpuNoiseFunction::Noise;
-    noise::FractalParams params;         // the fractal sums' parameters; `seed` also for Noise
+    noise::FractalParams params;               // the fractal sums' parameters; `seed` also for Noise
     std::array<int, 3> period{256, 256, 256};  // Noise only: lattice periods (256 = plain noise)
 };
 

@@ -23,8 +23,8 @@ enum class Mode : int {
     Tangents = 5,
     Uv = 6,
     Depth = 7,
-    Brdf = 8,       // patient-specific texture x fitted rho, delta (Category 3)
-    BrdfNoise = 9,  // Brdf plus the method's specular (Category 4)
+    Brdf = 8,         // patient-specific texture x fitted rho, delta (Category 3)
+    BrdfNoise = 9,    // Brdf plus the method's specular (Category 4)
     Procedural = 10,  // the method with run-time noise instead of the map (no texture)
 };
 inline constexpr int kModeCount = 11;
