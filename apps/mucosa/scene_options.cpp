@@ -22,7 +22,10 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
                   "full-resolution map, every octave) [on, or the scene's specular_aa]");
     c->add_option(
         "--set", o.sets,
-        "Override a parameter, e.g. --set material.shininess=80 (repeatable). Parameters:\n" + shading::registryHelp());
+        "Override a parameter, e.g. --set material.shininess=80 or --set reflectance_map.frequency=32 (repeatable; "
+        "reflectance_map takes the keys of a scene's \"reflectance_map\" object and applies to the generated map and "
+        "the procedural mode). Parameters:\n" +
+            shading::registryHelp());
 }
 
 std::pair<int, int> parseSize(const std::string& text) {
@@ -59,6 +62,10 @@ render::Scene resolveScene(const SceneOptions& o) {
         const std::string value = kv.substr(eq + 1);
         const auto dot = key.find('.');
         const std::string name = dot == std::string::npos ? key : key.substr(dot + 1);
+        if (dot != std::string::npos && key.substr(0, dot) == "reflectance_map") {
+            render::setMapParameter(s, name, value);
+            continue;
+        }
         const shading::ParamInfo* pi = shading::findParam(name);
         if (pi == nullptr || (dot != std::string::npos && key.substr(0, dot) != pi->group))
             throw InputError("--set", "", "unknown parameter '" + key + "' (see mucosa render --help)");

@@ -136,12 +136,13 @@ struct Parser {
         }
     }
 
-    reflectance::MapParams mapParams(const json& j, const std::string& f) const {
+    // The keys of `j` applied to `base` (a "preset" key replaces it first).
+    reflectance::MapParams mapParams(const json& j, const std::string& f, const reflectance::MapParams& base) const {
         object(j, f);
         known(j, f + ".",
               {"preset", "size", "frequency", "octaves", "lacunarity", "gain", "seed", "z", "strength", "turbulence",
                "tileable"});
-        reflectance::MapParams p = reflectance::findPreset("bronchial").params;
+        reflectance::MapParams p = base;
         if (j.contains("preset")) {
             const std::string name = string(j["preset"], f + ".preset");
             try {
@@ -169,6 +170,30 @@ struct Parser {
         return p;
     }
 };
+
+}  // namespace
+
+void setMapParameter(Scene& scene, const std::string& key, const std::string& value) {
+    const Parser P{"", {}};
+    json v;
+    if (value == "true" || value == "false") {
+        v = value == "true";
+    } else {
+        // A number if it parses as one (integers stay integers), else a string (a preset name).
+        try {
+            v = json::parse(value);
+            if (!v.is_number()) v = value;
+        } catch (const json::parse_error&) {
+            v = value;
+        }
+    }
+    json j = json::object();
+    j[key] = v;
+    scene.mapParams = P.mapParams(j, "--set reflectance_map", scene.mapParams);
+    scene.reflectanceMap.reset();  // the map is generated from these parameters, as the procedural mode reads them
+}
+
+namespace {
 
 std::vector<mesh::Vec3> longestPath(const mesh::Centerline& c, int branch, const std::string& file) {
     if (c.branches.empty()) throw InputError("camera.path.centreline", file, "the centreline has no branches");
@@ -269,7 +294,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         if (r.is_string())
             s.reflectanceMap = P.path(r, "reflectance_map");
         else
-            s.mapParams = P.mapParams(r, "reflectance_map");
+            s.mapParams = P.mapParams(r, "reflectance_map", reflectance::findPreset("bronchial").params);
     }
     if (j.contains("filter")) {
         const std::string v = P.string(j["filter"], "filter");

@@ -110,5 +110,41 @@ TEST(RenderScene, CliReportsOneErrorLineNamingTheField) {
     }
 }
 
+TEST(RenderScene, SetOverridesTheMapParametersTheProceduralModeReads) {
+    render::Scene s = render::parseScene(R"({"mesh": "tube", "reflectance_map": "maps/m.png"})", "/d/scene.json");
+    ASSERT_TRUE(s.reflectanceMap.has_value());
+    render::setMapParameter(s, "frequency", "32");
+    render::setMapParameter(s, "turbulence", "true");
+    render::setMapParameter(s, "octaves", "3");
+    EXPECT_EQ(s.mapParams.noise.frequency, 32.0);
+    EXPECT_TRUE(s.mapParams.noise.turbulence);
+    EXPECT_EQ(s.mapParams.noise.octaves, 3);
+    EXPECT_FALSE(s.reflectanceMap.has_value());  // generated from the parameters now
+    const shading::FrameSetup f = render::frameSetup(s, camera::lookAt({0, 0, 0}, {0, 0, -1}), 64, 48);
+    EXPECT_EQ(f.procedural.noise.frequency, 32.0);
+    EXPECT_EQ(f.procedural.noise.octaves, 3);
+    render::setMapParameter(s, "preset", "serosa");
+    EXPECT_EQ(s.mapParams.noise.frequency, reflectance::findPreset("serosa").params.noise.frequency);
+    for (const auto& [key, value, field] : std::vector<std::array<std::string, 3>>{
+             {"octaves", "99", "--set reflectance_map.octaves"},
+             {"frequency", "-2", "--set reflectance_map.frequency"},
+             {"tileable", "3", "--set reflectance_map.tileable"},
+             {"colour", "1", "--set reflectance_map.colour"},
+             {"preset", "velvet", "--set reflectance_map.preset"}}) {
+        try {
+            render::setMapParameter(s, key, value);
+            ADD_FAILURE() << key << "=" << value << " was accepted";
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.subject(), field) << e.what();
+        }
+    }
+    test::TempDir dir;
+    const auto r = test::runCli("render --mode procedural --set reflectance_map.octaves=99 -o '" +
+                                (dir / "o.png").string() + "'");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("error: --set reflectance_map.octaves"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "o.png"));
+}
+
 }  // namespace
 }  // namespace mucosa

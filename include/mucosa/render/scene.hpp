@@ -63,6 +63,14 @@ struct Scene {
     int frames = 1;
 };
 
+// `--set reflectance_map.<key>=<value>`: one of the map parameters (the keys
+// of a scene's "reflectance_map" object: preset, size, frequency, octaves,
+// lacunarity, gain, seed, z, strength, turbulence, tileable), applied to the
+// scene's map parameters, which both the generated map and the procedural
+// mode use (a map file named by the scene is then replaced by the generated
+// map). Throws InputError("--set reflectance_map.<key>", ...).
+void setMapParameter(Scene& scene, const std::string& key, const std::string& value);
+
 // The built-in default: the phantom, 'bronchial' map (1024 texels), flying
 // down the centreline.
 Scene defaultScene();
