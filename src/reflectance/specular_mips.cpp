@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/memory.hpp>
 
 namespace mucosa::reflectance {
 
@@ -34,22 +35,27 @@ void store(image::Image8& img, int x, int y, const Vec& na) {
 std::vector<image::Image8> specularMipChain(const image::Image8& map) {
     if (map.empty() || map.channels() < 3) throw InputError("reflectance map", "", "needs an RGB image");
     const int w0 = map.width(), h0 = map.height();
+    // The chain (4/3 of level 0 in RGBA8) and the float averages of level 1.
+    const std::uint64_t texels = saturatingMul(static_cast<std::uint64_t>(w0), static_cast<std::uint64_t>(h0));
+    requireMemory(saturatingMul(texels, 4 * 4 / 3 + 1 + 3), "reflectance map mip chain");
     std::vector<image::Image8> levels;
     image::Image8 base(w0, h0, 4);
-    // Level 0's unit normals (decoded and renormalised: 8-bit texels are unit
-    // only to within quantisation).
-    std::vector<Vec> cur(static_cast<std::size_t>(w0) * h0);
     for (int y = 0; y < h0; ++y)
         for (int x = 0; x < w0; ++x) {
-            Vec n;
-            for (int c = 0; c < 3; ++c) n[static_cast<std::size_t>(c)] = map.at(x, y, c) / 127.5f - 1.0f;
-            const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-            if (len > 0) n = {n[0] / len, n[1] / len, n[2] / len};
-            cur[static_cast<std::size_t>(y) * w0 + x] = n;
             for (int c = 0; c < 3; ++c) base.at(x, y, c) = map.at(x, y, c);
             base.at(x, y, 3) = 0;
         }
     levels.push_back(std::move(base));
+    // Level 0's unit normals, decoded on the fly (8-bit texels are unit only
+    // to within quantisation, so they are renormalised).
+    const auto unit = [&](int x, int y) {
+        Vec n;
+        for (int c = 0; c < 3; ++c) n[static_cast<std::size_t>(c)] = map.at(x, y, c) / 127.5f - 1.0f;
+        const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (len > 0) n = {n[0] / len, n[1] / len, n[2] / len};
+        return n;
+    };
+    std::vector<Vec> cur;  // the previous level's unnormalised averages (level >= 1)
     int w = w0, h = h0;
     while (w > 1 || h > 1) {
         const int nw = std::max(1, w / 2), nh = std::max(1, h / 2);
@@ -62,8 +68,8 @@ std::vector<image::Image8> specularMipChain(const image::Image8& map) {
                 int count = 0;
                 for (int dy = 0; dy < (h > 1 ? 2 : 1); ++dy)
                     for (int dx = 0; dx < (w > 1 ? 2 : 1); ++dx) {
-                        const Vec& n = cur[static_cast<std::size_t>(std::min(2 * y + dy, h - 1)) * w +
-                                           std::min(2 * x + dx, w - 1)];
+                        const int sx = std::min(2 * x + dx, w - 1), sy = std::min(2 * y + dy, h - 1);
+                        const Vec n = levels.size() == 1 ? unit(sx, sy) : cur[static_cast<std::size_t>(sy) * w + sx];
                         for (int c = 0; c < 3; ++c) sum[static_cast<std::size_t>(c)] += n[static_cast<std::size_t>(c)];
                         ++count;
                     }
