@@ -237,7 +237,7 @@ vec2 reflectanceMapCoord(vec2 uv, Material m) {
 // position in map widths (solid noise). Unwrapped: the caller takes the
 // footprint from its screen-space derivatives.
 vec3 proceduralCoord(Varyings v, Material m, Procedural pr) {
-    if (pr.space == kSpaceObject) return v.P * (1.0f / pr.scaleMm);
+    if (MUCOSA_PR_SPACE(pr) == kSpaceObject) return v.P * (1.0f / pr.scaleMm);
     return vec3(v.uv.x * m.mapTiling, -(v.uv.y * m.mapTiling), 0.0f);
 }
 
@@ -274,12 +274,12 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         // The noise gradient as a surface gradient (Mikkelsen 2010): the
         // normal tilts against it, scaled by strength x bump scale.
         vec3 q = proceduralCoord(v, m, pr);
-        if (pr.space == kSpaceUv && pr.tileable != 0) q = fract(q);
+        if (MUCOSA_PR_SPACE(pr) == kSpaceUv && MUCOSA_PR_TILEABLE(pr) != 0) q = fract(q);
         FractalSample s = fractalNoise(q, footprint, pr);
         float slope = pr.strength * m.bumpScale;
         float sigma2 = slope * slope * s.fadedVariance;
         float specP = 0.0f;
-        if (pr.space == kSpaceUv) {
+        if (MUCOSA_PR_SPACE(pr) == kSpaceUv) {
             // In tangent coordinates the surface gradient is (Hu, Hv, 0), with
             // Hu = dH/du and Hv = -dH/dq.y (texture v runs against q.y), as
             // the map's normals are made (reflectance::encodeNormals8).

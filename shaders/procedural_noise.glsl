@@ -119,6 +119,23 @@ struct Procedural {
 const int kSpaceUv = 0;
 const int kSpaceObject = 1;
 
+// Shader specialisation: the renderer compiles the procedural mode once per
+// (octaves, space, tileable, turbulence) with these as constants, so the
+// octave loop has a fixed trip count and the per-octave branches fold away
+// (~20 % faster on llvmpipe). Without the defines (the C++ reference, the GPU
+// noise evaluator) they read the uniforms.
+#ifdef MUCOSA_PROCEDURAL_OCTAVES
+#define MUCOSA_PR_OCTAVES(pr) MUCOSA_PROCEDURAL_OCTAVES
+#define MUCOSA_PR_SPACE(pr) MUCOSA_PROCEDURAL_SPACE
+#define MUCOSA_PR_TILEABLE(pr) MUCOSA_PROCEDURAL_TILEABLE
+#define MUCOSA_PR_TURBULENCE(pr) MUCOSA_PROCEDURAL_TURBULENCE
+#else
+#define MUCOSA_PR_OCTAVES(pr) pr.octaves
+#define MUCOSA_PR_SPACE(pr) pr.space
+#define MUCOSA_PR_TILEABLE(pr) pr.tileable
+#define MUCOSA_PR_TURBULENCE(pr) pr.turbulence
+#endif
+
 // The slope response of the map's normals (central differences over one
 // texel, reflectance::encodeNormals8) to one octave of f cycles per map width
 // on a map `texels` wide: the RMS ratio of the differenced to the true slope
@@ -152,21 +169,21 @@ FractalSample fractalNoise(vec3 q, float footprint, Procedural pr) {
     float f = pr.frequency;
     float a = 1.0f;
     for (int i = 0; i < kMaxOctaves; ++i) {
-        if (i >= pr.octaves) break;
+        if (i >= MUCOSA_PR_OCTAVES(pr)) break;
         float weight = 1.0f;
         if (pr.antialias != 0) weight = 1.0f - smoothstep(kFadeStart, kFadeEnd, f * footprint);
         float slopeGain = mapSlopeResponse(f, pr.texels);
         if (weight > 0.0f && slopeGain > 0.0f) {
             vec4 n;
-            if (pr.space == kSpaceUv) {
+            if (MUCOSA_PR_SPACE(pr) == kSpaceUv) {
                 float per = 256.0f;
-                if (pr.tileable != 0) per = f > 256.0f ? 256.0f : floor(f);
+                if (MUCOSA_PR_TILEABLE(pr) != 0) per = f > 256.0f ? 256.0f : floor(f);
                 n = perlinNoiseGradient(vec3(f * q.x, f * q.y, pr.z), vec3(per, per, 256.0f));
                 n.w = 0.0f;  // the slice z is fixed
             } else {
                 n = perlinNoiseGradient(q * f, vec3(256.0f));
             }
-            if (pr.turbulence != 0 && n.x < 0.0f) n = -n;
+            if (MUCOSA_PR_TURBULENCE(pr) != 0 && n.x < 0.0f) n = -n;
             float k = a * f * slopeGain;
             s.h = s.h + weight * vec4(a * n.x, k * n.y, k * n.z, k * n.w);
         }

@@ -1,5 +1,5 @@
 // bench_render [scene.json] [--frames N] [--sizes 640x480,1280x1024] [--modes noise,vertex-phong,...]
-//              [--octaves 1,2,4,6,8]
+//              [--octaves 0,1,2,4,6,8]  (0: the map path, timed in the same rounds)
 // Frames per second of each shading mode, headless: every frame is drawn and
 // finished with glFinish (no read-back), along the scene's camera path, after
 // a warm-up. Shader compilation and texture upload happen before timing.
@@ -44,7 +44,7 @@ int main(int argc, char** argv) try {
     int frames = 40;
     std::vector<std::string> sizes = {"640x480", "1280x1024"};
     std::vector<std::string> modes = {"noise", "procedural", "vertex-phong", "multitexture", "diffuse"};
-    std::vector<std::string> octaveCounts = {"1", "2", "4", "6", "8"};
+    std::vector<std::string> octaveCounts = {"0", "1", "2", "4", "6", "8"};  // 0: the map, for the ratios
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--frames" && i + 1 < argc)
@@ -99,11 +99,12 @@ int main(int argc, char** argv) try {
         if (&size == &sizes.front())
             for (int round = 0; round < kRounds; ++round)
                 for (const std::string& k : octaveCounts) {
+                    // 0: the map path (noise mode), in the same rounds as the octave counts.
                     const int octaves = std::atoi(k.c_str());
                     auto frame = [&](std::size_t i) {
                         shading::FrameSetup f = render::frameSetup(scene, poses[i % poses.size()], w, h);
-                        f.mode = shading::Mode::Procedural;
-                        f.procedural.noise.octaves = octaves;
+                        f.mode = octaves == 0 ? shading::Mode::Noise : shading::Mode::Procedural;
+                        if (octaves > 0) f.procedural.noise.octaves = octaves;
                         return f;
                     };
                     session.draw(frame(0));
@@ -142,6 +143,8 @@ int main(int argc, char** argv) try {
         for (const auto& s : sizes) std::printf(" %.2f |", fps[s]["noise"] / fps[s]["procedural"]);
         std::printf("\n");
     }
+    const double mapFps = octaveFps.count(0) ? octaveFps[0] : 0.0;
+    octaveFps.erase(0);
     if (!octaveFps.empty()) {
         // Least-squares slope of frame time against the octave count.
         double sx = 0, sy = 0, sxx = 0, sxy = 0;
@@ -160,6 +163,10 @@ int main(int argc, char** argv) try {
         for (const auto& [k, f] : octaveFps) std::printf(" %.1f |", f);
         std::printf("\n| ms per frame |");
         for (const auto& [k, f] : octaveFps) std::printf(" %.2f |", 1000.0 / f);
+        if (mapFps > 0) {
+            std::printf("\n| frame time / map path's (%.2f ms, same rounds) |", 1000.0 / mapFps);
+            for (const auto& [k, f] : octaveFps) std::printf(" %.2f |", mapFps / f);
+        }
         std::printf("\n\nslope: %.2f ms per octave per frame (%.1f ns per pixel per octave)\n", slope,
                     slope * 1e6 / firstPixels);
     }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,7 @@ struct Program {
     // Uniform locations, in the order of kUniformNames.
     std::vector<GLint> loc;
     ProceduralUniforms procedural;
+    std::uint64_t permutationTag = 0;  // seed + 1 of the table in uPerm; 0: none yet
 };
 
 constexpr std::array<const char*, 25> kUniformNames = {"uFrame.viewProj",
@@ -100,8 +102,9 @@ enum U {
     kDiffuseUvTransform
 };
 
-Program link(int mode) {
-    const std::string header = fmt::format("#version 330 core\n#define MUCOSA_MODE {}\n", mode);
+// `defines`: extra preprocessor lines (the procedural mode's specialisation).
+Program link(int mode, const std::string& defines = "") {
+    const std::string header = fmt::format("#version 330 core\n#define MUCOSA_MODE {}\n", mode) + defines;
     const std::string common = std::string(permutationPrelude()) + std::string(shaderSource("procedural_noise.glsl")) +
                                std::string(shaderSource("common_shading.glsl"));
     const std::string name =
@@ -294,9 +297,11 @@ struct Renderer::Impl {
     std::size_t lastDrawnTriangles = 0;
     std::array<Texture, 3> textures;
     bool meshHasUvs = false;
-    std::uint64_t permutationSeed = ~std::uint64_t{0};  // seed of the table in uPerm (per program)
-    std::array<std::uint64_t, shading::kModeCount> programSeed{};
+    std::uint64_t permutationSeed = ~std::uint64_t{0};  // seed of `permutation`
     std::array<GLint, 256> permutation{};
+    // The procedural mode, specialised per (octaves, space, tileable,
+    // turbulence): compiled on first use (procedural_noise.glsl).
+    std::map<std::array<int, 4>, Program> procedural;
     float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
 };
 
@@ -313,6 +318,7 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
 
 Renderer::~Renderer() {
     for (Program& p : impl_->programs) glDeleteProgram(p.id);
+    for (auto& [key, p] : impl_->procedural) glDeleteProgram(p.id);
     glDeleteVertexArrays(1, &impl_->vao);
     glDeleteBuffers(1, &impl_->vbo);
     glDeleteBuffers(1, &impl_->ibo);
@@ -391,7 +397,23 @@ void Renderer::clearTexture(TextureSlot slot) {
 void Renderer::draw(const shading::FrameSetup& frame) {
     using namespace shading::glsl;
     const int mode = static_cast<int>(frame.mode);
-    const Program& p = impl_->programs[static_cast<std::size_t>(mode)];
+    Program* program = &impl_->programs[static_cast<std::size_t>(mode)];
+    if (frame.mode == shading::Mode::Procedural) {
+        const noise::FractalParams& n = frame.procedural.noise;
+        const std::array<int, 4> key = {n.octaves, frame.procedural.space == shading::NoiseSpace::Object ? 1 : 0,
+                                        n.tileable ? 1 : 0, n.turbulence ? 1 : 0};
+        auto it = impl_->procedural.find(key);
+        if (it == impl_->procedural.end())
+            it = impl_->procedural
+                     .emplace(key, link(mode, fmt::format("#define MUCOSA_PROCEDURAL_OCTAVES {}\n"
+                                                          "#define MUCOSA_PROCEDURAL_SPACE {}\n"
+                                                          "#define MUCOSA_PROCEDURAL_TILEABLE {}\n"
+                                                          "#define MUCOSA_PROCEDURAL_TURBULENCE {}\n",
+                                                          key[0], key[1], key[2], key[3])))
+                     .first;
+        program = &it->second;
+    }
+    Program& p = *program;
     if (shading::modeNeedsUvs(frame) && !impl_->meshHasUvs)
         throw InputError(
             "mode", "",
@@ -455,9 +477,9 @@ void Renderer::draw(const shading::FrameSetup& frame) {
             impl_->permutationSeed = seed;
         }
         // Uniform values live in the program: upload when this program last saw another table.
-        if (impl_->programSeed[static_cast<std::size_t>(mode)] != seed + 1) {
+        if (p.permutationTag != seed + 1) {
             p.procedural.setPermutation(impl_->permutation);
-            impl_->programSeed[static_cast<std::size_t>(mode)] = seed + 1;
+            p.permutationTag = seed + 1;
         }
     }
     for (GLuint unit = 0; unit < 3; ++unit) {
