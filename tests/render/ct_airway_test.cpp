@@ -14,6 +14,7 @@
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/render/offscreen.hpp>
 
+#include "render_test_support.hpp"
 #include "test_support.hpp"
 
 namespace mucosa {
@@ -69,8 +70,7 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
         render::highlightStats(image::to8(image::readPng(dir / "ct_phong.png")), 170, 2);
     EXPECT_LT(phong.components * 5, st.components);
     if (std::getenv("MUCOSA_TEST_WRITE_IMAGES"))
-        std::filesystem::copy_file(dir / "ct.png", "ct_airway_procedural.png",
-                                   std::filesystem::copy_options::overwrite_existing);
+        image::writePng(test::outputDir() / "ct_airway_procedural.png", img);
 
     // Flipped (normals away from the lumen), the same view lit from the back side is the same picture.
     r = test::runCli(fmt::format("mesh '{}' --flip -o '{}'", ct.string(), (dir / "flipped.glb").string()));
