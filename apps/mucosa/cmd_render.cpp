@@ -45,7 +45,10 @@ void run(const RenderArgs& a, const Global& g) {
                             names.front().string()));
         return;
     }
-    const render::SceneAssets assets = render::loadAssets(scene, g.threads);
+    // One mode per run: a mode that reads no map (procedural, the baselines)
+    // does not generate one.
+    const render::SceneAssets assets =
+        render::loadAssets(scene, g.threads, render::modeReadsReflectanceMap(scene.mode));
     for (const std::string& n : assets.notes) info(g, n);
     const std::vector<camera::Pose> poses = render::cameraPoses(scene, assets, frames);
     std::unique_ptr<render::OffscreenSession> session;

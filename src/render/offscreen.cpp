@@ -15,7 +15,8 @@ OffscreenSession::OffscreenSession(const Scene& scene, const SceneAssets& assets
     renderer_->setMesh(assets.mesh);
     if (!assets.diffuse.empty())
         renderer_->setTexture(TextureSlot::Diffuse, assets.diffuse, scene.filter, shading::Wrap::Repeat);
-    renderer_->setTexture(TextureSlot::Reflectance, assets.reflectanceMap, scene.filter, shading::Wrap::Repeat);
+    if (!assets.reflectanceMap.empty())
+        renderer_->setTexture(TextureSlot::Reflectance, assets.reflectanceMap, scene.filter, shading::Wrap::Repeat);
 }
 
 OffscreenSession::~OffscreenSession() {

@@ -417,7 +417,11 @@ Scene loadScene(const fs::path& path) {
     return parseScene(readTextFile(path), path);
 }
 
-SceneAssets loadAssets(const Scene& scene, int threads) {
+bool modeReadsReflectanceMap(shading::Mode mode) noexcept {
+    return mode == shading::Mode::Noise || mode == shading::Mode::Normals || mode == shading::Mode::BrdfNoise;
+}
+
+SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
     SceneAssets a;
     const std::string file = scene.file.string();
     if (scene.mesh.kind == "phantom") {
@@ -471,7 +475,7 @@ SceneAssets loadAssets(const Scene& scene, int threads) {
         if (a.reflectanceMap.channels() < 3)
             throw InputError("reflectance_map", scene.reflectanceMap->string(), "must be an RGB image");
         a.notes.push_back("reflectance map: " + scene.reflectanceMap->string());
-    } else {
+    } else if (reflectanceMap) {
         const image::ImageF h = reflectance::heightField(scene.mapParams, threads);
         a.reflectanceMap = reflectance::encodeNormals8(
             h, scene.mapParams.strength,
@@ -525,7 +529,7 @@ shading::Textures referenceTextures(const Scene& scene, const SceneAssets& asset
                                   ? shading::Filter::Linear
                                   : scene.filter;
     if (!assets.diffuse.empty()) t.diffuse = {&assets.diffuse, f, shading::Wrap::Repeat};
-    t.reflectance = {&assets.reflectanceMap, f, shading::Wrap::Repeat};
+    if (!assets.reflectanceMap.empty()) t.reflectance = {&assets.reflectanceMap, f, shading::Wrap::Repeat};
     t.highlight = {&assets.highlight, shading::Filter::Linear, shading::Wrap::Clamp};  // as Renderer uploads it
     return t;
 }

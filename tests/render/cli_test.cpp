@@ -95,5 +95,19 @@ TEST(RenderCli, PhantomFileFlownAlongItsCentrelineJson) {
     EXPECT_NE(r.err.find("error: camera.path.branch"), std::string::npos) << r.err;
 }
 
+TEST(RenderCli, ProceduralRenderGeneratesNoMap) {
+    test::TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [64, 48]})";
+    auto r = test::runCli("render tube.json -o p.png --mode procedural", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.out.find("reflectance map generated"), std::string::npos) << r.out;
+    r = test::runCli("render tube.json -o n.png --mode noise", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("reflectance map generated"), std::string::npos) << r.out;
+    // The C++ reference too (it falls back to the flat map it never reads).
+    r = test::runCli("render tube.json -o q.png --mode procedural --reference", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+}
+
 }  // namespace
 }  // namespace mucosa

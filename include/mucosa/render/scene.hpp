@@ -86,14 +86,20 @@ struct SceneAssets {
     mesh::Mesh mesh;                     // with normals, uvs and tangents
     std::vector<mesh::Vec3> centreline;  // the fly-through polyline (mm); may be empty
     image::Image8 diffuse;               // empty: none
-    image::Image8 reflectanceMap;
+    image::Image8 reflectanceMap;        // empty: not generated (loadAssets(..., false))
     // The multitexture baseline's highlight texture for the scene's shininess
     // (what Renderer generates; kept here for the C++ reference).
     image::Image8 highlight;
     std::vector<std::string> notes;  // what was loaded/generated, for the CLI to report
 };
 
-SceneAssets loadAssets(const Scene& scene, int threads = 0);
+// `reflectanceMap`: false leaves SceneAssets::reflectanceMap empty when the
+// scene names no map file (a procedural render needs none: no time or memory
+// spent generating it); the renderer then keeps its flat default map.
+SceneAssets loadAssets(const Scene& scene, int threads = 0, bool reflectanceMap = true);
+
+// Whether a shading mode reads the reflectance map (noise, normals, brdf-noise).
+bool modeReadsReflectanceMap(shading::Mode mode) noexcept;
 
 // Camera poses for `frames` frames (scene.pose alone when frames == 1 and a
 // pose is given; else along the path).
