@@ -28,15 +28,6 @@ struct Atlas {
     }
 };
 
-}  // namespace
-
-void pushPull(image::ImageF& color, const image::ImageF& weight, int threads) {
-    tbb::task_arena arena(resolveThreads(threads));
-    arena.execute([&] { pushPullRows(color, weight); });
-}
-
-namespace {
-
 // Rows in parallel; every texel's value depends only on its own inputs, so
 // the result is the same for any thread count.
 template <class F>
@@ -46,8 +37,7 @@ void forRows(int rows, F f) {
     });
 }
 
-}  // namespace
-
+// Push-pull on the calling thread's task arena (rows in parallel).
 void pushPullRows(image::ImageF& color, const image::ImageF& weight) {
     // Pull: a pyramid of premultiplied colour and weight, halving each level.
     // Level 0 is `color` itself (premultiplied in place), so the only new
@@ -123,6 +113,13 @@ void pushPullRows(image::ImageF& color, const image::ImageF& weight) {
             }
         });
     }
+}
+
+}  // namespace
+
+void pushPull(image::ImageF& color, const image::ImageF& weight, int threads) {
+    tbb::task_arena arena(resolveThreads(threads));
+    arena.execute([&] { pushPullRows(color, weight); });
 }
 
 void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, const FitOptions& o, FitResult& r) {

@@ -9,6 +9,7 @@
 #include "render/embedded_shaders.hpp"
 #include "render/gl.hpp"
 #include "render/procedural_uniforms.hpp"
+#include "render/shader.hpp"
 
 namespace mucosa::render {
 
@@ -35,24 +36,6 @@ void main() {
 }
 )";
 
-GLuint compileStage(GLenum stage, const std::string& source) {
-    GLuint s = glCreateShader(stage);
-    const char* text = source.c_str();
-    glShaderSource(s, 1, &text, nullptr);
-    glCompileShader(s);
-    GLint ok = 0;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        GLint len = 0;
-        glGetShaderiv(s, GL_INFO_LOG_LENGTH, &len);
-        std::string log(static_cast<std::size_t>(std::max(len, 1)), '\0');
-        glGetShaderInfoLog(s, len, nullptr, log.data());
-        glDeleteShader(s);
-        throw GraphicsError("shader gpu_noise", "", "does not compile: " + log);
-    }
-    return s;
-}
-
 }  // namespace
 
 std::vector<std::array<float, 4>> evaluateNoiseOnGpu(const GpuNoiseRequest& request,
@@ -68,10 +51,10 @@ std::vector<std::array<float, 4>> evaluateNoiseOnGpu(const GpuNoiseRequest& requ
 
     const std::string common = std::string("#version 330 core\n") + std::string(permutationPrelude()) +
                                std::string(shaderSource("procedural_noise.glsl"));
-    const GLuint vs = compileStage(GL_VERTEX_SHADER, kVertex);
+    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertex, "gpu_noise");
     GLuint fs = 0;
     try {
-        fs = compileStage(GL_FRAGMENT_SHADER, common + kFragment);
+        fs = compileShader(GL_FRAGMENT_SHADER, common + kFragment, "gpu_noise");
     } catch (...) {
         glDeleteShader(vs);
         throw;

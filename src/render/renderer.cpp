@@ -17,29 +17,12 @@
 #include "render/embedded_shaders.hpp"
 #include "render/gl.hpp"
 #include "render/procedural_uniforms.hpp"
+#include "render/shader.hpp"
 #include "shading/glsl.hpp"
 
 namespace mucosa::render {
 
 namespace {
-
-GLuint compile(GLenum stage, const std::string& source, const std::string& name) {
-    GLuint s = glCreateShader(stage);
-    const char* text = source.c_str();
-    glShaderSource(s, 1, &text, nullptr);
-    glCompileShader(s);
-    GLint ok = 0;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        GLint len = 0;
-        glGetShaderiv(s, GL_INFO_LOG_LENGTH, &len);
-        std::string log(static_cast<std::size_t>(std::max(len, 1)), '\0');
-        glGetShaderInfoLog(s, len, nullptr, log.data());
-        glDeleteShader(s);
-        throw GraphicsError("shader " + name, "", "does not compile: " + log);
-    }
-    return s;
-}
 
 struct Program {
     GLuint id = 0;
@@ -109,8 +92,10 @@ Program link(int mode, const std::string& defines = "") {
                                std::string(shaderSource("common_shading.glsl"));
     const std::string name =
         fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
-    GLuint vs = compile(GL_VERTEX_SHADER, header + common + std::string(shaderSource("surface_tissue.vert")), name);
-    GLuint fs = compile(GL_FRAGMENT_SHADER, header + common + std::string(shaderSource("surface_tissue.frag")), name);
+    GLuint vs =
+        compileShader(GL_VERTEX_SHADER, header + common + std::string(shaderSource("surface_tissue.vert")), name);
+    GLuint fs =
+        compileShader(GL_FRAGMENT_SHADER, header + common + std::string(shaderSource("surface_tissue.frag")), name);
     Program p;
     p.id = glCreateProgram();
     glAttachShader(p.id, vs);

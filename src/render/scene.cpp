@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/brdf.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/fit/brdf.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/io.hpp>
@@ -323,16 +323,24 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     if (j.contains("fit")) {
         const fs::path dir = P.path(j["fit"], "fit");
         fit::BrdfParams b;
+        json bj;  // brdf.json, read once: the BRDF and (below) the atlas rectangle
         try {
-            b = fit::readBrdf(dir / "brdf.json");
+            try {
+                bj = json::parse(readTextFile(dir / "brdf.json"));
+            } catch (const json::parse_error& e) {
+                throw InputError("JSON", (dir / "brdf.json").string(), "parse error at byte " + std::to_string(e.byte));
+            }
+            b = fit::brdfFromJson(bj, (dir / "brdf.json").string());
         } catch (const Error& e) {
             P.fail("fit", e.what());
         }
         using shading::Param;
         const Param cs[4] = {Param::C0, Param::C1, Param::C2, Param::C3};
         const Param ds[3] = {Param::D1, Param::D2, Param::D3};
-        for (int i = 0; i < 4; ++i) s.params.set(cs[i], static_cast<float>(b.c[static_cast<std::size_t>(i)]), P.file, "fit");
-        for (int i = 0; i < 3; ++i) s.params.set(ds[i], static_cast<float>(b.d[static_cast<std::size_t>(i)]), P.file, "fit");
+        for (int i = 0; i < 4; ++i)
+            s.params.set(cs[i], static_cast<float>(b.c[static_cast<std::size_t>(i)]), P.file, "fit");
+        for (int i = 0; i < 3; ++i)
+            s.params.set(ds[i], static_cast<float>(b.d[static_cast<std::size_t>(i)]), P.file, "fit");
         s.params.set(Param::DepthMin, static_cast<float>(b.zmin), P.file, "fit");
         s.params.set(Param::DepthMax, static_cast<float>(b.zmax), P.file, "fit");
         if (!j.contains("diffuse")) {
@@ -340,7 +348,6 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
             s.generatedDiffuse = false;
             // The atlas spans the mesh's UV rectangle (brdf.json uv_min,
             // uv_max; [0, 1] unless the UVs leave it, as centreline UVs do).
-            const json bj = json::parse(readTextFile(dir / "brdf.json"));  // readBrdf has checked it parses
             if (bj.contains("uv_min") && bj.contains("uv_max")) {
                 const auto vec2 = [&](const json& v, const char* key) {
                     if (!v.is_array() || v.size() != 2) P.fail("fit", fmt::format("brdf.json: {} must be [u, v]", key));

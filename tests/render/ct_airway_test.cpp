@@ -69,8 +69,7 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
     const render::HighlightStats phong =
         render::highlightStats(image::to8(image::readPng(dir / "ct_phong.png")), 170, 2);
     EXPECT_LT(phong.components * 5, st.components);
-    if (std::getenv("MUCOSA_TEST_WRITE_IMAGES"))
-        image::writePng(test::outputDir() / "ct_airway_procedural.png", img);
+    if (std::getenv("MUCOSA_TEST_WRITE_IMAGES")) image::writePng(test::outputDir() / "ct_airway_procedural.png", img);
 
     // Flipped (normals away from the lumen), the same view lit from the back side is the same picture.
     r = test::runCli(fmt::format("mesh '{}' --flip -o '{}'", ct.string(), (dir / "flipped.glb").string()));

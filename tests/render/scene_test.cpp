@@ -125,12 +125,12 @@ TEST(RenderScene, SetOverridesTheMapParametersTheProceduralModeReads) {
     EXPECT_EQ(f.procedural.noise.octaves, 3);
     render::setMapParameter(s, "preset", "serosa");
     EXPECT_EQ(s.mapParams.noise.frequency, reflectance::findPreset("serosa").params.noise.frequency);
-    for (const auto& [key, value, field] : std::vector<std::array<std::string, 3>>{
-             {"octaves", "99", "--set reflectance_map.octaves"},
-             {"frequency", "-2", "--set reflectance_map.frequency"},
-             {"tileable", "3", "--set reflectance_map.tileable"},
-             {"colour", "1", "--set reflectance_map.colour"},
-             {"preset", "velvet", "--set reflectance_map.preset"}}) {
+    for (const auto& [key, value, field] :
+         std::vector<std::array<std::string, 3>>{{"octaves", "99", "--set reflectance_map.octaves"},
+                                                 {"frequency", "-2", "--set reflectance_map.frequency"},
+                                                 {"tileable", "3", "--set reflectance_map.tileable"},
+                                                 {"colour", "1", "--set reflectance_map.colour"},
+                                                 {"preset", "velvet", "--set reflectance_map.preset"}}) {
         try {
             render::setMapParameter(s, key, value);
             ADD_FAILURE() << key << "=" << value << " was accepted";
@@ -139,8 +139,8 @@ TEST(RenderScene, SetOverridesTheMapParametersTheProceduralModeReads) {
         }
     }
     test::TempDir dir;
-    const auto r = test::runCli("render --mode procedural --set reflectance_map.octaves=99 -o '" +
-                                (dir / "o.png").string() + "'");
+    const auto r =
+        test::runCli("render --mode procedural --set reflectance_map.octaves=99 -o '" + (dir / "o.png").string() + "'");
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("error: --set reflectance_map.octaves"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "o.png"));

@@ -54,21 +54,17 @@ TEST(ProceduralNoise, PeriodicLatticeMatchesPerlinPeriodic) {
     }
 }
 
+// The settings the renderer would pack for these noise parameters: unit
+// strength and scale, no anti-aliasing, no map response.
 Procedural settings(const noise::FractalParams& n, int space) {
-    Procedural pr;
-    pr.frequency = static_cast<float>(n.frequency);
-    pr.octaves = n.octaves;
-    pr.lacunarity = static_cast<float>(n.lacunarity);
-    pr.gain = static_cast<float>(n.gain);
-    pr.z = static_cast<float>(n.z);
-    pr.turbulence = n.turbulence;
-    pr.tileable = n.tileable;
-    pr.strength = 1.0f;
-    pr.space = space;
-    pr.scaleMm = 1.0f;
-    pr.antialias = 0;
-    pr.texels = 0.0f;
-    return pr;
+    shading::FrameSetup f;
+    f.procedural.noise = n;
+    f.procedural.strength = 1.0f;
+    f.procedural.space = space == kSpaceObject ? shading::NoiseSpace::Object : shading::NoiseSpace::Uv;
+    f.procedural.texels = 0;
+    f.params.set(shading::Param::NoiseScale, 1.0f);
+    f.specularAA = false;
+    return packProcedural(f);
 }
 
 TEST(ProceduralNoise, FractalSumsAreTheMapsAndTheSolidSum) {

@@ -100,8 +100,6 @@ void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, co
 // Push-pull inpainting (Gortler et al. 1996, "The Lumigraph", pull-push):
 // texels with weight 0 take the weighted average of coarser levels.
 void pushPull(image::ImageF& color, const image::ImageF& weight, int threads = 0);
-// The same on the calling thread's task arena (rows in parallel).
-void pushPullRows(image::ImageF& color, const image::ImageF& weight);
 
 // Everything: checks, back-projection, solve, texture, hold-out validation.
 FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& frames, const FitOptions& options);

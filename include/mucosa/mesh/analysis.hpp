@@ -31,7 +31,7 @@ struct MeshReport {
     std::size_t nonFiniteValues = 0;  // NaN/Inf floats in any attribute
     std::size_t unusedVertices = 0;
     Vec3 boundsMin{}, boundsMax{};
-    double surfaceArea = 0;   // mm^2
+    double surfaceArea = 0;  // mm^2
     // mm^3; > 0: normals/winding face out of the enclosed volume. Open
     // surfaces are closed first: each boundary loop gets a fan to its centroid.
     double signedVolume = 0;
