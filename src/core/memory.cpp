@@ -1,6 +1,10 @@
 #include <mucosa/core/memory.hpp>
 
+#include <sys/mman.h>
 #include <sys/resource.h>
+
+#include <cstdint>
+#include <new>
 
 #include <fstream>
 #include <limits>
@@ -58,6 +62,48 @@ void requireMemory(std::uint64_t bytes, const std::string& what) {
                             fmt::format("needs {} bytes ({}) but only {} are available", bytes, formatBytes(bytes),
                                         formatBytes(avail)));
     }
+}
+
+namespace {
+
+constexpr std::size_t kHugePage = std::size_t{2} << 20;
+
+std::size_t mappedBytes(std::size_t bytes) noexcept {
+    return (bytes + kHugePage - 1) / kHugePage * kHugePage;
+}
+
+}  // namespace
+
+void* allocateLarge(std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    if (bytes >= kHugePage) {
+        if (bytes > static_cast<std::size_t>(-1) - 2 * kHugePage) throw std::bad_alloc();
+        // Map one huge page more than needed and trim to a 2 MiB boundary.
+        const std::size_t size = mappedBytes(bytes), span = size + kHugePage;
+        void* raw = mmap(nullptr, span, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (raw == MAP_FAILED) throw std::bad_alloc();
+        const auto base = reinterpret_cast<std::uintptr_t>(raw);
+        const std::uintptr_t aligned = (base + kHugePage - 1) & ~static_cast<std::uintptr_t>(kHugePage - 1);
+        if (aligned > base) munmap(raw, aligned - base);
+        const std::size_t tail = (base + span) - (aligned + size);
+        if (tail > 0) munmap(reinterpret_cast<void*>(aligned + size), tail);
+        void* p = reinterpret_cast<void*>(aligned);
+        madvise(p, size, MADV_HUGEPAGE);  // advice only: ignored where THP is off
+        return p;
+    }
+#endif
+    return ::operator new(bytes);
+}
+
+void deallocateLarge(void* p, std::size_t bytes) noexcept {
+    if (!p) return;
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    if (bytes >= kHugePage) {
+        munmap(p, mappedBytes(bytes));
+        return;
+    }
+#endif
+    ::operator delete(p);
 }
 
 }  // namespace mucosa

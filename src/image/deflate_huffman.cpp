@@ -1,6 +1,8 @@
 #include "deflate_huffman.hpp"
 
 #include <algorithm>
+#include <bit>
+#include <cstring>
 #include <cmath>
 #include <queue>
 
@@ -9,6 +11,13 @@
 namespace mucosa::image::detail {
 
 namespace {
+
+inline std::uint64_t toLittleEndian(std::uint64_t v) noexcept {
+    if constexpr (std::endian::native == std::endian::little)
+        return v;
+    else
+        return __builtin_bswap64(v);
+}
 
 // LSB-first bit writer (RFC 1951 3.1.1) into a buffer sized up front; flushes
 // whole 32-bit words.
@@ -33,31 +42,47 @@ public:
         }
     }
     // Hot loop: codes of at most 15 bits, written through a raw pointer into
-    // space reserved by the caller (n * 2 bytes is always enough).
+    // space reserved by the caller (n * 2 bytes is always enough). Branch-free:
+    // three codes (<= 45 bits) join the < 8 pending bits, then all whole bytes
+    // go out in one unaligned 64-bit little-endian store.
     void putSymbols(const std::uint8_t* data, std::size_t n, const std::uint32_t* code, const std::uint8_t* len) {
+        // Drain the pending bits to fewer than 8 first.
+        while (count_ >= 8) {
+            out_.push_back(static_cast<std::uint8_t>(acc_));
+            acc_ >>= 8;
+            count_ -= 8;
+        }
         std::size_t at = out_.size();
-        out_.resize(at + 2 * n + 8);
+        out_.resize(at + 2 * n + 16);
         std::uint8_t* d = out_.data();
         std::uint64_t acc = acc_;
-        int count = count_;
-        for (std::size_t i = 0; i < n; ++i) {
-            const std::uint8_t s = data[i];
-            acc |= static_cast<std::uint64_t>(code[s]) << count;
-            count += len[s];
-            if (count >= 32) {
-                const auto word = static_cast<std::uint32_t>(acc);
-                d[at] = static_cast<std::uint8_t>(word);
-                d[at + 1] = static_cast<std::uint8_t>(word >> 8);
-                d[at + 2] = static_cast<std::uint8_t>(word >> 16);
-                d[at + 3] = static_cast<std::uint8_t>(word >> 24);
-                at += 4;
-                acc >>= 32;
-                count -= 32;
-            }
+        unsigned count = static_cast<unsigned>(count_);
+        const auto flush = [&] {
+            const std::uint64_t le = toLittleEndian(acc);
+            std::memcpy(d + at, &le, sizeof le);
+            at += count >> 3;
+            acc >>= (count & ~7u);
+            count &= 7u;
+        };
+        std::size_t i = 0;
+        for (; i + 3 <= n; i += 3) {
+            const std::uint8_t s0 = data[i], s1 = data[i + 1], s2 = data[i + 2];
+            acc |= static_cast<std::uint64_t>(code[s0]) << count;
+            count += len[s0];
+            acc |= static_cast<std::uint64_t>(code[s1]) << count;
+            count += len[s1];
+            acc |= static_cast<std::uint64_t>(code[s2]) << count;
+            count += len[s2];
+            flush();
+        }
+        for (; i < n; ++i) {
+            acc |= static_cast<std::uint64_t>(code[data[i]]) << count;
+            count += len[data[i]];
+            flush();
         }
         out_.resize(at);
         acc_ = acc;
-        count_ = count;
+        count_ = static_cast<int>(count);
     }
     void alignToByte() {
         while (count_ > 0) {

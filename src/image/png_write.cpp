@@ -22,6 +22,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/core/memory.hpp>
 #include <mucosa/core/parallel.hpp>
 
 #include "core/simd.hpp"
@@ -197,35 +198,39 @@ std::vector<std::byte> encode(const Image<T>& img, const PngWriteOptions& opt) {
     const std::size_t rowBytes = static_cast<std::size_t>(img.width()) * bpp;
     const std::size_t height = static_cast<std::size_t>(img.height());
 
-    // Raw big-endian rows.
-    std::vector<std::uint8_t> raw(rowBytes * height);
-    std::vector<std::uint8_t> filtered((rowBytes + 1) * height);
+    // Rows as PNG stores them: 8-bit images are filtered straight from their
+    // rows; 16-bit samples are first byte-swapped to big-endian.
+    using Bytes = std::vector<std::uint8_t, LargeAllocator<std::uint8_t>>;
+    Bytes raw;
+    if constexpr (sizeof(T) != 1) raw.resize(rowBytes * height);
+    const auto rowAt = [&](std::size_t y) -> const std::uint8_t* {
+        if constexpr (sizeof(T) == 1)
+            return img.row(static_cast<int>(y));
+        else
+            return raw.data() + y * rowBytes;
+    };
+    Bytes filtered((rowBytes + 1) * height);
     const int threads = resolveThreads(opt.threads);
     tbb::task_arena arena(threads);
-
     arena.execute([&] {
-        tbb::parallel_for(std::size_t{0}, height, [&](std::size_t y) {
-            std::uint8_t* dst = raw.data() + y * rowBytes;
-            const T* src = img.row(static_cast<int>(y));
-            if constexpr (sizeof(T) == 1) {
-                std::memcpy(dst, src, rowBytes);
-            } else {
+        if constexpr (sizeof(T) != 1) {
+            tbb::parallel_for(std::size_t{0}, height, [&](std::size_t y) {
+                std::uint8_t* dst = raw.data() + y * rowBytes;
+                const T* src = img.row(static_cast<int>(y));
                 for (std::size_t i = 0; i < img.rowStride(); ++i) {
                     dst[2 * i] = static_cast<std::uint8_t>(src[i] >> 8);
                     dst[2 * i + 1] = static_cast<std::uint8_t>(src[i] & 0xFF);
                 }
-            }
-        });
+            });
+        }
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, height, 16), [&](const auto& r) {
             std::vector<std::uint8_t> scratch;
             for (std::size_t y = r.begin(); y < r.end(); ++y)
-                filterRow(raw.data() + y * rowBytes, y ? raw.data() + (y - 1) * rowBytes : nullptr, rowBytes, bpp,
-                          filtered.data() + y * (rowBytes + 1), scratch);
+                filterRow(rowAt(y), y ? rowAt(y - 1) : nullptr, rowBytes, bpp, filtered.data() + y * (rowBytes + 1),
+                          scratch);
         });
     });
-    raw.clear();
-    raw.shrink_to_fit();
-
+    raw = Bytes();
     const std::size_t total = filtered.size();
     const std::size_t nPieces = (total + kPiece - 1) / kPiece;
     std::vector<Piece> pieces(nPieces);

@@ -107,6 +107,24 @@ TEST(FastPath, FloatStaysWithin1e5OfScalarReference) {
     }
 }
 
+// Very fine noise on a wide map: the float path's per-cell table would pass
+// its memory cap (8000 cells x 256 lattice rows x 12 fields), so it hashes per
+// cell instead; the values must not change.
+TEST(FastPath, FloatWithoutTheCellTableStaysWithin1e5) {
+    const auto p = params(8000, 2, 2.0, 0.5, 3, false, false, 0.4);
+    const int w = 8192, h = 256;
+    std::vector<float> img(static_cast<std::size_t>(w) * h);
+    fillFractal(p, img, w, h, {2});
+    const Permutation perm = Permutation::fromSeed(p.seed);
+    double worst = 0;
+    for (int y = 0; y < h; y += 5)
+        for (int x = 0; x < w; x += 3) {
+            const double ref = fractal(p, perm, static_cast<double>(x) / w, static_cast<double>(y) / h);
+            worst = std::max(worst, std::fabs(img[static_cast<std::size_t>(y) * w + x] - ref));
+        }
+    EXPECT_LE(worst, 1e-5);
+}
+
 TEST(FastPath, OutputIsIdenticalForAnyThreadCount) {
     const auto p = params(8, 6, 2, 0.5, 0, false, true);
     const int w = 640, h = 333;

@@ -6,6 +6,8 @@
 #include <span>
 #include <vector>
 
+#include <mucosa/core/memory.hpp>
+
 namespace mucosa::image {
 
 template <class T>
@@ -37,7 +39,7 @@ public:
 
 private:
     int width_ = 0, height_ = 0, channels_ = 0;
-    std::vector<T> data_;
+    std::vector<T, LargeAllocator<T>> data_;  // big images: huge pages (core/memory.hpp)
 };
 
 using Image8 = Image<std::uint8_t>;
