@@ -1,6 +1,7 @@
-// A PNG encoder built for large maps: rows are filtered in parallel (libpng's
-// minimum-sum-of-absolute-differences heuristic), and the filtered stream is
-// cut into fixed 1 MiB pieces deflated in parallel, pigz-style: each piece
+// A PNG encoder built for large maps: the image is cut into pieces of whole
+// rows (about 1 MiB each) that are generated, filtered (libpng's
+// minimum-sum-of-absolute-differences heuristic) and deflated in parallel,
+// pigz-style, so no whole filtered copy of the image is ever held: each piece
 // ends with a sync flush (byte aligned, not final) so the pieces concatenate
 // into one valid zlib stream (RFC 1950/1951) whose Adler-32 is combined from
 // the pieces'. Noise-like pieces are Huffman-coded (deflate_huffman.cpp);
@@ -17,6 +18,7 @@
 #include <cstring>
 #include <thread>
 
+#include <fmt/format.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -154,15 +156,46 @@ bool huffmanWins(const std::uint8_t* data, std::size_t n) {
     return static_cast<double>(zlen) > 0.9 * huffmanBytes;
 }
 
-void deflatePiece(const std::uint8_t* data, std::size_t begin, std::size_t end, bool last, const PngWriteOptions& opt,
-                  Piece& out) {
-    const std::size_t n = end - begin;
-    out.adler = adler32(1L, data + begin, static_cast<uInt>(n));
+// A piece: whole rows [y0, y1), about kPiece filtered bytes. Filtering row y0
+// needs row y0 - 1; a zlib piece also regenerates (and refilters) the rows
+// behind it that hold the previous 32 KiB of filtered bytes, its dictionary.
+struct PieceJob {
+    std::size_t y0, y1;
+};
+
+void encodePiece(const PngRowSource& src, std::size_t rowBytes, std::size_t bpp, const PieceJob& job, bool last,
+                 const PngWriteOptions& opt, Piece& out) {
+    const std::size_t stride = rowBytes + 1;
+    const std::size_t back = job.y0 == 0 ? 0 : std::min(job.y0, (kWindow + stride - 1) / stride);
+    const std::size_t first = job.y0 - back;                   // first filtered row
+    const std::size_t rawFirst = first == 0 ? 0 : first - 1;  // first generated row
+    std::vector<std::uint8_t> raw((job.y1 - rawFirst) * rowBytes), filtered((job.y1 - first) * stride), zeros;
+    const auto generate = [&](std::size_t a, std::size_t b) {
+        for (std::size_t y = a; y < b; ++y) src.row(static_cast<int>(y), raw.data() + (y - rawFirst) * rowBytes);
+    };
+    const auto filter = [&](std::size_t a, std::size_t b) {
+        for (std::size_t y = a; y < b; ++y) {
+            const std::uint8_t* cur = raw.data() + (y - rawFirst) * rowBytes;
+            filterRow(cur, y ? cur - rowBytes : nullptr, rowBytes, bpp, filtered.data() + (y - first) * stride, zeros);
+        }
+    };
+    // The piece's own rows (and the row above them) decide its coding...
+    generate(job.y0 == 0 ? 0 : job.y0 - 1, job.y1);
+    filter(job.y0, job.y1);
+    const std::uint8_t* data = filtered.data() + back * stride;
+    const std::size_t n = (job.y1 - job.y0) * stride;
+    const bool huffmanOnly = opt.compression == PngCompression::Auto && huffmanWins(data, n);
+    // ... and only zlib needs the rows behind them, for its dictionary.
+    if (!huffmanOnly && back > 0) {
+        generate(rawFirst, job.y0 - 1);
+        filter(first, job.y0);
+    }
+    out.adler = adler32(1L, data, static_cast<uInt>(n));
     out.length = n;
-    if (opt.compression == PngCompression::Auto && huffmanWins(data + begin, n)) {
+    if (huffmanOnly) {
         std::vector<std::uint8_t> bytes;
         bytes.reserve(n + n / 8 + 1024);
-        detail::deflateHuffmanOnly(data + begin, n, last, bytes);
+        detail::deflateHuffmanOnly(data, n, last, bytes);
         out.deflated.resize(bytes.size());
         std::memcpy(out.deflated.data(), bytes.data(), bytes.size());
         return;
@@ -170,12 +203,12 @@ void deflatePiece(const std::uint8_t* data, std::size_t begin, std::size_t end, 
     z_stream zs{};
     if (deflateInit2(&zs, opt.level, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
         throw InternalError("zlib deflateInit2 failed");
-    if (begin > 0) {
-        const std::size_t dictStart = begin > kWindow ? begin - kWindow : 0;
-        deflateSetDictionary(&zs, data + dictStart, static_cast<uInt>(begin - dictStart));
+    if (back > 0) {
+        const std::size_t dict = std::min(kWindow, back * stride);
+        deflateSetDictionary(&zs, data - dict, static_cast<uInt>(dict));
     }
     out.deflated.resize(deflateBound(&zs, static_cast<uLong>(n)) + 16);
-    zs.next_in = const_cast<Bytef*>(data + begin);
+    zs.next_in = const_cast<Bytef*>(data);
     zs.avail_in = static_cast<uInt>(n);
     zs.next_out = reinterpret_cast<Bytef*>(out.deflated.data());
     zs.avail_out = static_cast<uInt>(out.deflated.size());
@@ -188,59 +221,30 @@ void deflatePiece(const std::uint8_t* data, std::size_t begin, std::size_t end, 
     deflateEnd(&zs);
 }
 
-template <class T>
-std::vector<std::byte> encode(const Image<T>& img, const PngWriteOptions& opt) {
-    if (img.empty()) throw InputError("image", "", "is empty");
+std::vector<std::byte> encodeRows(const PngRowSource& src, const PngWriteOptions& opt) {
+    if (src.width < 1 || src.height < 1 || !src.row) throw InputError("image", "", "is empty");
+    if (src.channels < 1 || src.channels > 4)
+        throw InputError("image", "", fmt::format("has {} channels (PNG takes 1 to 4)", src.channels));
+    if (src.bitDepth != 8 && src.bitDepth != 16)
+        throw InputError("image", "", fmt::format("bit depth {} (8 or 16)", src.bitDepth));
     if (opt.level < 0 || opt.level > 9) throw InputError("PNG level", "", "must be 0..9");
-    const int channels = img.channels();
-    const int bitDepth = sizeof(T) == 1 ? 8 : 16;
-    const std::size_t bpp = static_cast<std::size_t>(channels) * sizeof(T);
-    const std::size_t rowBytes = static_cast<std::size_t>(img.width()) * bpp;
-    const std::size_t height = static_cast<std::size_t>(img.height());
-
-    // Rows as PNG stores them: 8-bit images are filtered straight from their
-    // rows; 16-bit samples are first byte-swapped to big-endian.
-    using Bytes = std::vector<std::uint8_t, LargeAllocator<std::uint8_t>>;
-    Bytes raw;
-    if constexpr (sizeof(T) != 1) raw.resize(rowBytes * height);
-    const auto rowAt = [&](std::size_t y) -> const std::uint8_t* {
-        if constexpr (sizeof(T) == 1)
-            return img.row(static_cast<int>(y));
-        else
-            return raw.data() + y * rowBytes;
-    };
-    Bytes filtered((rowBytes + 1) * height);
-    const int threads = resolveThreads(opt.threads);
-    tbb::task_arena arena(threads);
+    const int channels = src.channels;
+    const int bitDepth = src.bitDepth;
+    const std::size_t bpp = static_cast<std::size_t>(channels) * static_cast<std::size_t>(bitDepth / 8);
+    const std::size_t rowBytes = static_cast<std::size_t>(src.width) * bpp;
+    const std::size_t height = static_cast<std::size_t>(src.height);
+    // Pieces of whole rows, about kPiece filtered bytes each; the cuts depend
+    // on the image's shape only, so the bytes don't depend on the threads.
+    const std::size_t rowsPerPiece = std::max<std::size_t>(1, kPiece / (rowBytes + 1));
+    std::vector<PieceJob> jobs;
+    for (std::size_t y = 0; y < height; y += rowsPerPiece) jobs.push_back({y, std::min(height, y + rowsPerPiece)});
+    std::vector<Piece> pieces(jobs.size());
+    tbb::task_arena arena(resolveThreads(opt.threads));
     arena.execute([&] {
-        if constexpr (sizeof(T) != 1) {
-            tbb::parallel_for(std::size_t{0}, height, [&](std::size_t y) {
-                std::uint8_t* dst = raw.data() + y * rowBytes;
-                const T* src = img.row(static_cast<int>(y));
-                for (std::size_t i = 0; i < img.rowStride(); ++i) {
-                    dst[2 * i] = static_cast<std::uint8_t>(src[i] >> 8);
-                    dst[2 * i + 1] = static_cast<std::uint8_t>(src[i] & 0xFF);
-                }
-            });
-        }
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, height, 16), [&](const auto& r) {
-            std::vector<std::uint8_t> scratch;
-            for (std::size_t y = r.begin(); y < r.end(); ++y)
-                filterRow(rowAt(y), y ? rowAt(y - 1) : nullptr, rowBytes, bpp, filtered.data() + y * (rowBytes + 1),
-                          scratch);
+        tbb::parallel_for(std::size_t{0}, jobs.size(), [&](std::size_t i) {
+            encodePiece(src, rowBytes, bpp, jobs[i], i + 1 == jobs.size(), opt, pieces[i]);
         });
     });
-    raw = Bytes();
-    const std::size_t total = filtered.size();
-    const std::size_t nPieces = (total + kPiece - 1) / kPiece;
-    std::vector<Piece> pieces(nPieces);
-    arena.execute([&] {
-        tbb::parallel_for(std::size_t{0}, nPieces, [&](std::size_t i) {
-            deflatePiece(filtered.data(), i * kPiece, std::min(total, (i + 1) * kPiece), i + 1 == nPieces, opt,
-                         pieces[i]);
-        });
-    });
-
     std::vector<std::byte> zdata;
     std::size_t zsize = 2 + 4;
     for (const Piece& p : pieces) zsize += p.deflated.size();
@@ -268,8 +272,8 @@ std::vector<std::byte> encode(const Image<T>& img, const PngWriteOptions& opt) {
     auto be32 = [](std::byte* d, std::uint32_t v) {
         for (int i = 0; i < 4; ++i) d[i] = static_cast<std::byte>((v >> (24 - 8 * i)) & 0xFF);
     };
-    be32(ihdr.data(), static_cast<std::uint32_t>(img.width()));
-    be32(ihdr.data() + 4, static_cast<std::uint32_t>(img.height()));
+    be32(ihdr.data(), static_cast<std::uint32_t>(src.width));
+    be32(ihdr.data() + 4, static_cast<std::uint32_t>(src.height));
     static constexpr std::uint8_t kColorType[5] = {0, 0, 4, 2, 6};
     ihdr[8] = static_cast<std::byte>(bitDepth);
     ihdr[9] = static_cast<std::byte>(kColorType[channels]);
@@ -280,20 +284,41 @@ std::vector<std::byte> encode(const Image<T>& img, const PngWriteOptions& opt) {
     return out;
 }
 
+template <class T>
+PngRowSource imageRows(const Image<T>& img) {
+    if (img.empty()) throw InputError("image", "", "is empty");
+    PngRowSource src{img.width(), img.height(), img.channels(), sizeof(T) == 1 ? 8 : 16, {}};
+    src.row = [&img](int y, std::uint8_t* dst) {
+        const T* row = img.row(y);
+        if constexpr (sizeof(T) == 1) {
+            std::memcpy(dst, row, img.rowStride());
+        } else {
+            for (std::size_t i = 0; i < img.rowStride(); ++i) {
+                dst[2 * i] = static_cast<std::uint8_t>(row[i] >> 8);
+                dst[2 * i + 1] = static_cast<std::uint8_t>(row[i] & 0xFF);
+            }
+        }
+    };
+    return src;
+}
+
 }  // namespace
 
+std::vector<std::byte> encodePng(const PngRowSource& rows, const PngWriteOptions& opt) {
+    return encodeRows(rows, opt);
+}
 std::vector<std::byte> encodePng(const Image8& img, const PngWriteOptions& opt) {
-    return encode(img, opt);
+    return encodeRows(imageRows(img), opt);
 }
 std::vector<std::byte> encodePng(const Image16& img, const PngWriteOptions& opt) {
-    return encode(img, opt);
+    return encodeRows(imageRows(img), opt);
 }
 
 void writePng(const std::filesystem::path& path, const Image8& img, const PngWriteOptions& opt) {
-    writeFileAtomic(path, encode(img, opt));
+    writeFileAtomic(path, encodePng(img, opt));
 }
 void writePng(const std::filesystem::path& path, const Image16& img, const PngWriteOptions& opt) {
-    writeFileAtomic(path, encode(img, opt));
+    writeFileAtomic(path, encodePng(img, opt));
 }
 
 }  // namespace mucosa::image

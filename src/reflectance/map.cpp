@@ -47,11 +47,12 @@ void validate(const MapParams& p) {
 }
 
 std::uint64_t mapMemoryBytes(const MapParams& p, bool withHeight) {
-    // Height (float) + encoded map + the PNG encoder's raw, filtered and
-    // compressed copies (each at most the encoded size plus a row byte).
+    // Height (float) + the PNG encoder's compressed pieces, the joined stream
+    // and the file's bytes (each at most ~1.125x the 3b bytes per texel of the
+    // encoded map); the normals themselves are streamed, never held whole.
     const std::uint64_t px = saturatingMul(static_cast<std::uint64_t>(p.size), static_cast<std::uint64_t>(p.size));
     const std::uint64_t b = static_cast<std::uint64_t>(p.bits / 8);
-    std::uint64_t perPixel = 4 + 4 * 3 * b;
+    std::uint64_t perPixel = 4 + 11 * b;
     if (withHeight) perPixel += 4 * 2;
     return saturatingMul(px, perPixel);
 }
@@ -202,19 +203,24 @@ MapReport generateMap(const MapParams& p, const MapOutputs& out, int threads) {
     const Edges edges = p.noise.tileable ? Edges::Wrap : Edges::Clamp;
     image::PngWriteOptions png;
     png.threads = threads;
-    std::vector<std::byte> bytes;
+    // Normals are computed band by band inside the PNG encoder (same bytes as
+    // encodeNormals8/16 then encodePng, without holding the encoded map).
     t0 = std::chrono::steady_clock::now();
+    image::PngRowSource rows{p.size, p.size, 3, p.bits, {}};
     if (p.bits == 8) {
-        image::Image8 m = encodeNormals8(H, p.strength, edges, threads);
-        report.normalsSeconds = seconds(t0);
-        t0 = std::chrono::steady_clock::now();
-        bytes = image::encodePng(m, png);
+        rows.row = [&](int y, std::uint8_t* dst) { encodeNormalRow8(H, y, p.strength, edges, dst); };
     } else {
-        image::Image16 m = encodeNormals16(H, p.strength, edges, threads);
-        report.normalsSeconds = seconds(t0);
-        t0 = std::chrono::steady_clock::now();
-        bytes = image::encodePng(m, png);
+        rows.row = [&](int y, std::uint8_t* dst) {
+            thread_local std::vector<std::uint16_t> samples;
+            samples.resize(static_cast<std::size_t>(3) * static_cast<std::size_t>(p.size));
+            encodeNormalRow16(H, y, p.strength, edges, samples.data());
+            for (std::size_t i = 0; i < samples.size(); ++i) {
+                dst[2 * i] = static_cast<std::uint8_t>(samples[i] >> 8);
+                dst[2 * i + 1] = static_cast<std::uint8_t>(samples[i] & 0xFF);
+            }
+        };
     }
+    std::vector<std::byte> bytes = image::encodePng(rows, png);
     report.encodeSeconds = seconds(t0);
     report.mapBytes = bytes.size();
 

@@ -100,28 +100,30 @@ MUCOSA_TARGET_CLONES void interiorRow16(const float* up, const float* mid, const
 }
 
 template <class T>
-image::Image<T> encodeAll(const image::ImageF& H, double strength, Edges edges, int threads) {
+void encodeRow(const image::ImageF& H, int y, double strength, Edges edges, T* row) {
     const int w = H.width(), h = H.height();
-    image::Image<T> out(w, h, 3);
+    const Stencil sy = stencil(y, h, edges);
+    const double sv = sy.span ? strength * h / sy.span : 0.0;
+    const double su = strength * w / 2.0;  // as normalFrom with span 2
+    if constexpr (sizeof(T) == 1)
+        interiorRow8(H.row(sy.lo), H.row(y), H.row(sy.hi), w, su, sv, row);
+    else
+        interiorRow16(H.row(sy.lo), H.row(y), H.row(sy.hi), w, su, sv, row);
+    for (int x : {0, w - 1}) {
+        const auto N = normalFrom(H.data(), w, h, x, y, strength, stencil(x, w, edges), sy);
+        row[3 * x] = quantize<T>(N[0]);
+        row[3 * x + 1] = quantize<T>(N[1]);
+        row[3 * x + 2] = quantize<T>(N[2]);
+    }
+}
+
+template <class T>
+image::Image<T> encodeAll(const image::ImageF& H, double strength, Edges edges, int threads) {
+    image::Image<T> out(H.width(), H.height(), 3);
     tbb::task_arena arena(resolveThreads(threads));
     arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& r) {
-            for (int y = r.begin(); y < r.end(); ++y) {
-                const Stencil sy = stencil(y, h, edges);
-                const double sv = sy.span ? strength * h / sy.span : 0.0;
-                const double su = strength * w / 2.0;  // as normalFrom with span 2
-                T* row = out.row(y);
-                if constexpr (sizeof(T) == 1)
-                    interiorRow8(H.row(sy.lo), H.row(y), H.row(sy.hi), w, su, sv, row);
-                else
-                    interiorRow16(H.row(sy.lo), H.row(y), H.row(sy.hi), w, su, sv, row);
-                for (int x : {0, w - 1}) {
-                    const auto N = normalFrom(H.data(), w, h, x, y, strength, stencil(x, w, edges), sy);
-                    row[3 * x] = quantize<T>(N[0]);
-                    row[3 * x + 1] = quantize<T>(N[1]);
-                    row[3 * x + 2] = quantize<T>(N[2]);
-                }
-            }
+        tbb::parallel_for(tbb::blocked_range<int>(0, H.height(), 16), [&](const tbb::blocked_range<int>& r) {
+            for (int y = r.begin(); y < r.end(); ++y) encodeRow(H, y, strength, edges, out.row(y));
         });
     });
     return out;
@@ -156,6 +158,14 @@ std::array<double, 3> decode8(std::uint8_t r, std::uint8_t g, std::uint8_t b) no
 
 std::array<double, 3> decode16(std::uint16_t r, std::uint16_t g, std::uint16_t b) noexcept {
     return decode({r / 65535.0, g / 65535.0, b / 65535.0});
+}
+
+void encodeNormalRow8(const image::ImageF& H, int y, double strength, Edges edges, std::uint8_t* row) {
+    encodeRow(H, y, strength, edges, row);
+}
+
+void encodeNormalRow16(const image::ImageF& H, int y, double strength, Edges edges, std::uint16_t* row) {
+    encodeRow(H, y, strength, edges, row);
 }
 
 image::Image8 encodeNormals8(const image::ImageF& H, double strength, Edges edges, int threads) {

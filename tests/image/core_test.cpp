@@ -43,3 +43,25 @@ TEST(Core, AtomicFileRemovesItsTemporaryUnlessCommitted) {
     EXPECT_THROW(AtomicFile(dir / "missing" / "x"), IoError);
     EXPECT_THROW(AtomicFile(dir.path()), IoError);
 }
+
+// Big buffers come from allocateLarge: zeroed, 2 MiB aligned on Linux (so
+// transparent huge pages can back them), and usable like any vector storage.
+TEST(Core, LargeBuffersAreZeroedAlignedAndReleased) {
+    for (int round = 0; round < 3; ++round) {
+        image::ImageF big(1500, 1000, 1);  // 6 MB
+        std::size_t nonzero = 0;
+        for (float v : big.span()) nonzero += v != 0.0f;
+        EXPECT_EQ(nonzero, 0u);
+#ifdef __linux__
+        EXPECT_EQ(reinterpret_cast<std::uintptr_t>(big.data()) % (std::size_t{2} << 20), 0u);
+#endif
+        big.at(1499, 999) = 1.0f;
+        image::ImageF copy = big;  // copies through the same allocator
+        EXPECT_EQ(copy, big);
+    }
+    image::Image8 small(3, 2, 1);  // below the threshold: operator new
+    EXPECT_EQ(small.at(2, 1), 0);
+    std::vector<int, LargeAllocator<int>> v;
+    for (int i = 0; i < 1'000'000; ++i) v.push_back(i);  // grows across the threshold
+    EXPECT_EQ(v[999'999], 999'999);
+}

@@ -54,6 +54,35 @@ TEST(Map, SidecarRegeneratesTheSameBytes) {
     EXPECT_EQ(image::readExr(dir / "a_height.exr"), image::readExr(dir / "b_height.exr"));
 }
 
+// generateMap streams normals into the PNG encoder band by band; the file
+// must hold exactly what encodeNormals8/16 compute for the whole height field
+// (sizes spanning several encoder pieces, both depths, both edge modes).
+TEST(Map, StreamedMapIsTheEncodedNormalsOfTheHeightField) {
+    test::TempDir dir;
+    for (int bits : {8, 16}) {
+        for (bool tileable : {false, true}) {
+            MapParams p = findPreset("bronchial").params;
+            p.size = bits == 8 ? 700 : 520;
+            p.bits = bits;
+            p.noise.tileable = tileable;
+            MapOutputs out;
+            out.map = dir / "s.png";
+            out.sidecar = false;
+            generateMap(p, out, 2);
+            const image::ImageF H = heightField(p, 2);
+            const Edges edges = tileable ? Edges::Wrap : Edges::Clamp;
+            const image::PngImage png = image::readPng(out.map);
+            ASSERT_EQ(png.bitDepth, bits);
+            if (bits == 8) {
+                const image::Image8 ref = encodeNormals8(H, p.strength, edges, 1);
+                EXPECT_EQ(image::to8(png), ref) << tileable;
+            } else {
+                EXPECT_EQ(png.pixels, encodeNormals16(H, p.strength, edges, 1)) << tileable;
+            }
+        }
+    }
+}
+
 TEST(Map, HeightOutputMatchesTheHeightField) {
     test::TempDir dir;
     MapParams p;

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <vector>
 
 #include <mucosa/image/image.hpp>
@@ -27,6 +28,19 @@ struct PngWriteOptions {
 // Encodes 8- or 16-bit grey (1), grey+alpha (2), RGB (3) or RGBA (4) images.
 std::vector<std::byte> encodePng(const Image8& img, const PngWriteOptions& opt = {});
 std::vector<std::byte> encodePng(const Image16& img, const PngWriteOptions& opt = {});
+
+// Rows produced on demand, so an image never has to exist whole in memory
+// (`mucosa map` streams normals -> filter -> deflate in bands of rows).
+// `row(y, dst)` writes row y as PNG stores it: width * channels samples, 16-bit
+// ones big-endian; it is called from several threads at once, possibly more
+// than once per row, and must always give the same bytes.
+struct PngRowSource {
+    int width = 0, height = 0;
+    int channels = 3;  // 1..4 as above
+    int bitDepth = 8;  // 8 or 16
+    std::function<void(int y, std::uint8_t* dst)> row;
+};
+std::vector<std::byte> encodePng(const PngRowSource& rows, const PngWriteOptions& opt = {});
 
 // Atomic: a temporary next to `path`, renamed when complete.
 void writePng(const std::filesystem::path& path, const Image8& img, const PngWriteOptions& opt = {});

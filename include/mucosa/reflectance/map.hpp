@@ -49,7 +49,9 @@ struct MapOutputs {
 };
 
 struct MapReport {
-    double noiseSeconds = 0, normalsSeconds = 0, encodeSeconds = 0, writeSeconds = 0;
+    // encodeSeconds: normals, PNG filter and deflate, streamed together in
+    // bands of rows (the whole encoded map never exists in memory).
+    double noiseSeconds = 0, encodeSeconds = 0, writeSeconds = 0;
     std::uint64_t mapBytes = 0;
     int resolvableOctaves = 0;
     std::vector<std::string> warnings;

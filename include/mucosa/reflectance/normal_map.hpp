@@ -27,6 +27,11 @@ std::array<double, 3> normalAt(const image::ImageF& height, int x, int y, double
 image::Image8 encodeNormals8(const image::ImageF& height, double strength, Edges edges, int threads = 0);
 image::Image16 encodeNormals16(const image::ImageF& height, double strength, Edges edges, int threads = 0);
 
+// One row of the encoded map (3 samples per texel), exactly as the whole-map
+// functions write it; for streaming encoders.
+void encodeNormalRow8(const image::ImageF& height, int y, double strength, Edges edges, std::uint8_t* row);
+void encodeNormalRow16(const image::ImageF& height, int y, double strength, Edges edges, std::uint16_t* row);
+
 // rgb = 0.5 N + 0.5, rounded to nearest.
 std::array<std::uint8_t, 3> encode8(const std::array<double, 3>& N) noexcept;
 std::array<std::uint16_t, 3> encode16(const std::array<double, 3>& N) noexcept;
