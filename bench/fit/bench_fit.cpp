@@ -47,8 +47,37 @@ void FitSolveAndTexture(benchmark::State& state) {
                            benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
+// The two parts on their own (where the time goes).
+void FitSolveOnly(benchmark::State& state) {
+    const auto samples = makeSamples(static_cast<std::size_t>(state.range(0)));
+    mucosa::fit::FitOptions o;
+    int iterations = 0;
+    for (auto _ : state) {
+        mucosa::fit::FitResult r;
+        r.brdf = mucosa::fit::solveBrdf(samples, o, &r);
+        iterations = r.solverIterations;
+        benchmark::DoNotOptimize(r.brdf.c.data());
+    }
+    state.counters["iterations"] = iterations;
+}
+
+void FitTextureOnly(benchmark::State& state) {
+    const auto samples = makeSamples(static_cast<std::size_t>(state.range(0)));
+    mucosa::fit::FitOptions o;
+    o.textureSize = 1024;
+    mucosa::fit::FitResult base;
+    base.brdf = mucosa::fit::solveBrdf(samples, o, &base);
+    for (auto _ : state) {
+        mucosa::fit::FitResult r = base;
+        mucosa::fit::buildTexture(samples, r.brdf, o, r);
+        benchmark::DoNotOptimize(r.texture.data());
+    }
+}
+
 }  // namespace
 
+BENCHMARK(FitSolveOnly)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(FitTextureOnly)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(FitSolveAndTexture)
     ->Arg(100000)
     ->Arg(1000000)

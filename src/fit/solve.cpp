@@ -8,7 +8,6 @@
 #include <cmath>
 #include <numeric>
 #include <random>
-#include <unordered_map>
 
 #include <ceres/ceres.h>
 #include <tbb/parallel_for.h>
@@ -86,7 +85,7 @@ struct SolveSample {
 
 int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vector<std::size_t>& usable,
                             const std::vector<std::uint32_t>& slotOf, const BrdfParams& range, const FitOptions& o,
-                            std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo) {
+                            std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo, double& finalCost) {
     using Vec6 = Eigen::Matrix<double, 6, 1>;
     using Mat6 = Eigen::Matrix<double, 6, 6>;
     const double span = range.zmax - range.zmin;
@@ -110,7 +109,16 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
         Vec6 hta[3];
         double ba[3] = {0, 0, 0};
     };
-    std::vector<Cell> cells(T);
+    // Everything one pass over the samples yields at a point (p, a): the
+    // robust cost and the normal equations (IRLS weights at that point). The
+    // damping enters only when solving, so a rejected step re-solves the same
+    // equations with more damping and needs no pass of its own.
+    struct Linearisation {
+        double cost = 0;
+        Mat6 H = Mat6::Zero();
+        Vec6 b = Vec6::Zero();
+        std::vector<Cell> cells;
+    };
     constexpr std::size_t kChunk = 256;  // texels per task
     const std::size_t chunks = (T + kChunk - 1) / kChunk;
     std::vector<Mat6> partH(chunks);
@@ -126,109 +134,130 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
         if (grad) *grad << delta * (g - 1), delta * (g2 - 1), delta * (g3 - 1), rho * r, rho * r2, rho * r3;
         return rho * delta;
     };
-    auto totalCost = [&](const std::array<double, 6>& p, const std::vector<std::array<double, 3>>& a) {
-        arena.execute([&] {
-            tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-                double cost = 0;
-                for (std::size_t t = c * kChunk; t < std::min(T, (c + 1) * kChunk); ++t)
-                    for (std::size_t j = begin[t]; j < begin[t + 1]; ++j) {
-                        const double m = shading(ss[j], p, nullptr);
-                        double e2 = 0;
-                        for (int k = 0; k < 3; ++k) {
-                            const double e = a[t][k] * m - ss[j].I[k];
-                            e2 += e * e;
-                        }
-                        cost += robustCost(e2, o);
-                    }
-                partCost[c] = cost;
-            });
-        });
-        double cost = 0;
-        for (double pc : partCost) cost += pc;
-        return cost;
-    };
-    double cost = totalCost(cd, albedo);
-    double lambda = 1e-6;
-    int iterations = 0;
-    for (int it = 0; it < 60; ++it) {
-        iterations = it + 1;
+    // Texels t with t % stride == 0 take part (stride 1: all); the others get
+    // empty cells, which the step below leaves alone.
+    auto linearise = [&](const std::array<double, 6>& p, const std::vector<std::array<double, 3>>& albedoAt,
+                         std::size_t stride, Linearisation& out) {
+        out.cells.resize(T);
         arena.execute([&] {
             tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t ch) {
                 Mat6 H = Mat6::Zero();
                 Vec6 b = Vec6::Zero();
+                double cost = 0, logSum = 0, product = 1.0;
+                int inBatch = 0;
                 for (std::size_t t = ch * kChunk; t < std::min(T, (ch + 1) * kChunk); ++t) {
-                    Cell& c = cells[t];
+                    Cell& c = out.cells[t];
                     c.haa = 0;
                     for (auto& v : c.hta) v.setZero();
                     c.ba[0] = c.ba[1] = c.ba[2] = 0;
-                    const auto& at = albedo[t];
+                    if (t % stride != 0) continue;
+                    const auto& at = albedoAt[t];
                     const double a2 = at[0] * at[0] + at[1] * at[1] + at[2] * at[2];
                     for (std::size_t j = begin[t]; j < begin[t + 1]; ++j) {
                         Vec6 g;
-                        const double m = shading(ss[j], cd, &g);
+                        const double m = shading(ss[j], p, &g);
                         double e[3], e2 = 0;
                         for (int k = 0; k < 3; ++k) {
                             e[k] = at[k] * m - ss[j].I[k];
                             e2 += e[k] * e[k];
                         }
-                        const double w = o.robust ? 1.0 / (1.0 + e2 / c2) : 1.0;  // IRLS weight of the Cauchy loss
+                        // Cauchy cost c2 log(1 + e2/c2), one log per batch of
+                        // samples: the sum of logs is the log of the product.
+                        const double q = 1.0 + e2 / c2;
+                        if (o.robust) {
+                            product *= q;
+                            if (++inBatch == 8 || product > 1e200) {
+                                logSum += std::log(product);
+                                product = 1.0;
+                                inBatch = 0;
+                            }
+                        } else {
+                            cost += e2;
+                        }
+                        const double w = o.robust ? 1.0 / q : 1.0;  // IRLS weight of the Cauchy loss
                         c.haa += w * m * m;
                         for (int k = 0; k < 3; ++k) {
                             c.hta[k].noalias() += (w * at[k] * m) * g;
                             c.ba[k] += w * m * e[k];
                             b.noalias() += (w * at[k] * e[k]) * g;
                         }
-                        H.noalias() += (w * a2) * g * g.transpose();
+                        const Vec6 wg = (w * a2) * g;
+                        for (int i = 0; i < 6; ++i)  // lower triangle; mirrored after the pass
+                            for (int k = 0; k <= i; ++k) H(i, k) += wg[i] * g[k];
                     }
                 }
                 partH[ch] = H;
                 partB[ch] = b;
+                partCost[ch] = cost + c2 * (logSum + std::log(product));
             });
         });
-        Mat6 Htt = Mat6::Zero();
-        Vec6 bt = Vec6::Zero();
+        out.H.setZero();
+        out.b.setZero();
+        out.cost = 0;
         for (std::size_t ch = 0; ch < chunks; ++ch) {
-            Htt += partH[ch];
-            bt += partB[ch];
+            out.H += partH[ch];
+            out.b += partB[ch];
+            out.cost += partCost[ch];
         }
-        // Schur complement onto the six shared parameters (LM damping on both).
-        Mat6 S = Htt;
-        for (int i = 0; i < 6; ++i) S(i, i) += lambda * Htt(i, i) + 1e-12;
-        Vec6 rhs = bt;
-        for (const Cell& c : cells) {
-            if (c.haa <= 0) continue;
-            const double inv = 1.0 / (c.haa * (1.0 + lambda));
-            for (int k = 0; k < 3; ++k) {
-                S.noalias() -= inv * c.hta[k] * c.hta[k].transpose();
-                rhs.noalias() -= (inv * c.ba[k]) * c.hta[k];
+        out.H.template triangularView<Eigen::StrictlyUpper>() = out.H.transpose();
+    };
+    // Levenberg-Marquardt from (cd, albedo) on the texels of one stride, until
+    // the relative cost gain falls below `tolerance` or the step stalls.
+    Linearisation cur, cand;
+    std::vector<std::array<double, 3>> aNew;
+    int iterations = 0;
+    auto run = [&](std::size_t stride, double tolerance) {
+        linearise(cd, albedo, stride, cur);
+        double lambda = 1e-6;
+        for (int it = 0; it < 60; ++it) {
+            ++iterations;
+            // Schur complement onto the six shared parameters (LM damping on both).
+            Mat6 S = cur.H;
+            for (int i = 0; i < 6; ++i) S(i, i) += lambda * cur.H(i, i) + 1e-12;
+            Vec6 rhs = cur.b;
+            for (const Cell& c : cur.cells) {
+                if (c.haa <= 0) continue;
+                const double inv = 1.0 / (c.haa * (1.0 + lambda));
+                for (int k = 0; k < 3; ++k) {
+                    S.noalias() -= inv * c.hta[k] * c.hta[k].transpose();
+                    rhs.noalias() -= (inv * c.ba[k]) * c.hta[k];
+                }
+            }
+            const Vec6 dt = S.ldlt().solve(-rhs);
+            if (!dt.allFinite()) break;
+            std::array<double, 6> cdNew = cd;
+            for (int i = 0; i < 6; ++i) cdNew[static_cast<std::size_t>(i)] += dt[i];
+            aNew = albedo;
+            for (std::size_t t = 0; t < T; ++t) {
+                const Cell& c = cur.cells[t];
+                if (c.haa <= 0) continue;
+                for (int k = 0; k < 3; ++k) aNew[t][k] -= (c.ba[k] + c.hta[k].dot(dt)) / (c.haa * (1.0 + lambda));
+            }
+            linearise(cdNew, aNew, stride, cand);
+            if (cand.cost < cur.cost) {
+                const double gain = (cur.cost - cand.cost) / std::max(cur.cost, 1e-300);
+                cd = cdNew;
+                albedo.swap(aNew);
+                std::swap(cur, cand);
+                lambda = std::max(1e-9, lambda / 3);
+                // Converged for all practical purposes: the cost or the step stalls.
+                const double size = std::sqrt(cd[0] * cd[0] + cd[1] * cd[1] + cd[2] * cd[2] + cd[3] * cd[3] +
+                                              cd[4] * cd[4] + cd[5] * cd[5]);
+                if (gain < tolerance || dt.norm() < 1e-5 * (1.0 + size)) break;
+            } else {
+                lambda *= 10;
+                if (lambda > 1e8) break;
             }
         }
-        const Vec6 dt = S.ldlt().solve(-rhs);
-        if (!dt.allFinite()) break;
-        std::array<double, 6> cdNew = cd;
-        for (int i = 0; i < 6; ++i) cdNew[static_cast<std::size_t>(i)] += dt[i];
-        std::vector<std::array<double, 3>> aNew = albedo;
-        for (std::size_t t = 0; t < T; ++t) {
-            const Cell& c = cells[t];
-            if (c.haa <= 0) continue;
-            for (int k = 0; k < 3; ++k) aNew[t][k] -= (c.ba[k] + c.hta[k].dot(dt)) / (c.haa * (1.0 + lambda));
-        }
-        const double newCost = totalCost(cdNew, aNew);
-        if (newCost < cost) {
-            const double gain = (cost - newCost) / std::max(cost, 1e-300);
-            cd = cdNew;
-            albedo.swap(aNew);
-            cost = newCost;
-            lambda = std::max(1e-9, lambda / 3);
-            // Converged for all practical purposes: the cost or the step stalls.
-            const double size = std::sqrt(cd[0] * cd[0] + cd[1] * cd[1] + cd[2] * cd[2] + cd[3] * cd[3] +
-                                          cd[4] * cd[4] + cd[5] * cd[5]);
-            if (gain < 1e-7 || dt.norm() < 1e-5 * (1.0 + size)) break;
-        } else {
-            lambda *= 10;
-            if (lambda > 1e8) break;
-        }
-    }
+    };
+    // Coarse to fine: the six shared parameters are well determined by a
+    // fraction of the texels, so a first solve on every 8th texel (an eighth
+    // of the work per pass) brings them close; the full problem then starts
+    // near its minimum and needs only a few passes. The minimum is the full
+    // problem's either way.
+    if (T >= 2048) run(8, 1e-7);
+    run(1, 1e-7);
+    finalCost = cur.cost;
     return iterations;
 }
 
@@ -236,7 +265,7 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
 // general-purpose reference the specialised solver is checked against.
 int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::size_t>& usable,
                    const std::vector<std::uint32_t>& slotOf, const BrdfParams& out, const FitOptions& o,
-                   std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo) {
+                   std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo, double& finalCost) {
     ceres::Problem::Options po;
     po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -265,6 +294,7 @@ int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::si
     ceres::Solve(so, &problem, &summary);
     if (summary.termination_type == ceres::FAILURE)
         throw InputError("fit", "", "the solver failed: " + summary.message);
+    finalCost = 2.0 * summary.final_cost;  // Ceres minimises half the sum
     return static_cast<int>(summary.iterations.size());
 }
 
@@ -328,30 +358,31 @@ BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, Fi
 
     // Parameters: start from flat shading, albedo = mean intensity per cell.
     std::array<double, 6> cd{0, 0, 0, 0, 0, 0};
-    std::unordered_map<int, std::size_t> slot;
+    std::vector<std::uint32_t> slot(firstFrame.size(), UINT32_MAX);  // cell -> albedo index
     std::vector<std::array<double, 3>> albedo;
     std::vector<double> count;
     for (std::size_t i : usable) {
-        const int c = cellOf(samples[i]);
-        auto [it, inserted] = slot.try_emplace(c, albedo.size());
-        if (inserted) {
+        std::uint32_t& sl = slot[static_cast<std::size_t>(cellOf(samples[i]))];
+        if (sl == UINT32_MAX) {
+            sl = static_cast<std::uint32_t>(albedo.size());
             albedo.push_back({0, 0, 0});
             count.push_back(0);
         }
-        for (int k = 0; k < 3; ++k) albedo[it->second][k] += samples[i].I[k];
-        count[it->second] += 1;
+        for (int k = 0; k < 3; ++k) albedo[sl][k] += samples[i].I[k];
+        count[sl] += 1;
     }
     for (std::size_t t = 0; t < albedo.size(); ++t)
         for (int k = 0; k < 3; ++k) albedo[t][k] /= count[t];
 
     std::vector<std::uint32_t> slotOf(usable.size());
     for (std::size_t j = 0; j < usable.size(); ++j)
-        slotOf[j] = static_cast<std::uint32_t>(slot[cellOf(samples[usable[j]])]);
+        slotOf[j] = slot[static_cast<std::size_t>(cellOf(samples[usable[j]]))];
     int iterations = 0;
+    double finalCost = 0;
     if (o.solver == Solver::Schur)
-        iterations = schurLevenbergMarquardt(samples, usable, slotOf, out, o, cd, albedo);
+        iterations = schurLevenbergMarquardt(samples, usable, slotOf, out, o, cd, albedo, finalCost);
     else
-        iterations = solveWithCeres(samples, usable, slotOf, out, o, cd, albedo);
+        iterations = solveWithCeres(samples, usable, slotOf, out, o, cd, albedo, finalCost);
 
     out.c = {1.0 - cd[0] - cd[1] - cd[2], cd[0], cd[1], cd[2]};
     out.d = {cd[3], cd[4], cd[5]};
@@ -363,7 +394,7 @@ BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, Fi
     std::vector<std::array<double, 3>> rhoAcc(20, {0, 0, 0}), deltaAcc(20, {0, 0, 0});
     for (std::size_t i : usable) {
         const Sample& s = samples[i];
-        const auto& a = albedo[slot[cellOf(s)]];
+        const auto& a = albedo[slot[static_cast<std::size_t>(cellOf(s))]];
         const double rr = out.r(s.z), rho = out.rho(s.gamma), delta = out.delta(rr);
         double e2 = 0;
         for (int k = 0; k < 3; ++k) {
@@ -391,6 +422,7 @@ BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, Fi
         diag->solveSamples = usable.size();
         diag->solveTexels = albedo.size();
         diag->solverIterations = iterations;
+        diag->solveCost = finalCost;
         std::vector<float> zs;
         zs.reserve(usable.size());
         for (std::size_t i : usable) zs.push_back(samples[i].z);

@@ -4,7 +4,9 @@
 // against a first robust estimate, and texels no frame saw are filled by
 // push-pull inpainting.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -22,8 +24,8 @@ struct Atlas {
     std::array<float, 2> uvMin, uvMax;
     // Texel of (u, v); the first row of the atlas is the top (v = uvMax).
     int index(float u, float v) const {
-        const int x = std::clamp(static_cast<int>((u - uvMin[0]) / (uvMax[0] - uvMin[0]) * size), 0, size - 1);
-        const int y = std::clamp(static_cast<int>((1.0f - (v - uvMin[1]) / (uvMax[1] - uvMin[1])) * size), 0, size - 1);
+        const int x = std::clamp(static_cast<int>((u - uvMin[0]) / (uvMax[0] - uvMin[0]) * static_cast<float>(size)), 0, size - 1);
+        const int y = std::clamp(static_cast<int>((1.0f - (v - uvMin[1]) / (uvMax[1] - uvMin[1])) * static_cast<float>(size)), 0, size - 1);
         return y * size + x;
     }
 };
@@ -122,15 +124,36 @@ void pushPull(image::ImageF& color, const image::ImageF& weight, int threads) {
     arena.execute([&] { pushPullRows(color, weight); });
 }
 
+namespace {
+
+// Sample indices ordered by texel (stable: within a texel, by index), by an
+// LSD radix sort on 8-bit digits of the texel number: linear in the samples.
+std::vector<std::uint32_t> orderByTexel(const std::vector<std::uint32_t>& texel, std::uint32_t texels) {
+    const std::size_t n = texel.size();
+    std::vector<std::uint32_t> order(n), tmp(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
+    for (int shift = 0; shift < 32 && (texels - 1) >> shift; shift += 8) {
+        std::size_t count[257] = {};
+        for (std::uint32_t i : order) count[((texel[i] >> shift) & 0xFF) + 1]++;
+        for (int d = 0; d < 256; ++d) count[d + 1] += count[d];
+        for (std::uint32_t i : order) tmp[count[(texel[i] >> shift) & 0xFF]++] = i;
+        order.swap(tmp);
+    }
+    return order;
+}
+
+}  // namespace
+
 void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, const FitOptions& o, FitResult& r) {
     const int N = o.textureSize;
     const Atlas atlas{N, r.uvMin, r.uvMax};
     r.texture = image::ImageF(N, N, 3);
     r.coverage = image::ImageF(N, N, 1);
     // Texel of every sample and its albedo estimate I / shading, computed once.
-    std::vector<std::uint32_t> texel(samples.size());
-    std::vector<float> invShade(samples.size()), weight(samples.size());
-    for (std::size_t i = 0; i < samples.size(); ++i) {
+    const std::size_t n = samples.size();
+    std::vector<std::uint32_t> texel(n);
+    std::vector<float> invShade(n), weight(n);
+    for (std::size_t i = 0; i < n; ++i) {
         const Sample& s = samples[i];
         const double shade = brdf.shading(s.gamma, s.z);
         invShade[i] = shade > 1e-4 ? static_cast<float>(1.0 / shade) : 0.0f;
@@ -138,49 +161,55 @@ void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, co
         // Frontal and near views are sharper and less noisy.
         weight[i] = static_cast<float>(s.gamma * (1.0 - 0.5 * std::clamp(brdf.r(s.z), 0.0, 1.0)));
     }
-    // Pass 1: a robust first estimate per texel (weighted mean), accumulated
-    // in the output images themselves.
-    float* acc = r.texture.data();
-    float* wsum = r.coverage.data();
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-        const std::uint32_t t = texel[i];
-        wsum[t] += weight[i];
-        for (int k = 0; k < 3; ++k) acc[3 * t + k] += weight[i] * samples[i].I[k] * invShade[i];
-    }
-    // The first estimate's luminance at every sample.
-    std::vector<float> firstLum(samples.size());
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-        const std::uint32_t t = texel[i];
-        firstLum[i] = (acc[3 * t] + acc[3 * t + 1] + acc[3 * t + 2]) / wsum[t];
-    }
-    // Pass 2: drop estimates far above the first (specular highlights) and blend.
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-        const std::uint32_t t = texel[i];
-        acc[3 * t] = acc[3 * t + 1] = acc[3 * t + 2] = 0.0f;
-        wsum[t] = 0.0f;
-    }
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-        const std::uint32_t t = texel[i];
-        const float lum = (samples[i].I[0] + samples[i].I[1] + samples[i].I[2]) * invShade[i];
-        if (lum > 1.25f * firstLum[i] + 0.03f) continue;
-        wsum[t] += weight[i];
-        for (int k = 0; k < 3; ++k) acc[3 * t + k] += weight[i] * samples[i].I[k] * invShade[i];
-    }
-    // Normalise each covered texel once (visiting texels through their
-    // samples: the atlas may be mostly empty); the sign marks "done".
-    std::size_t covered = 0;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-        const std::uint32_t t = texel[i];
-        if (wsum[t] > 0) {
-            ++covered;
-            const float inv = 1.0f / wsum[t];
-            for (int k = 0; k < 3; ++k) acc[3 * t + k] *= inv;
-            wsum[t] = -wsum[t];
+    // Samples grouped by texel, so that every texel is one short sweep over
+    // its own samples (no scattered passes over the atlas) and texels are
+    // independent: groups in parallel, same result for any thread count.
+    const std::vector<std::uint32_t> order = orderByTexel(texel, static_cast<std::uint32_t>(N) * N);
+    float* tex = r.texture.data();
+    float* cov = r.coverage.data();
+    const auto texelValue = [&](std::size_t a, std::size_t b) {
+        const std::uint32_t t = texel[order[a]];
+        // Pass 1: a first estimate (weighted mean) of the texel's luminance.
+        float acc[3] = {0, 0, 0}, wsum = 0;
+        for (std::size_t j = a; j < b; ++j) {
+            const std::uint32_t i = order[j];
+            wsum += weight[i];
+            for (int k = 0; k < 3; ++k) acc[k] += weight[i] * samples[i].I[k] * invShade[i];
         }
-    }
-    for (std::size_t i = 0; i < samples.size(); ++i)
-        if (wsum[texel[i]] < 0) wsum[texel[i]] = -wsum[texel[i]];
-    r.coveredFraction = static_cast<double>(covered) / (static_cast<double>(N) * N);
+        const float firstLum = (acc[0] + acc[1] + acc[2]) / wsum;
+        // Pass 2: drop estimates far above the first (specular highlights) and blend.
+        acc[0] = acc[1] = acc[2] = wsum = 0;
+        for (std::size_t j = a; j < b; ++j) {
+            const std::uint32_t i = order[j];
+            const float lum = (samples[i].I[0] + samples[i].I[1] + samples[i].I[2]) * invShade[i];
+            if (lum > 1.25f * firstLum + 0.03f) continue;
+            wsum += weight[i];
+            for (int k = 0; k < 3; ++k) acc[k] += weight[i] * samples[i].I[k] * invShade[i];
+        }
+        if (!(wsum > 0)) return std::size_t{0};
+        const float inv = 1.0f / wsum;
+        for (int k = 0; k < 3; ++k) tex[3 * static_cast<std::size_t>(t) + k] = acc[k] * inv;
+        cov[t] = wsum;
+        return std::size_t{1};
+    };
+    std::atomic<std::size_t> covered{0};
+    tbb::task_arena arena(resolveThreads(o.threads));
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& rg) {
+            // A block owns the groups that start inside it.
+            std::size_t j = rg.begin();
+            while (j > 0 && j < n && texel[order[j]] == texel[order[j - 1]]) ++j;
+            std::size_t mine = 0;
+            while (j < rg.end()) {
+                std::size_t e = j + 1;
+                while (e < n && texel[order[e]] == texel[order[j]]) ++e;
+                mine += texelValue(j, e);
+                j = e;
+            }
+            covered += mine;
+        });
+    });
+    r.coveredFraction = static_cast<double>(covered.load()) / (static_cast<double>(N) * N);
     pushPull(r.texture, r.coverage, o.threads);
 }
 

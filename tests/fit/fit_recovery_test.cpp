@@ -119,10 +119,17 @@ TEST_F(FitRecovery, TheSpecialisedSolverAgreesWithCeres) {
     const fit::FitResult fast = fit::fitFrames(*tube_, *frames_, o);
     o.solver = fit::Solver::Ceres;
     const fit::FitResult ref = fit::fitFrames(*tube_, *frames_, o);
-    std::printf("Schur LM: %d iterations %.3f s; Ceres: %d iterations %.3f s\n", fast.solverIterations,
-                fast.solveSeconds, ref.solverIterations, ref.solveSeconds);
-    for (double g = 0.3; g <= 1.0; g += 0.05) EXPECT_NEAR(fast.brdf.rho(g), ref.brdf.rho(g), 2e-4) << g;
-    for (double x = 0; x <= 1.0; x += 0.05) EXPECT_NEAR(fast.brdf.delta(x), ref.brdf.delta(x), 2e-4) << x;
+    std::printf("Schur LM: %d iterations %.3f s, cost %.6f; Ceres: %d iterations %.3f s, cost %.6f\n",
+                fast.solverIterations, fast.solveSeconds, fast.solveCost, ref.solverIterations, ref.solveSeconds,
+                ref.solveCost);
+    // The Cauchy loss makes the problem non-convex: the specialised solver
+    // (coarse to fine) must reach a minimum at least as low as Ceres' ...
+    EXPECT_GT(ref.solveCost, 0.0);
+    EXPECT_LE(fast.solveCost, ref.solveCost * (1 + 1e-6));
+    // ... and the same curves: the minima differ by far less than the
+    // recovery tolerances (0.02 on rho, 2 % on delta).
+    for (double g = 0.3; g <= 1.0; g += 0.05) EXPECT_NEAR(fast.brdf.rho(g), ref.brdf.rho(g), 5e-4) << g;
+    for (double x = 0; x <= 1.0; x += 0.05) EXPECT_NEAR(fast.brdf.delta(x), ref.brdf.delta(x), 5e-4) << x;
 }
 
 TEST(PushPull, FillsHolesWithNeighbourhoodAveragesAndKeepsSeenTexels) {

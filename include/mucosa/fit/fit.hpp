@@ -75,6 +75,9 @@ struct FitResult {
     std::size_t solveSamples = 0, solveTexels = 0;
     std::array<double, 2> zObserved{0, 0};  // 1st and 99th percentile of sample distances (mm)
     int solverIterations = 0;
+    // Robust cost at the solution: sum over the solve's samples of
+    // c^2 log(1 + e^2 / c^2), e the RGB residual norm (sum e^2 with robust off).
+    double solveCost = 0;
     double solveSeconds = 0, totalSeconds = 0;
     // Binned data for the report: mean shading-normalised intensity per bin.
     std::vector<std::array<double, 3>> rhoBins, deltaBins;  // (x, mean, count)
