@@ -131,8 +131,10 @@ float toksvigShininess(float shininess, float sigma2) {
 // sigma2 (0: a sharp normal, the plain Phong lobe). The widened lobe is scaled
 // by (n' + 1) / (n + 1), the ratio of the lobes' integrals, so a pixel keeps
 // the energy its sub-pixel glints would have reflected.
+// Branch-free: with sigma2 = 0 it is exactly the plain lobe (n' = n / 1 and
+// (n + 1) / (n + 1) = 1 in IEEE arithmetic), and SIMD rasterisers such as
+// llvmpipe run both sides of a branch, so one pow serves both cases.
 float methodSpecular(vec3 Np, vec3 L, vec3 V, float sigma2, float shininess) {
-    if (sigma2 <= 0.0f) return phongLobe(Np, L, V, shininess);
     float n = toksvigShininess(shininess, sigma2);
     return phongLobe(Np, L, V, n) * ((n + 1.0f) / (shininess + 1.0f));
 }

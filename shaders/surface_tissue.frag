@@ -44,9 +44,11 @@ void main() {
         albedoTex = texture(uDiffuse, diffuseCoord(vUv, uFrame)).rgb;
     if (MUCOSA_MODE == kModeNoise || MUCOSA_MODE == kModeNormals || MUCOSA_MODE == kModeBrdfNoise) {
         // Anti-aliased: the filtered mip chain and its slope variance
-        // (Toksvig); otherwise the full-resolution map, as the paper sampled it.
+        // (Toksvig); otherwise the full-resolution map, as the paper sampled
+        // it (the renderer then sets the texture's minification filter to
+        // level 0 only, so one lookup serves both).
         vec2 mc = reflectanceMapCoord(vUv, uMaterial);
-        mapSample = uFrame.specularAA != 0 ? texture(uReflectance, mc) : textureLod(uReflectance, mc, 0.0f);
+        mapSample = texture(uReflectance, mc);
     }
     float footprint = 0.0f;
     if (MUCOSA_MODE == kModeProcedural) {

@@ -125,6 +125,8 @@ Program link(int mode, const std::string& defines = "") {
 struct Texture {
     GLuint id = 0;
     bool user = false;
+    GLint minFilter = GL_NEAREST;  // as uploaded
+    GLint boundMin = GL_NEAREST;   // as set now (anti-aliasing off: level 0 only)
 };
 
 // One level of the bound texture, rows flipped: OpenGL's first row is t = 0,
@@ -144,7 +146,8 @@ void uploadLevel(GLint level, const image::Image8& img) {
     glTexImage2D(GL_TEXTURE_2D, level, static_cast<GLint>(internal), w, h, 0, format, GL_UNSIGNED_BYTE, rows.data());
 }
 
-void setSampling(int channels, shading::Filter filter, shading::Wrap wrap) {
+// Returns the minification filter it set.
+GLint setSampling(int channels, shading::Filter filter, shading::Wrap wrap) {
     GLint swizzle[] = {GL_RED, GL_GREEN, GL_BLUE, GL_ALPHA};
     if (channels == 3) swizzle[3] = GL_ZERO;  // alpha 0: no slope variance (reflectance maps without mips)
     if (channels == 1) swizzle[1] = swizzle[2] = GL_RED, swizzle[3] = GL_ONE;  // grey, as the reference reads it
@@ -161,30 +164,31 @@ void setSampling(int channels, shading::Filter filter, shading::Wrap wrap) {
     if (filter == shading::Filter::Mipmap) minFilter = GL_LINEAR_MIPMAP_NEAREST;
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, minFilter);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, magFilter);
+    return minFilter;
 }
 
 bool mipmapped(shading::Filter filter) {
     return filter == shading::Filter::Trilinear || filter == shading::Filter::Mipmap;
 }
 
-void upload(GLuint id, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
-    glBindTexture(GL_TEXTURE_2D, id);
+void upload(Texture& t, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
+    glBindTexture(GL_TEXTURE_2D, t.id);
     uploadLevel(0, img);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 1000);
     if (mipmapped(filter)) glGenerateMipmap(GL_TEXTURE_2D);
-    setSampling(img.channels(), filter, wrap);
+    t.minFilter = t.boundMin = setSampling(img.channels(), filter, wrap);
 }
 
 // A reflectance map: with mipmaps, the specular anti-aliasing chain (averaged
 // normals + slope variance in alpha, reflectance::specularMipChain) instead of
 // glGenerateMipmap's averages of encoded colours.
-void uploadReflectance(GLuint id, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
-    if (!mipmapped(filter) || img.channels() < 3) return upload(id, img, filter, wrap);
+void uploadReflectance(Texture& t, const image::Image8& img, shading::Filter filter, shading::Wrap wrap) {
+    if (!mipmapped(filter) || img.channels() < 3) return upload(t, img, filter, wrap);
     const std::vector<image::Image8> chain = reflectance::specularMipChain(img);
-    glBindTexture(GL_TEXTURE_2D, id);
+    glBindTexture(GL_TEXTURE_2D, t.id);
     for (std::size_t k = 0; k < chain.size(); ++k) uploadLevel(static_cast<GLint>(k), chain[k]);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, static_cast<GLint>(chain.size() - 1));
-    setSampling(4, filter, wrap);
+    t.minFilter = t.boundMin = setSampling(4, filter, wrap);
 }
 
 image::Image8 solid(std::uint8_t r, std::uint8_t g, std::uint8_t b) {
@@ -357,9 +361,9 @@ void Renderer::setTexture(TextureSlot slot, const image::Image8& img, shading::F
         throw InputError("texture", "", "needs a non-empty image with 1 to 4 channels");
     Texture& t = impl_->textures[static_cast<std::size_t>(slot)];
     if (slot == TextureSlot::Reflectance)
-        uploadReflectance(t.id, img, filter, wrap);
+        uploadReflectance(t, img, filter, wrap);
     else
-        upload(t.id, img, filter, wrap);
+        upload(t, img, filter, wrap);
     t.user = true;
 }
 
@@ -368,10 +372,10 @@ void Renderer::clearTexture(TextureSlot slot) {
     t.user = false;
     switch (slot) {
         case TextureSlot::Diffuse:
-            upload(t.id, solid(255, 255, 255), shading::Filter::Nearest, shading::Wrap::Repeat);
+            upload(t, solid(255, 255, 255), shading::Filter::Nearest, shading::Wrap::Repeat);
             break;
         case TextureSlot::Reflectance:
-            upload(t.id, solid(128, 128, 255), shading::Filter::Nearest, shading::Wrap::Repeat);
+            upload(t, solid(128, 128, 255), shading::Filter::Nearest, shading::Wrap::Repeat);
             break;
         case TextureSlot::Highlight:
             impl_->highlightShininess = -1.0f;
@@ -410,7 +414,7 @@ void Renderer::draw(const shading::FrameSetup& frame) {
 
     Texture& hl = impl_->textures[static_cast<std::size_t>(TextureSlot::Highlight)];
     if (frame.mode == shading::Mode::Multitexture && !hl.user && impl_->highlightShininess != m.shininess) {
-        upload(hl.id, shading::highlightSphereMap(kHighlightTextureSize, m.shininess), shading::Filter::Linear,
+        upload(hl, shading::highlightSphereMap(kHighlightTextureSize, m.shininess), shading::Filter::Linear,
                shading::Wrap::Clamp);
         impl_->highlightShininess = m.shininess;
     }
@@ -470,6 +474,18 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     for (GLuint unit = 0; unit < 3; ++unit) {
         glActiveTexture(GL_TEXTURE0 + unit);
         glBindTexture(GL_TEXTURE_2D, impl_->textures[unit].id);
+    }
+    // Anti-aliasing off: the map's full-resolution level only, as the paper
+    // sampled it. Set on the texture (the shader samples the map once, with
+    // texture(), either way: a select between two lookups would make a SIMD
+    // rasteriser such as llvmpipe do both).
+    Texture& rt = impl_->textures[static_cast<std::size_t>(TextureSlot::Reflectance)];
+    const bool mipFilter = rt.minFilter != GL_LINEAR && rt.minFilter != GL_NEAREST;
+    const GLint wantMin = !f.specularAA && mipFilter ? GL_LINEAR : rt.minFilter;
+    if (wantMin != rt.boundMin) {
+        glActiveTexture(GL_TEXTURE0 + static_cast<GLuint>(TextureSlot::Reflectance));
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, wantMin);
+        rt.boundMin = wantMin;
     }
     impl_->drawOffsets.clear();
     impl_->drawCounts.clear();
