@@ -36,18 +36,19 @@ float noiseLerp(float t, float a, float b) {
     return a + t * (b - a);
 }
 
-// The reference's grad(hash, x, y, z) = g . (x, y, z) and its vector g.
+// The reference's grad(hash, x, y, z) = g . (x, y, z) and its vector g: for
+// h = hash & 15, u = x if h < 8 else y (sign: bit 0), v = y if h < 4, x if h
+// is 12 or 14, else z (sign: bit 1). Each component of g is in {-1, 0, 1}
+// and stored for all 16 hashes as 2-bit codes (value + 1) in one constant, so
+// the gradient costs a shift and a mask per component and no branches (SIMD
+// rasterisers such as llvmpipe evaluate every side of a branch).
+const int kGradCodesX = 0x46552222;  // x of g for h = 15 .. 0, two bits each
+const int kGradCodesY = 0x2222550a;
+const int kGradCodesZ = 0x190a0a55;
 vec3 noiseGradientVector(int hash) {
-    int h = hash & 15;
-    float su = (h & 1) == 0 ? 1.0f : -1.0f;
-    float sv = (h & 2) == 0 ? 1.0f : -1.0f;
-    // u axis: x if h < 8 else y; v axis: y if h < 4, x if h is 12 or 14, else z.
-    vec3 g = vec3(0.0f);
-    if (h < 8) g.x = su; else g.y = su;
-    if (h < 4) g.y = sv;
-    else if (h == 12 || h == 14) g.x = sv;
-    else g.z = sv;
-    return g;
+    int sh = (hash & 15) * 2;
+    return vec3(float((kGradCodesX >> sh) & 3), float((kGradCodesY >> sh) & 3), float((kGradCodesZ >> sh) & 3)) -
+           vec3(1.0f);
 }
 
 // A lattice cell index reduced modulo the period (1..256; 256 = plain noise).
@@ -55,19 +56,12 @@ int noiseWrap(float cell, float period) {
     return int(cell - period * floor(cell / period));
 }
 
-// Improved noise at p on a lattice that wraps with the given periods:
-// vec4(n, dn/dx, dn/dy, dn/dz).
-vec4 perlinNoiseGradient(vec3 p, vec3 period) {
-    vec3 cell = floor(p);
+// Improved noise at p with its gradient, vec4(n, dn/dx, dn/dy, dn/dz), given
+// p's cell (floor(p)) and the lattice indices of its corners.
+vec4 perlinNoiseGradientAt(vec3 p, vec3 cell, int X0, int Y0, int Z0, int X1, int Y1, int Z1) {
     float x = p.x - cell.x;
     float y = p.y - cell.y;
     float z = p.z - cell.z;
-    int X0 = noiseWrap(cell.x, period.x);
-    int Y0 = noiseWrap(cell.y, period.y);
-    int Z0 = noiseWrap(cell.z, period.z);
-    int X1 = X0 + 1 == int(period.x) ? 0 : X0 + 1;
-    int Y1 = Y0 + 1 == int(period.y) ? 0 : Y0 + 1;
-    int Z1 = Z0 + 1 == int(period.z) ? 0 : Z0 + 1;
     // The reference's hashes (Perlin 2002, with the periodic wrap of perlinPeriodic).
     int A = permAt(X0) + Y0;
     int B = permAt(X1) + Y0;
@@ -97,6 +91,30 @@ vec4 perlinNoiseGradient(vec3 p, vec3 period) {
     float dy = blend.y + noiseFadeDerivative(y) * noiseLerp(w, x2 - x1, x4 - x3);
     float dz = blend.z + noiseFadeDerivative(z) * (y2 - y1);
     return vec4(n, dx, dy, dz);
+}
+
+// Improved noise at p on a lattice that wraps with the given periods (1..256
+// per axis; 256 = plain noise): noise::perlinPeriodicGradient.
+vec4 perlinNoiseGradient(vec3 p, vec3 period) {
+    vec3 cell = floor(p);
+    int X0 = noiseWrap(cell.x, period.x);
+    int Y0 = noiseWrap(cell.y, period.y);
+    int Z0 = noiseWrap(cell.z, period.z);
+    int X1 = X0 + 1 == int(period.x) ? 0 : X0 + 1;
+    int Y1 = Y0 + 1 == int(period.y) ? 0 : Y0 + 1;
+    int Z1 = Z0 + 1 == int(period.z) ? 0 : Z0 + 1;
+    return perlinNoiseGradientAt(p, cell, X0, Y0, Z0, X1, Y1, Z1);
+}
+
+// Plain improved noise (noise::perlinGradient), the same values as period 256
+// for less work: Perlin's floor(x) & 255, and cell + 1 unreduced as the
+// reference indexes its doubled table (permAt wraps).
+vec4 perlinNoiseGradient(vec3 p) {
+    vec3 cell = floor(p);
+    int X0 = int(cell.x) & 255;
+    int Y0 = int(cell.y) & 255;
+    int Z0 = int(cell.z) & 255;
+    return perlinNoiseGradientAt(p, cell, X0, Y0, Z0, X0 + 1, Y0 + 1, Z0 + 1);
 }
 
 // Fractal-sum settings: the reflectance map's parameters (reflectance::MapParams,
@@ -176,12 +194,15 @@ FractalSample fractalNoise(vec3 q, float footprint, Procedural pr) {
         if (weight > 0.0f && slopeGain > 0.0f) {
             vec4 n;
             if (MUCOSA_PR_SPACE(pr) == kSpaceUv) {
-                float per = 256.0f;
-                if (MUCOSA_PR_TILEABLE(pr) != 0) per = f > 256.0f ? 256.0f : floor(f);
-                n = perlinNoiseGradient(vec3(f * q.x, f * q.y, pr.z), vec3(per, per, 256.0f));
+                if (MUCOSA_PR_TILEABLE(pr) != 0) {
+                    float per = f > 256.0f ? 256.0f : floor(f);
+                    n = perlinNoiseGradient(vec3(f * q.x, f * q.y, pr.z), vec3(per, per, 256.0f));
+                } else {
+                    n = perlinNoiseGradient(vec3(f * q.x, f * q.y, pr.z));
+                }
                 n.w = 0.0f;  // the slice z is fixed
             } else {
-                n = perlinNoiseGradient(q * f, vec3(256.0f));
+                n = perlinNoiseGradient(q * f);
             }
             if (MUCOSA_PR_TURBULENCE(pr) != 0 && n.x < 0.0f) n = -n;
             float k = a * f * slopeGain;

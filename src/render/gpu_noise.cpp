@@ -31,7 +31,10 @@ uniform Procedural uProcedural;
 out vec4 result;
 void main() {
     vec3 p = texelFetch(uPoints, ivec2(gl_FragCoord.xy), 0).xyz;
-    if (uFunction == 0) result = perlinNoiseGradient(p, uPeriod);
+    // Period 256 on every axis: plain noise, through the renderer's cheaper
+    // overload (the same values, tested against mucosa::noise here too).
+    if (uFunction == 0 && uPeriod == vec3(256.0f)) result = perlinNoiseGradient(p);
+    else if (uFunction == 0) result = perlinNoiseGradient(p, uPeriod);
     else result = fractalNoise(p, 0.0f, uProcedural).h;
 }
 )";
