@@ -23,7 +23,7 @@ using namespace mucosa;
 
 namespace {
 
-constexpr int kRounds = 5;
+constexpr int kRounds = 7;
 
 std::vector<std::string> split(const std::string& s) {
     std::vector<std::string> out;
@@ -38,6 +38,15 @@ std::vector<std::string> split(const std::string& s) {
 }
 
 }  // namespace
+
+// Median over rounds of a[r] / b[r].
+double medianRatio(const std::vector<double>& a, const std::vector<double>& b) {
+    std::vector<double> r;
+    for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i) r.push_back(a[i] / b[i]);
+    if (r.empty()) return 0.0;
+    std::sort(r.begin(), r.end());
+    return r.size() % 2 ? r[r.size() / 2] : 0.5 * (r[r.size() / 2 - 1] + r[r.size() / 2]);
+}
 
 int main(int argc, char** argv) try {
     std::string sceneFile;
@@ -67,6 +76,11 @@ int main(int argc, char** argv) try {
     const std::vector<camera::Pose> poses = render::cameraPoses(scene, assets, frames);
     std::map<std::string, std::map<std::string, double>> fps;
     std::map<int, double> octaveFps;  // procedural, first size
+    // Frame times per round: ratios are taken round by round (both modes
+    // measured seconds apart) and their median reported, which holds steady
+    // on a shared machine whose speed drifts between rounds.
+    std::map<std::string, std::map<std::string, std::vector<double>>> roundMs;
+    std::map<int, std::vector<double>> octaveRoundMs;
     double firstPixels = 0;
     std::string rendererName;
     std::size_t drawnTriangles = 0;
@@ -91,6 +105,7 @@ int main(int argc, char** argv) try {
                 }
                 const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                 fps[size][m] = std::max(fps[size][m], frames / s);
+                roundMs[size][m].push_back(1000.0 * s / frames);
                 drawnTriangles = drawn / static_cast<std::size_t>(frames);
                 std::fprintf(stderr, "round %d %s %s: %.1f fps\n", round + 1, size.c_str(), m.c_str(), frames / s);
             }
@@ -114,6 +129,7 @@ int main(int argc, char** argv) try {
                     session.finish();
                     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                     octaveFps[octaves] = std::max(octaveFps[octaves], frames / s);
+                    octaveRoundMs[octaves].push_back(1000.0 * s / frames);
                     std::fprintf(stderr, "round %d %s procedural, %d octaves: %.1f fps\n", round + 1, size.c_str(),
                                  octaves, frames / s);
                 }
@@ -134,13 +150,16 @@ int main(int argc, char** argv) try {
         std::printf("\n");
     }
     if (fps.begin()->second.count("noise") && fps.begin()->second.count("vertex-phong")) {
-        std::printf("| frame-time ratio noise / vertex-phong |");
-        for (const auto& s : sizes) std::printf(" %.2f |", fps[s]["vertex-phong"] / fps[s]["noise"]);
+        std::printf("| frame-time ratio noise / vertex-phong (median of rounds) |");
+        for (const auto& s : sizes)
+            std::printf(" %.2f |", medianRatio(roundMs[s]["noise"], roundMs[s]["vertex-phong"]));
         std::printf("\n");
     }
     if (fps.begin()->second.count("noise") && fps.begin()->second.count("procedural")) {
-        std::printf("| frame-time ratio procedural (%d octaves) / noise (map) |", scene.mapParams.noise.octaves);
-        for (const auto& s : sizes) std::printf(" %.2f |", fps[s]["noise"] / fps[s]["procedural"]);
+        std::printf("| frame-time ratio procedural (%d octaves) / noise (map) (median of rounds) |",
+                    scene.mapParams.noise.octaves);
+        for (const auto& s : sizes)
+            std::printf(" %.2f |", medianRatio(roundMs[s]["procedural"], roundMs[s]["noise"]));
         std::printf("\n");
     }
     const double mapFps = octaveFps.count(0) ? octaveFps[0] : 0.0;
@@ -164,8 +183,8 @@ int main(int argc, char** argv) try {
         std::printf("\n| ms per frame |");
         for (const auto& [k, f] : octaveFps) std::printf(" %.2f |", 1000.0 / f);
         if (mapFps > 0) {
-            std::printf("\n| frame time / map path's (%.2f ms, same rounds) |", 1000.0 / mapFps);
-            for (const auto& [k, f] : octaveFps) std::printf(" %.2f |", mapFps / f);
+            std::printf("\n| frame time / map path's (%.2f ms; median of per-round ratios) |", 1000.0 / mapFps);
+            for (const auto& [k, f] : octaveFps) std::printf(" %.2f |", medianRatio(octaveRoundMs[k], octaveRoundMs[0]));
         }
         std::printf("\n\nslope: %.2f ms per octave per frame (%.1f ns per pixel per octave)\n", slope,
                     slope * 1e6 / firstPixels);
