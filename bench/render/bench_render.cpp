@@ -158,8 +158,7 @@ int main(int argc, char** argv) try {
     if (fps.begin()->second.count("noise") && fps.begin()->second.count("procedural")) {
         std::printf("| frame-time ratio procedural (%d octaves) / noise (map) (median of rounds) |",
                     scene.mapParams.noise.octaves);
-        for (const auto& s : sizes)
-            std::printf(" %.2f |", medianRatio(roundMs[s]["procedural"], roundMs[s]["noise"]));
+        for (const auto& s : sizes) std::printf(" %.2f |", medianRatio(roundMs[s]["procedural"], roundMs[s]["noise"]));
         std::printf("\n");
     }
     const double mapFps = octaveFps.count(0) ? octaveFps[0] : 0.0;
@@ -184,7 +183,8 @@ int main(int argc, char** argv) try {
         for (const auto& [k, f] : octaveFps) std::printf(" %.2f |", 1000.0 / f);
         if (mapFps > 0) {
             std::printf("\n| frame time / map path's (%.2f ms; median of per-round ratios) |", 1000.0 / mapFps);
-            for (const auto& [k, f] : octaveFps) std::printf(" %.2f |", medianRatio(octaveRoundMs[k], octaveRoundMs[0]));
+            for (const auto& [k, f] : octaveFps)
+                std::printf(" %.2f |", medianRatio(octaveRoundMs[k], octaveRoundMs[0]));
         }
         std::printf("\n\nslope: %.2f ms per octave per frame (%.1f ns per pixel per octave)\n", slope,
                     slope * 1e6 / firstPixels);

@@ -24,8 +24,10 @@ struct Atlas {
     std::array<float, 2> uvMin, uvMax;
     // Texel of (u, v); the first row of the atlas is the top (v = uvMax).
     int index(float u, float v) const {
-        const int x = std::clamp(static_cast<int>((u - uvMin[0]) / (uvMax[0] - uvMin[0]) * static_cast<float>(size)), 0, size - 1);
-        const int y = std::clamp(static_cast<int>((1.0f - (v - uvMin[1]) / (uvMax[1] - uvMin[1])) * static_cast<float>(size)), 0, size - 1);
+        const int x = std::clamp(static_cast<int>((u - uvMin[0]) / (uvMax[0] - uvMin[0]) * static_cast<float>(size)), 0,
+                                 size - 1);
+        const int y = std::clamp(
+            static_cast<int>((1.0f - (v - uvMin[1]) / (uvMax[1] - uvMin[1])) * static_cast<float>(size)), 0, size - 1);
         return y * size + x;
     }
 };

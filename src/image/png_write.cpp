@@ -167,7 +167,7 @@ void encodePiece(const PngRowSource& src, std::size_t rowBytes, std::size_t bpp,
                  const PngWriteOptions& opt, Piece& out) {
     const std::size_t stride = rowBytes + 1;
     const std::size_t back = job.y0 == 0 ? 0 : std::min(job.y0, (kWindow + stride - 1) / stride);
-    const std::size_t first = job.y0 - back;                   // first filtered row
+    const std::size_t first = job.y0 - back;                  // first filtered row
     const std::size_t rawFirst = first == 0 ? 0 : first - 1;  // first generated row
     std::vector<std::uint8_t> raw((job.y1 - rawFirst) * rowBytes), filtered((job.y1 - first) * stride), zeros;
     const auto generate = [&](std::size_t a, std::size_t b) {

@@ -39,8 +39,8 @@ struct AlignedAllocator {
     AlignedAllocator() = default;
     template <class U>
     AlignedAllocator(const AlignedAllocator<U>&) noexcept {}
-    T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{64})); }
-    void deallocate(T* ptr, std::size_t) noexcept { ::operator delete(ptr, std::align_val_t{64}); }
+    T* allocate(std::size_t n) { return static_cast<T*>(::operator new (n * sizeof(T), std::align_val_t{64})); }
+    void deallocate(T* ptr, std::size_t) noexcept { ::operator delete (ptr, std::align_val_t{64}); }
     template <class U>
     bool operator==(const AlignedAllocator<U>&) const noexcept {
         return true;
@@ -364,9 +364,8 @@ __attribute__((always_inline)) inline void foldedKernel(float* __restrict acc, f
 }
 
 template <bool kFma, bool kTurbulence, Pass kPass>
-__attribute__((always_inline)) inline void octaveSpans(const Octave<float>& oct, float* acc, float* dst,
-                                                       const float* P, const float* Q, const float* R,
-                                                       const float* S) {
+__attribute__((always_inline)) inline void octaveSpans(const Octave<float>& oct, float* acc, float* dst, const float* P,
+                                                       const float* Q, const float* R, const float* S) {
     const std::size_t nsp = oct.spans.size();
     for (std::size_t j = 0; j < nsp; ++j) {
         const Span& sp = oct.spans[j];
@@ -377,13 +376,16 @@ __attribute__((always_inline)) inline void octaveSpans(const Octave<float>& oct,
 
 template <bool kFma, bool kTurbulence>
 __attribute__((always_inline)) inline void octaveSpans(const Octave<float>& oct, Pass pass, float* acc, float* dst,
-                                                       const float* P, const float* Q, const float* R,
-                                                       const float* S) {
+                                                       const float* P, const float* Q, const float* R, const float* S) {
     switch (pass) {
-        case Pass::First: return octaveSpans<kFma, kTurbulence, Pass::First>(oct, acc, dst, P, Q, R, S);
-        case Pass::Middle: return octaveSpans<kFma, kTurbulence, Pass::Middle>(oct, acc, dst, P, Q, R, S);
-        case Pass::Last: return octaveSpans<kFma, kTurbulence, Pass::Last>(oct, acc, dst, P, Q, R, S);
-        case Pass::Only: return octaveSpans<kFma, kTurbulence, Pass::Only>(oct, acc, dst, P, Q, R, S);
+        case Pass::First:
+            return octaveSpans<kFma, kTurbulence, Pass::First>(oct, acc, dst, P, Q, R, S);
+        case Pass::Middle:
+            return octaveSpans<kFma, kTurbulence, Pass::Middle>(oct, acc, dst, P, Q, R, S);
+        case Pass::Last:
+            return octaveSpans<kFma, kTurbulence, Pass::Last>(oct, acc, dst, P, Q, R, S);
+        case Pass::Only:
+            return octaveSpans<kFma, kTurbulence, Pass::Only>(oct, acc, dst, P, Q, R, S);
     }
 }
 
@@ -406,8 +408,8 @@ __attribute__((always_inline)) inline void rowBodyFolded(const RowJob<float>& jo
         if (slot >= 0) {
             const RowBlend b{static_cast<float>(V[0]), static_cast<float>(V[1]), static_cast<float>(V[0] * yq[0]),
                              static_cast<float>(V[1] * yq[1])};
-            rowCoefficients<kFma>(oct.corners.data() + static_cast<std::size_t>(slot) * kCornerFields * nsp, nsp, b,
-                                  P, Q, R, S);
+            rowCoefficients<kFma>(oct.corners.data() + static_cast<std::size_t>(slot) * kCornerFields * nsp, nsp, b, P,
+                                  Q, R, S);
         } else {
             const SliceFold s = sliceFold(oct, job.z);
             const int Ys[2] = {fr.Y0, fr.Y1};
@@ -428,7 +430,8 @@ __attribute__((always_inline)) inline void rowBodyFolded(const RowJob<float>& jo
                 S[j] = static_cast<float>(sum[3]);
             }
         }
-        const Pass pass = count == 1 ? Pass::Only : (o == 0 ? Pass::First : (o + 1 == count ? Pass::Last : Pass::Middle));
+        const Pass pass =
+            count == 1 ? Pass::Only : (o == 0 ? Pass::First : (o + 1 == count ? Pass::Last : Pass::Middle));
         if (job.turbulence)
             octaveSpans<kFma, true>(oct, pass, acc, dst, P, Q, R, S);
         else
@@ -464,12 +467,12 @@ MUCOSA_CLONES void rowsFloatPlain(const RowJob<float>& job, float* out, int widt
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(__SANITIZE_ADDRESS__)
 #define MUCOSA_FMA_PATHS 1
-__attribute__((target("arch=x86-64-v3"))) void rowsFloatV3(const RowJob<float>& job, float* out, int width,
-                                                           int height, int y0, int y1) {
+__attribute__((target("arch=x86-64-v3"))) void rowsFloatV3(const RowJob<float>& job, float* out, int width, int height,
+                                                           int y0, int y1) {
     rowsFloatBody<true>(job, out, width, height, y0, y1);
 }
-__attribute__((target("arch=x86-64-v4"))) void rowsFloatV4(const RowJob<float>& job, float* out, int width,
-                                                           int height, int y0, int y1) {
+__attribute__((target("arch=x86-64-v4"))) void rowsFloatV4(const RowJob<float>& job, float* out, int width, int height,
+                                                           int y0, int y1) {
     rowsFloatBody<true>(job, out, width, height, y0, y1);
 }
 #endif
@@ -495,9 +498,12 @@ FloatIsa floatIsa() {
 void rowsFloat(const RowJob<float>& job, float* out, int width, int height, int y0, int y1) {
 #ifdef MUCOSA_FMA_PATHS
     switch (floatIsa()) {
-        case FloatIsa::V4: return rowsFloatV4(job, out, width, height, y0, y1);
-        case FloatIsa::V3: return rowsFloatV3(job, out, width, height, y0, y1);
-        case FloatIsa::Plain: break;
+        case FloatIsa::V4:
+            return rowsFloatV4(job, out, width, height, y0, y1);
+        case FloatIsa::V3:
+            return rowsFloatV3(job, out, width, height, y0, y1);
+        case FloatIsa::Plain:
+            break;
     }
 #endif
     rowsFloatPlain(job, out, width, height, y0, y1);
