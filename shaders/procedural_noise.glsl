@@ -186,11 +186,20 @@ FractalSample fractalNoise(vec3 q, float footprint, Procedural pr) {
     s.fadedVariance = 0.0f;
     float f = pr.frequency;
     float a = 1.0f;
-    for (int i = 0; i < kMaxOctaves; ++i) {
+    // With lacunarity >= 1 the octaves' frequencies never fall, so once an
+    // octave is faded out (or beyond the map's response) so are all finer
+    // ones: the loop stops there, and the second loop below adds what they
+    // would have added (their slope variance). Same values; but a SIMD
+    // rasteriser leaves the loop as soon as every pixel of a block has (distant
+    // walls), and a GPU as soon as a warp has.
+    bool monotone = pr.lacunarity >= 1.0f;
+    int i = 0;
+    for (; i < kMaxOctaves; ++i) {
         if (i >= MUCOSA_PR_OCTAVES(pr)) break;
         float weight = 1.0f;
         if (pr.antialias != 0) weight = 1.0f - smoothstep(kFadeStart, kFadeEnd, f * footprint);
         float slopeGain = mapSlopeResponse(f, pr.texels);
+        if (monotone && (weight <= 0.0f || slopeGain <= 0.0f)) break;
         if (weight > 0.0f && slopeGain > 0.0f) {
             vec4 n;
             if (MUCOSA_PR_SPACE(pr) == kSpaceUv) {
@@ -209,6 +218,13 @@ FractalSample fractalNoise(vec3 q, float footprint, Procedural pr) {
             s.h = s.h + weight * vec4(a * n.x, k * n.y, k * n.z, k * n.w);
         }
         s.fadedVariance = s.fadedVariance + (1.0f - weight * weight) * (a * f * slopeGain) * (a * f * slopeGain);
+        f = f * pr.lacunarity;
+        a = a * pr.gain;
+    }
+    for (; i < kMaxOctaves; ++i) {
+        if (i >= MUCOSA_PR_OCTAVES(pr)) break;
+        float k = a * f * mapSlopeResponse(f, pr.texels);
+        s.fadedVariance = s.fadedVariance + k * k;  // weight 0
         f = f * pr.lacunarity;
         a = a * pr.gain;
     }
