@@ -64,6 +64,10 @@ void requireMemory(std::uint64_t bytes, const std::string& what) {
     }
 }
 
+// Sanitizer builds take everything from operator new, so that AddressSanitizer
+// watches big buffers too.
+#if defined(__linux__) && defined(MADV_HUGEPAGE) && !defined(__SANITIZE_ADDRESS__)
+#define MUCOSA_MAP_LARGE 1
 namespace {
 
 constexpr std::size_t kHugePage = std::size_t{2} << 20;
@@ -73,9 +77,10 @@ std::size_t mappedBytes(std::size_t bytes) noexcept {
 }
 
 }  // namespace
+#endif
 
 void* allocateLarge(std::size_t bytes) {
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
+#ifdef MUCOSA_MAP_LARGE
     if (bytes >= kHugePage) {
         if (bytes > static_cast<std::size_t>(-1) - 2 * kHugePage) throw std::bad_alloc();
         // Map one huge page more than needed and trim to a 2 MiB boundary.
@@ -97,11 +102,13 @@ void* allocateLarge(std::size_t bytes) {
 
 void deallocateLarge(void* p, std::size_t bytes) noexcept {
     if (!p) return;
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
+#ifdef MUCOSA_MAP_LARGE
     if (bytes >= kHugePage) {
         munmap(p, mappedBytes(bytes));
         return;
     }
+#else
+    (void)bytes;
 #endif
     ::operator delete(p);
 }

@@ -26,6 +26,7 @@ std::string formatBytes(std::uint64_t bytes);
 // where the kernel offers them (Linux madvise mode), so a 64 MiB image costs
 // 32 page faults instead of 16 384; smaller ones come from operator new.
 // Mapped memory arrives zeroed. Throws std::bad_alloc when the system refuses.
+// (AddressSanitizer builds use operator new throughout, so ASan sees them.)
 void* allocateLarge(std::size_t bytes);
 void deallocateLarge(void* p, std::size_t bytes) noexcept;
 
