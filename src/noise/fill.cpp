@@ -13,7 +13,6 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <new>
 #include <thread>
 #include <type_traits>
 #include <vector>
@@ -23,6 +22,7 @@
 #include <tbb/task_arena.h>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/memory.hpp>
 #include <mucosa/core/parallel.hpp>
 
 #include "core/simd.hpp"
@@ -31,23 +31,10 @@ namespace mucosa::noise {
 
 namespace {
 
-// 64-byte aligned storage for the vector loops' arrays, so no load or store
-// straddles a cache line.
+// Aligned storage for the vector loops' arrays (LargeAllocator: at least 64
+// bytes), so no load or store straddles a cache line.
 template <class T>
-struct AlignedAllocator {
-    using value_type = T;
-    AlignedAllocator() = default;
-    template <class U>
-    AlignedAllocator(const AlignedAllocator<U>&) noexcept {}
-    T* allocate(std::size_t n) { return static_cast<T*>(::operator new (n * sizeof(T), std::align_val_t{64})); }
-    void deallocate(T* ptr, std::size_t) noexcept { ::operator delete (ptr, std::align_val_t{64}); }
-    template <class U>
-    bool operator==(const AlignedAllocator<U>&) const noexcept {
-        return true;
-    }
-};
-template <class T>
-using AlignedVector = std::vector<T, AlignedAllocator<T>>;
+using AlignedVector = std::vector<T, LargeAllocator<T>>;
 
 struct Span {
     int begin, end;  // columns [begin, end) share lattice cell X0

@@ -59,8 +59,9 @@ TEST(Core, LargeBuffersAreZeroedAlignedAndReleased) {
         image::ImageF copy = big;  // copies through the same allocator
         EXPECT_EQ(copy, big);
     }
-    image::Image8 small(3, 2, 1);  // below the threshold: operator new
+    image::Image8 small(3, 2, 1);  // below the threshold: operator new, cache-line aligned
     EXPECT_EQ(small.at(2, 1), 0);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(small.data()) % 64, 0u);
     std::vector<int, LargeAllocator<int>> v;
     for (int i = 0; i < 1'000'000; ++i) v.push_back(i);  // grows across the threshold
     EXPECT_EQ(v[999'999], 999'999);
