@@ -100,7 +100,7 @@ void* allocateLarge(std::size_t bytes) {
         return p;
     }
 #endif
-    return ::operator new(bytes, std::align_val_t{kSmallAlignment});
+    return ::operator new (bytes, std::align_val_t{kSmallAlignment});
 }
 
 void deallocateLarge(void* p, std::size_t bytes) noexcept {
@@ -113,7 +113,7 @@ void deallocateLarge(void* p, std::size_t bytes) noexcept {
 #else
     (void)bytes;
 #endif
-    ::operator delete(p, std::align_val_t{kSmallAlignment});
+    ::operator delete (p, std::align_val_t{kSmallAlignment});
 }
 
 }  // namespace mucosa
