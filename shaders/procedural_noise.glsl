@@ -5,8 +5,9 @@
 // Compiled twice like common_shading.glsl: as GLSL 3.30 (the renderer
 // prepends it) and as C++20 with glm (src/shading/glsl.hpp). The caller
 // provides int permAt(int i), the permutation of the noise module
-// (noise::Permutation, 0 <= i < 512); in GLSL it reads a uniform array, so the
-// procedural path needs no texture at all. Same lattice, hashes, fade,
+// (noise::Permutation, indices modulo 256), and int permPairAt(int i) =
+// permAt(i) | permAt(i + 1) << 8; in GLSL both read one uniform array (the
+// pairs), so the procedural path needs no texture at all. Same lattice, hashes, fade,
 // gradients and octave sums as src/noise (perlin.cpp, fractal.cpp): the GL
 // values agree with mucosa::noise to float precision (tests/render/
 // gpu_noise_test.cpp). Notation: docs/theory.md, "Procedural noise".
@@ -57,20 +58,12 @@ int noiseWrap(float cell, float period) {
 }
 
 // Improved noise at p with its gradient, vec4(n, dn/dx, dn/dy, dn/dz), given
-// p's cell (floor(p)) and the lattice indices of its corners.
-vec4 perlinNoiseGradientAt(vec3 p, vec3 cell, int X0, int Y0, int Z0, int X1, int Y1, int Z1) {
+// p's cell (floor(p)) and the hashes of its eight corners: hA at (0, 0, 0),
+// then x fastest, y, z (hH at (1, 1, 1)).
+vec4 perlinNoiseGradientHashed(vec3 p, vec3 cell, int hA, int hB, int hC, int hD, int hE, int hF, int hG, int hH) {
     float x = p.x - cell.x;
     float y = p.y - cell.y;
     float z = p.z - cell.z;
-    // The reference's hashes (Perlin 2002, with the periodic wrap of perlinPeriodic).
-    int A = permAt(X0) + Y0;
-    int B = permAt(X1) + Y0;
-    int A1 = permAt(X0) + Y1;
-    int B1 = permAt(X1) + Y1;
-    int hA = permAt(permAt(A) + Z0), hB = permAt(permAt(B) + Z0);
-    int hC = permAt(permAt(A1) + Z0), hD = permAt(permAt(B1) + Z0);
-    int hE = permAt(permAt(A) + Z1), hF = permAt(permAt(B) + Z1);
-    int hG = permAt(permAt(A1) + Z1), hH = permAt(permAt(B1) + Z1);
     vec3 gA = noiseGradientVector(hA), gB = noiseGradientVector(hB);
     vec3 gC = noiseGradientVector(hC), gD = noiseGradientVector(hD);
     vec3 gE = noiseGradientVector(hE), gF = noiseGradientVector(hF);
@@ -93,6 +86,46 @@ vec4 perlinNoiseGradientAt(vec3 p, vec3 cell, int X0, int Y0, int Z0, int X1, in
     return vec4(n, dx, dy, dz);
 }
 
+// The same, given the lattice indices of the corners (any periods): the
+// reference's hashes (Perlin 2002, with the periodic wrap of perlinPeriodic),
+// fourteen lookups.
+vec4 perlinNoiseGradientAt(vec3 p, vec3 cell, int X0, int Y0, int Z0, int X1, int Y1, int Z1) {
+    int A = permAt(X0) + Y0;
+    int B = permAt(X1) + Y0;
+    int A1 = permAt(X0) + Y1;
+    int B1 = permAt(X1) + Y1;
+    return perlinNoiseGradientHashed(p, cell, permAt(permAt(A) + Z0), permAt(permAt(B) + Z0),
+                                     permAt(permAt(A1) + Z0), permAt(permAt(B1) + Z0), permAt(permAt(A) + Z1),
+                                     permAt(permAt(B) + Z1), permAt(permAt(A1) + Z1), permAt(permAt(B1) + Z1));
+}
+
+// The same hashes in fewer lookups where the lattice lets neighbours share
+// one: permPairAt(i) is perm[i] | perm[i + 1] << 8 (indices modulo 256), so
+// where an index and its successor are both needed one lookup serves. That
+// holds along z when Z1 = Z0 + 1 modulo 256 (z unwrapped, period 256), along
+// y when Y1 = Y0 + 1 (yPaired; not where a periodic lattice wraps to 0), and
+// along x when X1 = X0 + 1, where X1 = 0 (a periodic wrap) reads perm[0].
+// Lookups: 7 (plain), 9 (periodic in x and y) instead of 14; on llvmpipe,
+// which gathers uniform-array elements lane by lane, they were half the cost
+// of an octave (bench_render). Needs X1 = X0 + 1 or 0 and Z1 = Z0 + 1 (mod 256).
+vec4 perlinNoiseGradientPaired(vec3 p, vec3 cell, int X0, int Y0, int Z0, int X1, int Y1, bool yPaired) {
+    int px = permPairAt(X0);
+    int pX0 = px & 255;
+    int pX1 = X1 == 0 ? permAt(0) : px >> 8;
+    int A = pX0 + Y0, B = pX1 + Y0;
+    int pa = permPairAt(A), pb = permPairAt(B);
+    int pA = pa & 255, pB = pb & 255;
+    int pA1 = pa >> 8, pB1 = pb >> 8;
+    if (!yPaired) {
+        pA1 = permAt(pX0 + Y1);
+        pB1 = permAt(pX1 + Y1);
+    }
+    int hAE = permPairAt(pA + Z0), hBF = permPairAt(pB + Z0);
+    int hCG = permPairAt(pA1 + Z0), hDH = permPairAt(pB1 + Z0);
+    return perlinNoiseGradientHashed(p, cell, hAE & 255, hBF & 255, hCG & 255, hDH & 255, hAE >> 8, hBF >> 8,
+                                     hCG >> 8, hDH >> 8);
+}
+
 // Improved noise at p on a lattice that wraps with the given periods (1..256
 // per axis; 256 = plain noise): noise::perlinPeriodicGradient.
 vec4 perlinNoiseGradient(vec3 p, vec3 period) {
@@ -106,15 +139,27 @@ vec4 perlinNoiseGradient(vec3 p, vec3 period) {
     return perlinNoiseGradientAt(p, cell, X0, Y0, Z0, X1, Y1, Z1);
 }
 
+// The same with period 256 along z (a tileable map's lattice: periodic in x
+// and y, plain along z): the same values in 9 lookups instead of 14.
+vec4 perlinNoiseGradientTiled(vec3 p, vec2 period) {
+    vec3 cell = floor(p);
+    int X0 = noiseWrap(cell.x, period.x);
+    int Y0 = noiseWrap(cell.y, period.y);
+    int Z0 = int(cell.z) & 255;
+    int X1 = X0 + 1 == int(period.x) ? 0 : X0 + 1;
+    int Y1 = Y0 + 1 == int(period.y) ? 0 : Y0 + 1;
+    return perlinNoiseGradientPaired(p, cell, X0, Y0, Z0, X1, Y1, false);
+}
+
 // Plain improved noise (noise::perlinGradient), the same values as period 256
-// for less work: Perlin's floor(x) & 255, and cell + 1 unreduced as the
-// reference indexes its doubled table (permAt wraps).
+// for less work: Perlin's floor(x) & 255, cell + 1 unreduced as the
+// reference indexes its doubled table (the lookups wrap), 7 lookups.
 vec4 perlinNoiseGradient(vec3 p) {
     vec3 cell = floor(p);
     int X0 = int(cell.x) & 255;
     int Y0 = int(cell.y) & 255;
     int Z0 = int(cell.z) & 255;
-    return perlinNoiseGradientAt(p, cell, X0, Y0, Z0, X0 + 1, Y0 + 1, Z0 + 1);
+    return perlinNoiseGradientPaired(p, cell, X0, Y0, Z0, X0 + 1, Y0 + 1, true);
 }
 
 // Fractal-sum settings: the reflectance map's parameters (reflectance::MapParams,
@@ -205,7 +250,7 @@ FractalSample fractalNoise(vec3 q, float footprint, Procedural pr) {
             if (MUCOSA_PR_SPACE(pr) == kSpaceUv) {
                 if (MUCOSA_PR_TILEABLE(pr) != 0) {
                     float per = f > 256.0f ? 256.0f : floor(f);
-                    n = perlinNoiseGradient(vec3(f * q.x, f * q.y, pr.z), vec3(per, per, 256.0f));
+                    n = perlinNoiseGradientTiled(vec3(f * q.x, f * q.y, pr.z), vec2(per, per));
                 } else {
                     n = perlinNoiseGradient(vec3(f * q.x, f * q.y, pr.z));
                 }

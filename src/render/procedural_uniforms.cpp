@@ -21,15 +21,19 @@ constexpr std::array<const char*, 12> kNames = {
 // per-variant programs of renderer.cpp took it to 4.5 ms). 256 uniform
 // components even if a driver pads each element to a vec4 (1024): within
 // every desktop GPU's GL_MAX_FRAGMENT_UNIFORM_COMPONENTS (>= 4096).
+// Each element holds a pair, perm[i] | perm[i + 1] << 8: the noise reads an
+// index and its successor in one lookup where the lattice allows
+// (perlinNoiseGradientPaired: 7 or 9 lookups per octave instead of 14).
 std::string_view permutationPrelude() noexcept {
     return "uniform int uPerm[256];\n"
-           "int permAt(int i) { return uPerm[i & 255]; }\n";
+           "int permPairAt(int i) { return uPerm[i & 255]; }\n"
+           "int permAt(int i) { return uPerm[i & 255] & 255; }\n";
 }
 
 std::array<GLint, 256> permutationUniform(std::uint64_t seed) {
     const noise::Permutation perm = noise::Permutation::fromSeed(seed);
     std::array<GLint, 256> t{};
-    for (int i = 0; i < 256; ++i) t[static_cast<std::size_t>(i)] = perm[i];
+    for (int i = 0; i < 256; ++i) t[static_cast<std::size_t>(i)] = perm[i] | perm[(i + 1) & 255] << 8;
     return t;
 }
 

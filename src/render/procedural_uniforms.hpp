@@ -12,10 +12,11 @@
 
 namespace mucosa::render {
 
-// Declares uPerm (the 256-entry permutation, an int array) and permAt.
+// Declares uPerm (the 256-entry permutation as pairs perm[i] | perm[i + 1] << 8,
+// an int array), permAt and permPairAt.
 std::string_view permutationPrelude() noexcept;
 
-// The permutation of `seed` as uPerm's 256 values.
+// The permutation of `seed` as uPerm's 256 values (pairs).
 std::array<GLint, 256> permutationUniform(std::uint64_t seed);
 
 // Uniform locations of uProcedural.* and uPerm in one program.

@@ -2,6 +2,7 @@
 // noise module at the same points: |diff| <= 1e-4 (issue 5).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -56,14 +57,23 @@ TEST(GpuNoise, ImprovedNoiseOnTheGpuEqualsTheReference) {
 
 TEST(GpuNoise, PeriodicLatticeOnTheGpuEqualsPerlinPeriodic) {
     test::glContext();
-    render::GpuNoiseRequest req;
-    req.period = {16, 5, 256};
-    const auto points = randomPoints(20000, -64.0f, 64.0f, 9);
-    const auto gpu = render::evaluateNoiseOnGpu(req, points);
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const auto& p = points[i];
-        const double r = noise::perlinPeriodic(noise::Permutation::reference(), p[0], p[1], p[2], 16, 5, 256);
-        ASSERT_NEAR(gpu[i][0], r, 1e-4) << p[0] << " " << p[1] << " " << p[2];
+    // z period 256: the tileable maps' lattice (paired lookups, wraps to 0
+    // in x and y, period 1 included); 7 along z: the general path.
+    for (const std::array<int, 3> period :
+         {std::array<int, 3>{16, 5, 256}, {1, 256, 256}, {255, 3, 256}, {16, 5, 7}}) {
+        render::GpuNoiseRequest req;
+        req.period = period;
+        const auto points = randomPoints(20000, -64.0f, 64.0f, 9);
+        const auto gpu = render::evaluateNoiseOnGpu(req, points);
+        for (std::size_t i = 0; i < points.size(); ++i) {
+            const auto& p = points[i];
+            const noise::NoiseGradient r = noise::perlinPeriodicGradient(noise::Permutation::reference(), p[0], p[1],
+                                                                         p[2], period[0], period[1], period[2]);
+            ASSERT_NEAR(gpu[i][0], r.value, 1e-4) << p[0] << " " << p[1] << " " << p[2];
+            ASSERT_NEAR(gpu[i][1], r.dx, 1e-3);
+            ASSERT_NEAR(gpu[i][2], r.dy, 1e-3);
+            ASSERT_NEAR(gpu[i][3], r.dz, 1e-3);
+        }
     }
 }
 

@@ -60,6 +60,28 @@ TEST(ProceduralNoise, PeriodicLatticeMatchesPerlinPeriodic) {
     }
 }
 
+TEST(ProceduralNoise, PairedLookupsGiveTheSameNoise) {
+    // The tileable maps' lattice (periodic in x and y, 256 along z) through
+    // perlinNoiseGradientTiled's paired lookups: bit for bit the general
+    // periodic path, wraps to 0 and period 1 included.
+    for (std::uint64_t seed : {0ull, 5ull}) {
+        const noise::Permutation perm = noise::Permutation::fromSeed(seed);
+        const PermutationScope scope(perm.table().data());
+        std::mt19937_64 rng(seed + 11);
+        std::uniform_real_distribution<float> d(-300.0f, 300.0f);
+        for (const glm::vec2 period : {glm::vec2(16.0f, 5.0f), glm::vec2(1.0f, 256.0f), glm::vec2(255.0f, 2.0f)})
+            for (int i = 0; i < 20000; ++i) {
+                const glm::vec3 p(d(rng), d(rng), d(rng));
+                const glm::vec4 tiled = perlinNoiseGradientTiled(p, period);
+                const glm::vec4 general = perlinNoiseGradient(p, glm::vec3(period.x, period.y, 256.0f));
+                ASSERT_EQ(tiled.x, general.x) << p.x << " " << p.y << " " << p.z;
+                ASSERT_EQ(tiled.y, general.y);
+                ASSERT_EQ(tiled.z, general.z);
+                ASSERT_EQ(tiled.w, general.w);
+            }
+    }
+}
+
 // The settings the renderer would pack for these noise parameters: unit
 // strength and scale, no anti-aliasing, no map response.
 Procedural settings(const noise::FractalParams& n, int space) {
