@@ -288,14 +288,19 @@ struct Renderer::Impl {
     bool meshHasUvs = false;
     std::uint64_t permutationSeed = ~std::uint64_t{0};  // seed of `permutation`
     std::array<GLint, 256> permutation{};
+    // The map modes that light per pixel, compiled also for a light at the
+    // eye (MUCOSA_HEADLIGHT, common_shading.glsl).
+    std::array<Program, shading::kModeCount> headlight;
     // The procedural mode, specialised per (octaves, space, tileable,
-    // turbulence): compiled on first use (procedural_noise.glsl).
-    std::map<std::array<int, 4>, Program> procedural;
+    // turbulence, headlight): compiled on first use (procedural_noise.glsl).
+    std::map<std::array<int, 5>, Program> procedural;
     float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
 };
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
     for (int m = 0; m < shading::kModeCount; ++m) impl_->programs[static_cast<std::size_t>(m)] = link(m);
+    for (const shading::Mode m : {shading::Mode::Noise, shading::Mode::BrdfNoise})
+        impl_->headlight[static_cast<std::size_t>(m)] = link(static_cast<int>(m), "#define MUCOSA_HEADLIGHT 1\n");
     glGenVertexArrays(1, &impl_->vao);
     glGenBuffers(1, &impl_->vbo);
     glGenBuffers(1, &impl_->ibo);
@@ -307,6 +312,7 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
 
 Renderer::~Renderer() {
     for (Program& p : impl_->programs) glDeleteProgram(p.id);
+    for (Program& p : impl_->headlight) glDeleteProgram(p.id);
     for (auto& [key, p] : impl_->procedural) glDeleteProgram(p.id);
     glDeleteVertexArrays(1, &impl_->vao);
     glDeleteBuffers(1, &impl_->vbo);
@@ -387,10 +393,18 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     using namespace shading::glsl;
     const int mode = static_cast<int>(frame.mode);
     Program* program = &impl_->programs[static_cast<std::size_t>(mode)];
+    // The light exactly at the eye: the modes that light per pixel read V for
+    // L (the same values, fewer varyings; common_shading.glsl).
+    const bool headlight =
+        frame.light == frame.eye && (frame.mode == shading::Mode::Noise || frame.mode == shading::Mode::BrdfNoise ||
+                                     frame.mode == shading::Mode::Procedural);
+    const std::string headlightDefine = headlight ? "#define MUCOSA_HEADLIGHT 1\n" : "";
+    if (headlight && frame.mode != shading::Mode::Procedural)
+        program = &impl_->headlight[static_cast<std::size_t>(mode)];
     if (frame.mode == shading::Mode::Procedural) {
         const noise::FractalParams& n = frame.procedural.noise;
-        const std::array<int, 4> key = {n.octaves, frame.procedural.space == shading::NoiseSpace::Object ? 1 : 0,
-                                        n.tileable ? 1 : 0, n.turbulence ? 1 : 0};
+        const std::array<int, 5> key = {n.octaves, frame.procedural.space == shading::NoiseSpace::Object ? 1 : 0,
+                                        n.tileable ? 1 : 0, n.turbulence ? 1 : 0, headlight ? 1 : 0};
         auto it = impl_->procedural.find(key);
         if (it == impl_->procedural.end())
             it = impl_->procedural
@@ -398,7 +412,8 @@ void Renderer::draw(const shading::FrameSetup& frame) {
                                                           "#define MUCOSA_PROCEDURAL_SPACE {}\n"
                                                           "#define MUCOSA_PROCEDURAL_TILEABLE {}\n"
                                                           "#define MUCOSA_PROCEDURAL_TURBULENCE {}\n",
-                                                          key[0], key[1], key[2], key[3])))
+                                                          key[0], key[1], key[2], key[3]) +
+                                                  headlightDefine))
                      .first;
         program = &it->second;
     }

@@ -153,5 +153,28 @@ TEST(RenderParity, ProceduralNoiseMatchesReferenceInBothSpacesWithAndWithoutAnti
             }
 }
 
+TEST(RenderParity, HeadlightProgramsMatchReference) {
+    // A tip light with no offset (the default scene's) puts the light exactly
+    // at the eye, and the renderer switches the per-pixel modes to programs
+    // that read V for L (MUCOSA_HEADLIGHT): the same pixels as the reference.
+    const mesh::Mesh sphere = render::makeSphere(10.0f, 96, 48);
+    const image::Image8 map = testMap(256, "serosa");
+    const image::Image8 diffuse = testDiffuse(64);
+    for (const Mode mode : {Mode::Noise, Mode::BrdfNoise, Mode::Procedural, Mode::VertexPhong})
+        for (shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object}) {
+            if (mode != Mode::Procedural && space == shading::NoiseSpace::Object) continue;
+            const camera::Pose pose = camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1});
+            shading::FrameSetup f = frameFor(pose, 640, 480, mode);
+            f.light = camera::lightPosition(pose, camera::TipLight{});
+            ASSERT_EQ(f.light, f.eye);
+            f.procedural.space = space;
+            f.params.set(shading::Param::NoiseScale, 12.0f);
+            const Parity p = renderBoth(sphere, f, map, diffuse);
+            expectParity(
+                p, fmt::format("parity_headlight_{}{}", shading::modeName(mode),
+                               mode == Mode::Procedural && space == shading::NoiseSpace::Object ? "_object" : ""));
+        }
+}
+
 }  // namespace
 }  // namespace mucosa
