@@ -1,5 +1,7 @@
 // bench_render [scene.json] [--frames N] [--sizes 640x480,1280x1024] [--modes noise,vertex-phong,...]
 //              [--octaves 0,1,2,4,6,8]  (0: the map path, timed in the same rounds)
+//              [--light-offset X,Y,Z]  (mm in the camera's frame; default: the scene's, the default
+//                                       scene's is 0: the light at the eye, the renderer's headlight programs)
 // Frames per second of each shading mode, headless: every frame is drawn and
 // finished with glFinish (no read-back), along the scene's camera path, after
 // a warm-up. Shader compilation and texture upload happen before timing.
@@ -54,6 +56,7 @@ int main(int argc, char** argv) try {
     std::vector<std::string> sizes = {"640x480", "1280x1024"};
     std::vector<std::string> modes = {"noise", "procedural", "vertex-phong", "multitexture", "diffuse"};
     std::vector<std::string> octaveCounts = {"0", "1", "2", "4", "6", "8"};  // 0: the map, for the ratios
+    std::vector<std::string> lightOffset;                                     // empty: the scene's
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--frames" && i + 1 < argc)
@@ -64,13 +67,21 @@ int main(int argc, char** argv) try {
             modes = split(argv[++i]);
         else if (a == "--octaves" && i + 1 < argc)
             octaveCounts = split(argv[++i]);
+        else if (a == "--light-offset" && i + 1 < argc)
+            lightOffset = split(argv[++i]);
         else if (a == "--help") {
-            std::puts("bench_render [scene.json] [--frames N] [--sizes WxH,...] [--modes m,...] [--octaves k,...]");
+            std::puts(
+                "bench_render [scene.json] [--frames N] [--sizes WxH,...] [--modes m,...] [--octaves k,...] "
+                "[--light-offset X,Y,Z]");
             return 0;
         } else
             sceneFile = a;
     }
-    const render::Scene scene = sceneFile.empty() ? render::defaultScene() : render::loadScene(sceneFile);
+    render::Scene scene = sceneFile.empty() ? render::defaultScene() : render::loadScene(sceneFile);
+    if (!lightOffset.empty()) {
+        if (lightOffset.size() != 3) throw InputError("--light-offset", "", "needs X,Y,Z in mm");
+        for (std::size_t k = 0; k < 3; ++k) scene.light.offset[k] = std::stof(lightOffset[k]);
+    }
     const render::SceneAssets assets = render::loadAssets(scene);
     for (const auto& n : assets.notes) std::printf("%s\n", n.c_str());
     const std::vector<camera::Pose> poses = render::cameraPoses(scene, assets, frames);
@@ -137,8 +148,11 @@ int main(int argc, char** argv) try {
     std::printf("GL_RENDERER: %s\n", rendererName.c_str());
     std::printf(
         "mesh: %zu triangles (%zu drawn per frame on average after frustum culling), %d frames per "
-        "measurement along the camera path, best of %d rounds\n\n",
+        "measurement along the camera path, best of %d rounds\n",
         assets.mesh.triangleCount(), drawnTriangles, frames, kRounds);
+    std::printf("light: tip light, offset (%g, %g, %g) mm%s\n\n", scene.light.offset[0], scene.light.offset[1],
+                scene.light.offset[2],
+                scene.light.offset == camera::Vec3{0, 0, 0} ? " (at the eye: headlight programs)" : "");
     std::printf("| mode |");
     for (const auto& s : sizes) std::printf(" %s fps |", s.c_str());
     std::printf("\n|---|");
