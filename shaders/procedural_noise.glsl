@@ -151,6 +151,28 @@ vec4 perlinNoiseGradientTiled(vec3 p, vec2 period) {
     return perlinNoiseGradientPaired(p, cell, X0, Y0, Z0, X1, Y1, false);
 }
 
+// A z slice (p.z the same for every point, as in a map's texture-space sum):
+// noise periodic in x and y (periods 1..256; 256 = plain) and plain along z,
+// through permSlicePairAt(j, Z0) = permPairAt(permAt(j) + Z0), which the
+// renderer tabulates for the frame's Z0 (one uniform array of 256 pairs), so
+// the last two hash levels are one lookup: 5 per octave instead of 9 or 7.
+// The same hashes, so the same values as perlinNoiseGradient.
+vec4 perlinNoiseGradientSlice(vec3 p, vec2 period) {
+    vec3 cell = floor(p);
+    int X0 = noiseWrap(cell.x, period.x);
+    int Y0 = noiseWrap(cell.y, period.y);
+    int Z0 = int(cell.z) & 255;
+    int X1 = X0 + 1 == int(period.x) ? 0 : X0 + 1;
+    int Y1 = Y0 + 1 == int(period.y) ? 0 : Y0 + 1;
+    int px = permPairAt(X0);
+    int pX0 = px & 255;
+    int pX1 = X1 == 0 ? permAt(0) : px >> 8;
+    int hAE = permSlicePairAt(pX0 + Y0, Z0), hBF = permSlicePairAt(pX1 + Y0, Z0);
+    int hCG = permSlicePairAt(pX0 + Y1, Z0), hDH = permSlicePairAt(pX1 + Y1, Z0);
+    return perlinNoiseGradientHashed(p, cell, hAE & 255, hBF & 255, hCG & 255, hDH & 255, hAE >> 8, hBF >> 8,
+                                     hCG >> 8, hDH >> 8);
+}
+
 // Plain improved noise (noise::perlinGradient), the same values as period 256
 // for less work: Perlin's floor(x) & 255, cell + 1 unreduced as the
 // reference indexes its doubled table (the lookups wrap), 7 lookups.
@@ -248,12 +270,9 @@ FractalSample fractalNoise(vec3 q, float footprint, Procedural pr) {
         if (weight > 0.0f && slopeGain > 0.0f) {
             vec4 n;
             if (MUCOSA_PR_SPACE(pr) == kSpaceUv) {
-                if (MUCOSA_PR_TILEABLE(pr) != 0) {
-                    float per = f > 256.0f ? 256.0f : floor(f);
-                    n = perlinNoiseGradientTiled(vec3(f * q.x, f * q.y, pr.z), vec2(per, per));
-                } else {
-                    n = perlinNoiseGradient(vec3(f * q.x, f * q.y, pr.z));
-                }
+                float per = 256.0f;
+                if (MUCOSA_PR_TILEABLE(pr) != 0) per = f > 256.0f ? 256.0f : floor(f);
+                n = perlinNoiseGradientSlice(vec3(f * q.x, f * q.y, pr.z), vec2(per, per));
                 n.w = 0.0f;  // the slice z is fixed
             } else {
                 n = perlinNoiseGradient(q * f);

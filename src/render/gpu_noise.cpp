@@ -112,7 +112,7 @@ std::vector<std::array<float, 4>> evaluateNoiseOnGpu(const GpuNoiseRequest& requ
         frame.specularAA = false;
         const ProceduralUniforms uniforms(program);
         uniforms.set(frame);
-        uniforms.setPermutation(permutationUniform(request.params.seed));
+        uniforms.setPermutation(permutationUniforms(request.params.seed, request.params.z));
         glGenVertexArrays(1, &vao);
         glBindVertexArray(vao);
         glDrawArrays(GL_TRIANGLES, 0, 3);

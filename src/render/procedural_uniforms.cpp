@@ -1,5 +1,7 @@
 #include "render/procedural_uniforms.hpp"
 
+#include <cmath>
+
 #include <mucosa/noise/perlin.hpp>
 
 #include "shading/glsl.hpp"
@@ -24,22 +26,36 @@ constexpr std::array<const char*, 12> kNames = {
 // Each element holds a pair, perm[i] | perm[i + 1] << 8: the noise reads an
 // index and its successor in one lookup where the lattice allows
 // (perlinNoiseGradientPaired: 7 or 9 lookups per octave instead of 14).
+// uPermSlice composes the last two hash levels for the frame's z slice (the
+// same z for every octave of a texture-space sum), so such an octave needs 5
+// lookups, one level deep after the first: the renderer keeps it in step with
+// uProcedural.z (and the tests check the pictures against the reference).
 std::string_view permutationPrelude() noexcept {
     return "uniform int uPerm[256];\n"
+           "uniform int uPermSlice[256];\n"
            "int permPairAt(int i) { return uPerm[i & 255]; }\n"
-           "int permAt(int i) { return uPerm[i & 255] & 255; }\n";
+           "int permAt(int i) { return uPerm[i & 255] & 255; }\n"
+           "int permSlicePairAt(int j, int Z0) { return uPermSlice[j & 255]; }\n";
 }
 
-std::array<GLint, 256> permutationUniform(std::uint64_t seed) {
+PermutationTables permutationUniforms(std::uint64_t seed, double z) {
     const noise::Permutation perm = noise::Permutation::fromSeed(seed);
-    std::array<GLint, 256> t{};
-    for (int i = 0; i < 256; ++i) t[static_cast<std::size_t>(i)] = perm[i] | perm[(i + 1) & 255] << 8;
+    PermutationTables t;
+    t.seed = seed;
+    t.sliceZ0 = static_cast<int>(std::floor(static_cast<float>(z))) & 255;
+    for (int i = 0; i < 256; ++i) {
+        const auto k = static_cast<std::size_t>(i);
+        t.pairs[k] = perm[i] | perm[(i + 1) & 255] << 8;
+        const int a = perm[i] + t.sliceZ0;
+        t.slice[k] = perm[a & 255] | perm[(a + 1) & 255] << 8;
+    }
     return t;
 }
 
 ProceduralUniforms::ProceduralUniforms(GLuint program) {
     for (std::size_t i = 0; i < kNames.size(); ++i) loc_[i] = glGetUniformLocation(program, kNames[i]);
     perm_ = glGetUniformLocation(program, "uPerm");
+    slice_ = glGetUniformLocation(program, "uPermSlice");
 }
 
 void ProceduralUniforms::set(const shading::FrameSetup& frame) const {
@@ -58,8 +74,9 @@ void ProceduralUniforms::set(const shading::FrameSetup& frame) const {
     glUniform1f(loc_[11], p.texels);
 }
 
-void ProceduralUniforms::setPermutation(const std::array<GLint, 256>& table) const {
-    glUniform1iv(perm_, 256, table.data());
+void ProceduralUniforms::setPermutation(const PermutationTables& tables) const {
+    glUniform1iv(perm_, 256, tables.pairs.data());
+    glUniform1iv(slice_, 256, tables.slice.data());
 }
 
 }  // namespace mucosa::render

@@ -13,11 +13,21 @@
 namespace mucosa::render {
 
 // Declares uPerm (the 256-entry permutation as pairs perm[i] | perm[i + 1] << 8,
-// an int array), permAt and permPairAt.
+// an int array), uPermSlice (the hashes of one z slice, below), permAt,
+// permPairAt and permSlicePairAt.
 std::string_view permutationPrelude() noexcept;
 
-// The permutation of `seed` as uPerm's 256 values (pairs).
-std::array<GLint, 256> permutationUniform(std::uint64_t seed);
+// The uniform tables of a permutation: `pairs` for uPerm, and `slice` for
+// uPermSlice: perm[perm[j] + Z0] | perm[perm[j] + Z0 + 1] << 8 with
+// Z0 = floor(z) mod 256, the last two hash levels of the z slice that a
+// texture-space fractal sum samples (procedural_noise.glsl).
+struct PermutationTables {
+    std::uint64_t seed = 0;
+    int sliceZ0 = 0;
+    std::array<GLint, 256> pairs{};
+    std::array<GLint, 256> slice{};
+};
+PermutationTables permutationUniforms(std::uint64_t seed, double z);
 
 // Uniform locations of uProcedural.* and uPerm in one program.
 class ProceduralUniforms {
@@ -26,11 +36,11 @@ public:
     explicit ProceduralUniforms(GLuint program);
     // Every field of uProcedural from the frame (the program must be in use).
     void set(const shading::FrameSetup& frame) const;
-    void setPermutation(const std::array<GLint, 256>& table) const;
+    void setPermutation(const PermutationTables& tables) const;
 
 private:
     std::array<GLint, 12> loc_{};
-    GLint perm_ = -1;
+    GLint perm_ = -1, slice_ = -1;
 };
 
 }  // namespace mucosa::render

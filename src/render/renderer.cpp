@@ -29,7 +29,7 @@ struct Program {
     // Uniform locations, in the order of kUniformNames.
     std::vector<GLint> loc;
     ProceduralUniforms procedural;
-    std::uint64_t permutationTag = 0;  // seed + 1 of the table in uPerm; 0: none yet
+    std::uint64_t permutationVersion = 0;  // Impl's version of the tables in uPerm, uPermSlice; 0: none yet
 };
 
 constexpr std::array<const char*, 25> kUniformNames = {"uFrame.viewProj",
@@ -286,8 +286,10 @@ struct Renderer::Impl {
     std::size_t lastDrawnTriangles = 0;
     std::array<Texture, 3> textures;
     bool meshHasUvs = false;
-    std::uint64_t permutationSeed = ~std::uint64_t{0};  // seed of `permutation`
-    std::array<GLint, 256> permutation{};
+    // The procedural permutation tables of the last seed and z slice, and a
+    // version that changes with them.
+    PermutationTables permutation;
+    std::uint64_t permutationVersion = 0;
     // The map modes that light per pixel, compiled also for a light at the
     // eye (MUCOSA_HEADLIGHT, common_shading.glsl).
     std::array<Program, shading::kModeCount> headlight;
@@ -475,15 +477,16 @@ void Renderer::draw(const shading::FrameSetup& frame) {
                 f.diffuseUvTransform.w);
     p.procedural.set(frame);
     if (frame.mode == shading::Mode::Procedural) {
-        const std::uint64_t seed = frame.procedural.noise.seed;
-        if (impl_->permutationSeed != seed) {
-            impl_->permutation = permutationUniform(seed);
-            impl_->permutationSeed = seed;
+        const noise::FractalParams& n = frame.procedural.noise;
+        const int z0 = static_cast<int>(std::floor(static_cast<float>(n.z))) & 255;
+        if (impl_->permutationVersion == 0 || impl_->permutation.seed != n.seed || impl_->permutation.sliceZ0 != z0) {
+            impl_->permutation = permutationUniforms(n.seed, n.z);
+            ++impl_->permutationVersion;
         }
-        // Uniform values live in the program: upload when this program last saw another table.
-        if (p.permutationTag != seed + 1) {
+        // Uniform values live in the program: upload when this program last saw other tables.
+        if (p.permutationVersion != impl_->permutationVersion) {
             p.procedural.setPermutation(impl_->permutation);
-            p.permutationTag = seed + 1;
+            p.permutationVersion = impl_->permutationVersion;
         }
     }
     for (GLuint unit = 0; unit < 3; ++unit) {

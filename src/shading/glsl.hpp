@@ -19,14 +19,18 @@ using namespace glm;
 #pragma GCC diagnostic ignored "-Wunused-function"
 #pragma GCC diagnostic ignored "-Wunused-variable"
 #endif
-// The permutation procedural_noise.glsl reads through permAt and permPairAt
-// (in GLSL a uniform array of pairs): set for the current thread by PermutationScope.
+// The permutation procedural_noise.glsl reads through permAt, permPairAt and
+// permSlicePairAt (in GLSL uniform arrays): set for the current thread by PermutationScope.
 inline thread_local const std::uint8_t* tPermutation = nullptr;
 inline int permAt(int i) {
     return tPermutation[i & 255];
 }
 inline int permPairAt(int i) {
     return tPermutation[i & 255] | tPermutation[(i + 1) & 255] << 8;
+}
+// In GLSL a table made for the frame's slice (render::permutationUniforms).
+inline int permSlicePairAt(int j, int Z0) {
+    return permPairAt(permAt(j) + Z0);
 }
 // procedural_noise.glsl first: common_shading.glsl uses its Procedural struct.
 #include "../../shaders/procedural_noise.glsl"

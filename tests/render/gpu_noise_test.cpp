@@ -105,6 +105,23 @@ TEST(GpuNoise, FractalSumsOnTheGpuEqualTheMapAndTheSolidSums) {
         EXPECT_LE(worst, 1e-4) << preset;
         EXPECT_LE(worstSolid, 1e-4) << preset;
     }
+    // Other z slices (the texture-space sum reads a table made for its slice),
+    // tileable and not.
+    for (const double z : {37.25, -300.5, 255.75})
+        for (const bool tileable : {true, false}) {
+            render::GpuNoiseRequest uv;
+            uv.function = GpuNoiseFunction::FractalUv;
+            uv.params = reflectance::findPreset("bronchial").params.noise;
+            uv.params.z = z;
+            uv.params.tileable = tileable;
+            uv.params.seed = 9;
+            const noise::Permutation perm = noise::Permutation::fromSeed(uv.params.seed);
+            const auto points = randomPoints(5000, 0.0f, 1.0f, 23);
+            const auto gpu = render::evaluateNoiseOnGpu(uv, points);
+            for (std::size_t i = 0; i < points.size(); ++i)
+                ASSERT_NEAR(gpu[i][0], noise::fractalGradient(uv.params, perm, points[i][0], points[i][1]).value, 1e-4)
+                    << "z " << z << (tileable ? " tileable" : " plain");
+        }
 }
 
 }  // namespace

@@ -143,6 +143,7 @@ TEST(RenderParity, ProceduralNoiseMatchesReferenceInBothSpacesWithAndWithoutAnti
                 const reflectance::MapParams mp = reflectance::findPreset(preset).params;
                 f.procedural.noise = mp.noise;
                 f.procedural.noise.seed = 5;
+                f.procedural.noise.z += 41.0;  // a slice beyond the first lattice layer (uPermSlice)
                 f.procedural.strength = static_cast<float>(mp.strength);
                 f.procedural.space = space;
                 f.specularAA = aa;

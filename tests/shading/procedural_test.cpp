@@ -62,8 +62,9 @@ TEST(ProceduralNoise, PeriodicLatticeMatchesPerlinPeriodic) {
 
 TEST(ProceduralNoise, PairedLookupsGiveTheSameNoise) {
     // The tileable maps' lattice (periodic in x and y, 256 along z) through
-    // perlinNoiseGradientTiled's paired lookups: bit for bit the general
-    // periodic path, wraps to 0 and period 1 included.
+    // perlinNoiseGradientTiled's paired lookups and perlinNoiseGradientSlice's
+    // composed slice table: bit for bit the general periodic path, wraps to 0
+    // and period 1 included, z from -300 to 300.
     for (std::uint64_t seed : {0ull, 5ull}) {
         const noise::Permutation perm = noise::Permutation::fromSeed(seed);
         const PermutationScope scope(perm.table().data());
@@ -78,6 +79,19 @@ TEST(ProceduralNoise, PairedLookupsGiveTheSameNoise) {
                 ASSERT_EQ(tiled.y, general.y);
                 ASSERT_EQ(tiled.z, general.z);
                 ASSERT_EQ(tiled.w, general.w);
+                // A z slice through the composed table (the texture-space
+                // fractal's path), periodic and plain.
+                const glm::vec4 slice = perlinNoiseGradientSlice(p, period);
+                ASSERT_EQ(slice.x, general.x) << p.x << " " << p.y << " " << p.z;
+                ASSERT_EQ(slice.y, general.y);
+                ASSERT_EQ(slice.z, general.z);
+                ASSERT_EQ(slice.w, general.w);
+                const glm::vec4 plainSlice = perlinNoiseGradientSlice(p, glm::vec2(256.0f));
+                const glm::vec4 plain = perlinNoiseGradient(p);
+                ASSERT_EQ(plainSlice.x, plain.x);
+                ASSERT_EQ(plainSlice.y, plain.y);
+                ASSERT_EQ(plainSlice.z, plain.z);
+                ASSERT_EQ(plainSlice.w, plain.w);
             }
     }
 }
