@@ -38,11 +38,15 @@ std::string_view permutationPrelude() noexcept {
            "int permSlicePairAt(int j, int Z0) { return uPermSlice[j & 255]; }\n";
 }
 
+int permutationSliceZ0(double z) noexcept {
+    return static_cast<int>(std::floor(static_cast<float>(z))) & 255;
+}
+
 PermutationTables permutationUniforms(std::uint64_t seed, double z) {
     const noise::Permutation perm = noise::Permutation::fromSeed(seed);
     PermutationTables t;
     t.seed = seed;
-    t.sliceZ0 = static_cast<int>(std::floor(static_cast<float>(z))) & 255;
+    t.sliceZ0 = permutationSliceZ0(z);
     for (int i = 0; i < 256; ++i) {
         const auto k = static_cast<std::size_t>(i);
         t.pairs[k] = perm[i] | perm[(i + 1) & 255] << 8;

@@ -28,6 +28,8 @@ struct PermutationTables {
     std::array<GLint, 256> slice{};
 };
 PermutationTables permutationUniforms(std::uint64_t seed, double z);
+// Z0 of the slice at z, as the shader finds it: floor(float(z)) mod 256.
+int permutationSliceZ0(double z) noexcept;
 
 // Uniform locations of uProcedural.* and uPerm in one program.
 class ProceduralUniforms {

@@ -478,7 +478,7 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     p.procedural.set(frame);
     if (frame.mode == shading::Mode::Procedural) {
         const noise::FractalParams& n = frame.procedural.noise;
-        const int z0 = static_cast<int>(std::floor(static_cast<float>(n.z))) & 255;
+        const int z0 = permutationSliceZ0(n.z);
         if (impl_->permutationVersion == 0 || impl_->permutation.seed != n.seed || impl_->permutation.sliceZ0 != z0) {
             impl_->permutation = permutationUniforms(n.seed, n.z);
             ++impl_->permutationVersion;
