@@ -14,13 +14,14 @@ const int kModeNoise = 0;          // the paper's method: per-pixel specular fro
 const int kModeVertexPhong = 1;    // baseline 1: per-vertex Phong, Gouraud-interpolated
 const int kModeMultitexture = 2;   // baseline 2: per-vertex light x texture + sphere-mapped highlight texture
 const int kModeDiffuse = 3;        // no specular (the paper's Category 3)
-const int kModeNormals = 4;        // debug: perturbed normal in world space, 0.5 N + 0.5
+const int kModeNormals = 4;        // debug: the map's perturbed normal in world space, 0.5 N + 0.5
 const int kModeTangents = 5;       // debug: tangent T in world space, 0.5 T + 0.5
 const int kModeUv = 6;             // debug: fract(u), fract(v)
 const int kModeDepth = 7;          // debug: 1 - r, r = depth ratio of eq. 10
 const int kModeBrdf = 8;           // patient-specific: texture x rho(gamma) delta(r), nothing else (Category 3)
 const int kModeBrdfNoise = 9;      // kModeBrdf plus the method's noise-based specular (Category 4)
 const int kModeProcedural = 10;    // the method with run-time noise (procedural_noise.glsl), no map
+const int kModeProceduralNormals = 11;  // debug: kModeProcedural's perturbed normal in world space, 0.5 N + 0.5
 
 // Below this, a decoded map normal's z is clamped: a map texel with blue <= 0.5
 // (a back-facing normal, impossible in a valid map) must not give NaN.
@@ -284,11 +285,11 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         // Per pixel: the map's normal and the Phong lobe (paper, "Lighting in
         // tangent space"), with L and V interpolated in tangent space.
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
-        float spec = methodSpecular(Nm, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt), mapSampleVariance(mapSample, m, f),
-                                    m.shininess);
+        float spec = methodSpecular(Nm, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt),
+                                    mapSampleVariance(mapSample, m, f), m.shininess);
         return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * spec);
     }
-    if (mode == kModeProcedural) {
+    if (mode == kModeProcedural || mode == kModeProceduralNormals) {
         // The noise gradient as a surface gradient (Mikkelsen 2010): the
         // normal tilts against it, scaled by strength x bump scale.
         vec3 q = proceduralCoord(v, m, pr);
@@ -302,6 +303,8 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             // Hu = dH/du and Hv = -dH/dq.y (texture v runs against q.y), as
             // the map's normals are made (reflectance::encodeNormals8).
             vec3 Nt = normalize(vec3(-(slope * s.h.y), slope * s.h.z, 1.0f));
+            if (mode == kModeProceduralNormals)
+                return normalize(Nt.x * v.T + Nt.y * v.B + Nt.z * v.N) * 0.5f + vec3(0.5f);
             specP = methodSpecular(Nt, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt), sigma2, m.shininess);
         } else {
             // Solid noise h(P) = strength scale H(P / scale): grad h =
@@ -309,7 +312,9 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             vec3 N = normalize(v.N);
             vec3 g = vec3(s.h.y, s.h.z, s.h.w) * slope;
             vec3 Np = normalize(N - (g - N * dot(N, g)));
-            specP = methodSpecular(Np, normalize(MUCOSA_LIGHT_POSITION(f) - v.P), normalize(f.eye - v.P), sigma2, m.shininess);
+            if (mode == kModeProceduralNormals) return Np * 0.5f + vec3(0.5f);
+            specP = methodSpecular(Np, normalize(MUCOSA_LIGHT_POSITION(f) - v.P), normalize(f.eye - v.P), sigma2,
+                                   m.shininess);
         }
         return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * specP);
     }
@@ -321,8 +326,8 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
     }
     if (mode == kModeBrdfNoise) {
         vec3 Nb = decodeReflectanceNormal(mapRgb, m.bumpScale);
-        float specB = methodSpecular(Nb, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt), mapSampleVariance(mapSample, m, f),
-                                     m.shininess);
+        float specB = methodSpecular(Nb, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt),
+                                     mapSampleVariance(mapSample, m, f), m.shininess);
         return albedoTex * v.diffuseLight + vec3(v.specular * specB);
     }
     if (mode == kModeVertexPhong) {

@@ -40,7 +40,7 @@ void main() {
     vec4 mapSample = vec4(0.5f, 0.5f, 1.0f, 0.0f);
     float highlight = 0.0f;
     if (MUCOSA_MODE != kModeNormals && MUCOSA_MODE != kModeTangents && MUCOSA_MODE != kModeUv &&
-        MUCOSA_MODE != kModeDepth)
+        MUCOSA_MODE != kModeDepth && MUCOSA_MODE != kModeProceduralNormals)
         albedoTex = texture(uDiffuse, diffuseCoord(vUv, uFrame)).rgb;
     if (MUCOSA_MODE == kModeNoise || MUCOSA_MODE == kModeNormals || MUCOSA_MODE == kModeBrdfNoise) {
         // Anti-aliased: the filtered mip chain and its slope variance
@@ -51,7 +51,7 @@ void main() {
         mapSample = texture(uReflectance, mc);
     }
     float footprint = 0.0f;
-    if (MUCOSA_MODE == kModeProcedural) {
+    if (MUCOSA_MODE == kModeProcedural || MUCOSA_MODE == kModeProceduralNormals) {
         vec3 q = proceduralCoord(v, uMaterial, uProcedural);
         footprint = noiseFootprint(dFdx(q), dFdy(q));
     }

@@ -476,7 +476,7 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     glUniform4f(p.loc[kDiffuseUvTransform], f.diffuseUvTransform.x, f.diffuseUvTransform.y, f.diffuseUvTransform.z,
                 f.diffuseUvTransform.w);
     p.procedural.set(frame);
-    if (frame.mode == shading::Mode::Procedural) {
+    if (frame.mode == shading::Mode::Procedural || frame.mode == shading::Mode::ProceduralNormals) {
         const noise::FractalParams& n = frame.procedural.noise;
         const int z0 = permutationSliceZ0(n.z);
         if (impl_->permutationVersion == 0 || impl_->permutation.seed != n.seed || impl_->permutation.sliceZ0 != z0) {

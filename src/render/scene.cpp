@@ -454,14 +454,16 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
             f.mode = scene.mode;
             f.procedural.space = scene.noiseSpace;
             if (shading::modeNeedsUvs(f))
-                throw InputError("mesh", scene.mesh.file.string(),
-                                 fmt::format("has no texture coordinates, which mode '{}' needs (render it with "
-                                             "--mode procedural --noise-space object, or add UVs with mucosa mesh "
-                                             "--uv centerline)",
-                                             shading::modeName(scene.mode)));
+                throw InputError(
+                    "mesh", scene.mesh.file.string(),
+                    fmt::format("has no texture coordinates, which mode '{}' needs (render it with "
+                                "--mode {} --noise-space object, or add UVs with mucosa mesh "
+                                "--uv centerline)",
+                                shading::modeName(scene.mode),
+                                scene.mode == shading::Mode::Normals ? "procedural-normals" : "procedural"));
             a.notes.push_back(
-                "mesh: no texture coordinates; modes that read none only (procedural in object space, "
-                "vertex-phong, multitexture, diffuse, depth)");
+                "mesh: no texture coordinates; modes that read none only (procedural and procedural-normals in "
+                "object space, vertex-phong, multitexture, diffuse, depth)");
         } else if (!a.mesh.hasTangents()) {
             const mesh::TangentReport r = mesh::computeTangents(a.mesh, threads);
             a.notes.push_back(fmt::format("tangents computed ({} degenerate-UV triangles, {} mirrored vertices)",

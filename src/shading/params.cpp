@@ -10,22 +10,23 @@ namespace mucosa::shading {
 
 namespace {
 
-constexpr std::array<std::string_view, kModeCount> kModeNames = {"noise",   "vertex-phong", "multitexture", "diffuse",
-                                                                 "normals", "tangents",     "uv",           "depth",
-                                                                 "brdf",    "brdf-noise",   "procedural"};
+constexpr std::array<std::string_view, kModeCount> kModeNames = {
+    "noise", "vertex-phong", "multitexture", "diffuse",    "normals",    "tangents",
+    "uv",    "depth",        "brdf",         "brdf-noise", "procedural", "procedural-normals"};
 
 constexpr std::array<std::string_view, kModeCount> kModeDescriptions = {
     "the paper's method: per-pixel specular from the reflectance map over the diffuse texture",
     "baseline 1: per-vertex Phong lighting, Gouraud-interpolated",
     "baseline 2: per-vertex lighting x texture plus a sphere-mapped highlight texture (fixed-function look)",
     "no specular (the paper's Category 3)",
-    "debug: perturbed normal in world space as 0.5 N + 0.5",
+    "debug: the map's perturbed normal in world space as 0.5 N + 0.5",
     "debug: tangent T in world space as 0.5 T + 0.5",
     "debug: fract(u), fract(v) in red, green",
     "debug: 1 - r, the depth ratio of eq. 10",
     "patient-specific: texture x rho(gamma) delta(r) from mucosa fit, no ambient, tint or fall-off (Category 3)",
     "patient-specific plus the method's noise-based specular (Category 4)",
     "the method with run-time noise: the map's fractal sum evaluated per pixel in texture or object space, no map",
+    "debug: the procedural mode's perturbed normal in world space as 0.5 N + 0.5 (texture or object space)",
 };
 
 using P = Param;

@@ -214,6 +214,7 @@ bool modeNeedsUvs(const FrameSetup& f) noexcept {
         case Mode::BrdfNoise:
             return true;
         case Mode::Procedural:
+        case Mode::ProceduralNormals:
             return f.procedural.space == NoiseSpace::Uv;
         default:
             return false;
@@ -232,7 +233,8 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
     const noise::Permutation perm = noise::Permutation::fromSeed(frame.procedural.noise.seed);
     const glsl::PermutationScope permScope(perm.table().data());
     const int mode = static_cast<int>(frame.mode);
-    const bool derivatives = mode == glsl::kModeProcedural && frame.specularAA;
+    const bool derivatives =
+        (mode == glsl::kModeProcedural || mode == glsl::kModeProceduralNormals) && frame.specularAA;
 
     std::vector<ClipVertex> verts(mesh.vertexCount());
     for (std::size_t i = 0; i < verts.size(); ++i) {
@@ -268,7 +270,7 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         std::array<float, 3> albedo{1, 1, 1}, map{0.5f, 0.5f, 1.0f};
         float highlight = 0.0f;
         const bool debug = mode == glsl::kModeNormals || mode == glsl::kModeTangents || mode == glsl::kModeUv ||
-                           mode == glsl::kModeDepth;
+                           mode == glsl::kModeDepth || mode == glsl::kModeProceduralNormals;
         if (!debug) {
             const glm::vec2 dc = glsl::diffuseCoord(v.uv, f);
             albedo = sampleTexture(textures.diffuse, dc.x, dc.y, {1, 1, 1});

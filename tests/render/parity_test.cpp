@@ -154,6 +154,48 @@ TEST(RenderParity, ProceduralNoiseMatchesReferenceInBothSpacesWithAndWithoutAnti
             }
 }
 
+TEST(RenderParity, ProceduralNormalsViewMatchesReferenceAndShowsTheBump) {
+    // The procedural path's debug view in both spaces (object space needs no
+    // UVs): parity with the reference; flat (strength 0) it shows the
+    // geometric normal, as the map's normals view does with a flat map; with
+    // the bump it differs from that on most of the sphere.
+    const mesh::Mesh sphere = render::makeSphere(10.0f, 96, 48);
+    image::Image8 flat(4, 4, 3);
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 4; ++x) flat.at(x, y, 0) = 128, flat.at(x, y, 1) = 128, flat.at(x, y, 2) = 255;
+    const image::Image8 diffuse = testDiffuse(64);
+    const camera::Pose pose = camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1});
+    for (shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object}) {
+        shading::FrameSetup f = frameFor(pose, 320, 240, Mode::ProceduralNormals);
+        f.procedural.space = space;
+        f.procedural.noise = reflectance::findPreset("rough").params.noise;
+        f.procedural.strength = 1.0f;
+        f.params.set(shading::Param::NoiseScale, 12.0f);
+        // Without the octave fade: with it the fade follows screen-space
+        // derivatives, which GL takes per 2x2 quad and the reference per
+        // pixel, and a normal shows every such difference (the shaded modes'
+        // parity covers the fade, above).
+        f.specularAA = false;
+        const Parity bumped = renderBoth(sphere, f, flat, diffuse);
+        const std::string name = space == shading::NoiseSpace::Uv ? "uv" : "object";
+        expectParity(bumped, "parity_procedural_normals_" + name);
+        f.procedural.strength = 0.0f;
+        const Parity smooth = renderBoth(sphere, f, flat, diffuse);
+        expectParity(smooth, "parity_procedural_normals_flat_" + name);
+        shading::FrameSetup g = frameFor(pose, 320, 240, Mode::Normals);
+        const Parity mapNormals = renderBoth(sphere, g, flat, diffuse);
+        EXPECT_LE(test::diff(smooth.gl, mapNormals.gl, 2).fractionOver, 0.001) << name;
+        std::size_t covered = 0;
+        for (int y = 0; y < smooth.gl.height(); ++y)
+            for (int x = 0; x < smooth.gl.width(); ++x)
+                if (smooth.gl.at(x, y, 0) + smooth.gl.at(x, y, 1) + smooth.gl.at(x, y, 2) > 0) ++covered;
+        const std::size_t moved = test::diff(bumped.gl, smooth.gl, 8).pixelsOver;
+        std::printf("procedural normals (%s): %zu of %zu sphere pixels tilted by > 8/255\n", name.c_str(), moved,
+                    covered);
+        EXPECT_GT(moved, covered / 2) << name;
+    }
+}
+
 TEST(RenderParity, HeadlightProgramsMatchReference) {
     // A tip light with no offset (the default scene's) puts the light exactly
     // at the eye, and the renderer switches the per-pixel modes to programs

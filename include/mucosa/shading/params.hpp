@@ -23,11 +23,12 @@ enum class Mode : int {
     Tangents = 5,
     Uv = 6,
     Depth = 7,
-    Brdf = 8,         // patient-specific texture x fitted rho, delta (Category 3)
-    BrdfNoise = 9,    // Brdf plus the method's specular (Category 4)
-    Procedural = 10,  // the method with run-time noise instead of the map (no texture)
+    Brdf = 8,                // patient-specific texture x fitted rho, delta (Category 3)
+    BrdfNoise = 9,           // Brdf plus the method's specular (Category 4)
+    Procedural = 10,         // the method with run-time noise instead of the map (no texture)
+    ProceduralNormals = 11,  // debug view of Procedural's perturbed normal
 };
-inline constexpr int kModeCount = 11;
+inline constexpr int kModeCount = 12;
 
 std::string_view modeName(Mode m) noexcept;  // "noise", "vertex-phong", ...
 std::string_view modeDescription(Mode m) noexcept;
