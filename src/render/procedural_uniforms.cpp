@@ -20,9 +20,9 @@ constexpr std::array<const char*, 12> kNames = {
 // A scalar array, not ivec4[64] with a component select: llvmpipe gathers a
 // scalar array element in one load, which halves the cost of an octave
 // (bench_render: 15.2 -> 7.3 ms per octave at 640x480, before the
-// per-variant programs of renderer.cpp took it to 4.5 ms). 256 uniform
-// components even if a driver pads each element to a vec4 (1024): within
-// every desktop GPU's GL_MAX_FRAGMENT_UNIFORM_COMPONENTS (>= 4096).
+// per-variant programs of renderer.cpp took it to 4.5 ms). Two tables of 256
+// uniform components, 2048 even if a driver pads each element to a vec4:
+// within every desktop GPU's GL_MAX_FRAGMENT_UNIFORM_COMPONENTS (>= 4096).
 // Each element holds a pair, perm[i] | perm[i + 1] << 8: the noise reads an
 // index and its successor in one lookup where the lattice allows
 // (perlinNoiseGradientPaired: 7 or 9 lookups per octave instead of 14).
