@@ -99,33 +99,6 @@ vec4 perlinNoiseGradientAt(vec3 p, vec3 cell, int X0, int Y0, int Z0, int X1, in
                                      permAt(permAt(B) + Z1), permAt(permAt(A1) + Z1), permAt(permAt(B1) + Z1));
 }
 
-// The same hashes in fewer lookups where the lattice lets neighbours share
-// one: permPairAt(i) is perm[i] | perm[i + 1] << 8 (indices modulo 256), so
-// where an index and its successor are both needed one lookup serves. That
-// holds along z when Z1 = Z0 + 1 modulo 256 (z unwrapped, period 256), along
-// y when Y1 = Y0 + 1 (yPaired; not where a periodic lattice wraps to 0), and
-// along x when X1 = X0 + 1, where X1 = 0 (a periodic wrap) reads perm[0].
-// Lookups: 7 (plain), 9 (periodic in x and y) instead of 14; on llvmpipe,
-// which gathers uniform-array elements lane by lane, they were half the cost
-// of an octave (bench_render). Needs X1 = X0 + 1 or 0 and Z1 = Z0 + 1 (mod 256).
-vec4 perlinNoiseGradientPaired(vec3 p, vec3 cell, int X0, int Y0, int Z0, int X1, int Y1, bool yPaired) {
-    int px = permPairAt(X0);
-    int pX0 = px & 255;
-    int pX1 = X1 == 0 ? permAt(0) : px >> 8;
-    int A = pX0 + Y0, B = pX1 + Y0;
-    int pa = permPairAt(A), pb = permPairAt(B);
-    int pA = pa & 255, pB = pb & 255;
-    int pA1 = pa >> 8, pB1 = pb >> 8;
-    if (!yPaired) {
-        pA1 = permAt(pX0 + Y1);
-        pB1 = permAt(pX1 + Y1);
-    }
-    int hAE = permPairAt(pA + Z0), hBF = permPairAt(pB + Z0);
-    int hCG = permPairAt(pA1 + Z0), hDH = permPairAt(pB1 + Z0);
-    return perlinNoiseGradientHashed(p, cell, hAE & 255, hBF & 255, hCG & 255, hDH & 255, hAE >> 8, hBF >> 8,
-                                     hCG >> 8, hDH >> 8);
-}
-
 // Improved noise at p on a lattice that wraps with the given periods (1..256
 // per axis; 256 = plain noise): noise::perlinPeriodicGradient.
 vec4 perlinNoiseGradient(vec3 p, vec3 period) {
@@ -139,24 +112,18 @@ vec4 perlinNoiseGradient(vec3 p, vec3 period) {
     return perlinNoiseGradientAt(p, cell, X0, Y0, Z0, X1, Y1, Z1);
 }
 
-// The same with period 256 along z (a tileable map's lattice: periodic in x
-// and y, plain along z): the same values in 9 lookups instead of 14.
-vec4 perlinNoiseGradientTiled(vec3 p, vec2 period) {
-    vec3 cell = floor(p);
-    int X0 = noiseWrap(cell.x, period.x);
-    int Y0 = noiseWrap(cell.y, period.y);
-    int Z0 = int(cell.z) & 255;
-    int X1 = X0 + 1 == int(period.x) ? 0 : X0 + 1;
-    int Y1 = Y0 + 1 == int(period.y) ? 0 : Y0 + 1;
-    return perlinNoiseGradientPaired(p, cell, X0, Y0, Z0, X1, Y1, false);
-}
-
+// The same hashes in fewer lookups: permPairAt(i) is perm[i] | perm[i + 1] << 8
+// (indices modulo 256), so where an index and its successor are both needed
+// one lookup serves (on llvmpipe, which gathers uniform-array elements lane by
+// lane, the lookups were half the cost of an octave; bench_render).
+//
 // A z slice (p.z the same for every point, as in a map's texture-space sum):
-// noise periodic in x and y (periods 1..256; 256 = plain) and plain along z,
-// through permSlicePairAt(j, Z0) = permPairAt(permAt(j) + Z0), which the
-// renderer tabulates for the frame's Z0 (one uniform array of 256 pairs), so
-// the last two hash levels are one lookup: 5 per octave instead of 9 or 7.
-// The same hashes, so the same values as perlinNoiseGradient.
+// noise periodic in x and y (periods 1..256; 256 = plain) and plain along z.
+// x pairs (X1 = X0 + 1, or 0 where a periodic lattice wraps: perm[0], a
+// constant index), and permSlicePairAt(j, Z0) = permPairAt(permAt(j) + Z0),
+// which the renderer tabulates for the frame's Z0 (one uniform array of 256
+// pairs), makes the last two hash levels one lookup: 5 per octave instead of
+// 14. The same hashes, so the same values as perlinNoiseGradient.
 vec4 perlinNoiseGradientSlice(vec3 p, vec2 period) {
     vec3 cell = floor(p);
     int X0 = noiseWrap(cell.x, period.x);
@@ -175,13 +142,19 @@ vec4 perlinNoiseGradientSlice(vec3 p, vec2 period) {
 
 // Plain improved noise (noise::perlinGradient), the same values as period 256
 // for less work: Perlin's floor(x) & 255, cell + 1 unreduced as the
-// reference indexes its doubled table (the lookups wrap), 7 lookups.
+// reference indexes its doubled table (the lookups wrap), and every index
+// with its successor in one permPairAt: 7 lookups instead of 14.
 vec4 perlinNoiseGradient(vec3 p) {
     vec3 cell = floor(p);
     int X0 = int(cell.x) & 255;
     int Y0 = int(cell.y) & 255;
     int Z0 = int(cell.z) & 255;
-    return perlinNoiseGradientPaired(p, cell, X0, Y0, Z0, X0 + 1, Y0 + 1, true);
+    int px = permPairAt(X0);
+    int pa = permPairAt((px & 255) + Y0), pb = permPairAt((px >> 8) + Y0);
+    int hAE = permPairAt((pa & 255) + Z0), hBF = permPairAt((pb & 255) + Z0);
+    int hCG = permPairAt((pa >> 8) + Z0), hDH = permPairAt((pb >> 8) + Z0);
+    return perlinNoiseGradientHashed(p, cell, hAE & 255, hBF & 255, hCG & 255, hDH & 255, hAE >> 8, hBF >> 8,
+                                     hCG >> 8, hDH >> 8);
 }
 
 // Fractal-sum settings: the reflectance map's parameters (reflectance::MapParams,

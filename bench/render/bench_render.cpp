@@ -56,7 +56,7 @@ int main(int argc, char** argv) try {
     std::vector<std::string> sizes = {"640x480", "1280x1024"};
     std::vector<std::string> modes = {"noise", "procedural", "vertex-phong", "multitexture", "diffuse"};
     std::vector<std::string> octaveCounts = {"0", "1", "2", "4", "6", "8"};  // 0: the map, for the ratios
-    std::vector<std::string> lightOffset;                                     // empty: the scene's
+    std::vector<std::string> lightOffset;                                    // empty: the scene's
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--frames" && i + 1 < argc)

@@ -32,11 +32,8 @@ out vec4 result;
 void main() {
     vec3 p = texelFetch(uPoints, ivec2(gl_FragCoord.xy), 0).xyz;
     // Period 256 on every axis: plain noise, through the renderer's cheaper
-    // overload; 256 along z: the tileable maps' lattice, through the
-    // renderer's paired lookups (the same values, tested against
-    // mucosa::noise here too).
+    // overload (the same values, tested against mucosa::noise here too).
     if (uFunction == 0 && uPeriod == vec3(256.0f)) result = perlinNoiseGradient(p);
-    else if (uFunction == 0 && uPeriod.z == 256.0f) result = perlinNoiseGradientTiled(p, vec2(uPeriod));
     else if (uFunction == 0) result = perlinNoiseGradient(p, uPeriod);
     else result = fractalNoise(p, 0.0f, uProcedural).h;
 }

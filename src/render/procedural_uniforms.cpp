@@ -25,7 +25,7 @@ constexpr std::array<const char*, 12> kNames = {
 // within every desktop GPU's GL_MAX_FRAGMENT_UNIFORM_COMPONENTS (>= 4096).
 // Each element holds a pair, perm[i] | perm[i + 1] << 8: the noise reads an
 // index and its successor in one lookup where the lattice allows
-// (perlinNoiseGradientPaired: 7 or 9 lookups per octave instead of 14).
+// (plain noise: 7 lookups per octave instead of 14).
 // uPermSlice composes the last two hash levels for the frame's z slice (the
 // same z for every octave of a texture-space sum), so such an octave needs 5
 // lookups, one level deep after the first: the renderer keeps it in step with

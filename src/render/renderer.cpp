@@ -400,7 +400,7 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     const bool headlight =
         frame.light == frame.eye && (frame.mode == shading::Mode::Noise || frame.mode == shading::Mode::BrdfNoise ||
                                      frame.mode == shading::Mode::Procedural);
-    const std::string headlightDefine = headlight ? "#define MUCOSA_HEADLIGHT 1\n" : "";
+    const char* headlightDefine = headlight ? "#define MUCOSA_HEADLIGHT 1\n" : "";
     if (headlight && frame.mode != shading::Mode::Procedural)
         program = &impl_->headlight[static_cast<std::size_t>(mode)];
     if (frame.mode == shading::Mode::Procedural) {

@@ -57,10 +57,10 @@ TEST(GpuNoise, ImprovedNoiseOnTheGpuEqualsTheReference) {
 
 TEST(GpuNoise, PeriodicLatticeOnTheGpuEqualsPerlinPeriodic) {
     test::glContext();
-    // z period 256: the tileable maps' lattice (paired lookups, wraps to 0
-    // in x and y, period 1 included); 7 along z: the general path.
-    for (const std::array<int, 3> period :
-         {std::array<int, 3>{16, 5, 256}, {1, 256, 256}, {255, 3, 256}, {16, 5, 7}}) {
+    // Wraps to 0 in x and y, period 1 included (the texture-space sums'
+    // slice path is checked against the map's sums below).
+    const std::array<int, 3> periods[] = {{16, 5, 256}, {1, 256, 256}, {255, 3, 256}, {16, 5, 7}};
+    for (const std::array<int, 3>& period : periods) {
         render::GpuNoiseRequest req;
         req.period = period;
         const auto points = randomPoints(20000, -64.0f, 64.0f, 9);
