@@ -14,7 +14,7 @@
 using namespace mucosa::noise;
 
 TEST(Perlin, MatchesPublishedJavaReferenceValues) {
-    // ../shared/testdata/perlin/published_values.csv: values of Perlin's
+    // tests/data/perlin/published_values.csv: values of Perlin's
     // ImprovedNoise.java published with their sources.
     std::ifstream in(mucosa::test::testdata("perlin/published_values.csv"));
     std::string line;

@@ -1,4 +1,4 @@
-// The analysis of ../shared/testdata/study/ratings_A_main.csv against the
+// The analysis of tests/data/study/ratings_A_main.csv against the
 // SciPy 1.10 / R 4.2 results stored beside it (expected_A_main.json, whose
 // "conventions" give the exact calls). Statistics to 1e-9, p-values to 1e-6
 // relative.

@@ -14,7 +14,7 @@ namespace mucosa::test {
 inline std::filesystem::path testdata(const std::string& rel) {
     const std::filesystem::path p = std::filesystem::path(MUCOSA_TESTDATA_DIR) / rel;
     if (!std::filesystem::exists(p))
-        throw std::runtime_error("test data missing: " + p.string() + " (shared/ must sit beside the repository)");
+        throw std::runtime_error("test data missing: " + p.string() + " (tests/data is part of the repository)");
     return p;
 }
 
