@@ -140,20 +140,25 @@ void writeGltf(const Mesh& mesh, const std::filesystem::path& path, bool binary,
     nlohmann::json doc;
     doc["asset"] = {{"version", "2.0"}, {"generator", "Mucosa " + std::string(version())}};
     doc["scene"] = 0;
-    doc["scenes"] = {{{"nodes", {0}}}};
-    doc["nodes"] = {{{"mesh", 0}, {"name", options.name}}};
-    doc["materials"] = {
-        {{"name", "mucosa"},
-         {"pbrMetallicRoughness",
-          {{"baseColorFactor", {0.80, 0.36, 0.34, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.35}}}}};
-    doc["meshes"] = {
-        {{"name", options.name},
-         {"primitives", {{{"attributes", attributes}, {"indices", indices}, {"material", 0}, {"mode", 4}}}}}};
+    // Arrays are spelled json::array(): a braced list of one element is an
+    // array for GCC but a copy of the element for clang (CWG 2137).
+    using J = nlohmann::json;
+    doc["scenes"] = J::array({J{{"nodes", J::array({0})}}});
+    doc["nodes"] = J::array({J{{"mesh", 0}, {"name", options.name}}});
+    doc["materials"] = J::array({J{{"name", "mucosa"},
+                                   {"pbrMetallicRoughness",
+                                    {{"baseColorFactor", J::array({0.80, 0.36, 0.34, 1.0})},
+                                     {"metallicFactor", 0.0},
+                                     {"roughnessFactor", 0.35}}}}});
+    doc["meshes"] = J::array(
+        {J{{"name", options.name},
+           {"primitives",
+            J::array({J{{"attributes", attributes}, {"indices", indices}, {"material", 0}, {"mode", 4}}})}}});
     doc["accessors"] = std::move(b.accessors);
     doc["bufferViews"] = std::move(b.views);
     nlohmann::json buffer = {{"byteLength", b.bin.size()}};
     if (!binary) buffer["uri"] = "data:application/octet-stream;base64," + base64(b.bin);
-    doc["buffers"] = {buffer};
+    doc["buffers"] = J::array({buffer});
 
     AtomicFile out(path);
     if (binary) {
