@@ -21,7 +21,13 @@ TEST(RenderViewer, OpensUnderXvfbDrawsFramesAndCloses) {
     // anti-aliasing (the toggles the viewer's keys and panel set).
     for (const std::string extra : {"", " --mode procedural --noise-space object --specular-aa off"}) {
         const auto shot = dir / "view.png";
-        const std::string cmd = "xvfb-run -a -s '-screen 0 1024x768x24' '" + std::string(MUCOSA_CLI) + "' view '" +
+#ifdef MUCOSA_VIEWER_PRELOAD  // sanitizer builds: see tests/render/CMakeLists.txt
+        const std::string preload = std::string("env LD_PRELOAD='") + MUCOSA_VIEWER_PRELOAD + "' ";
+#else
+        const std::string preload;
+#endif
+        const std::string cmd = "xvfb-run -a -s '-screen 0 1024x768x24' " + preload + "'" + std::string(MUCOSA_CLI) +
+                                "' view '" +
                                 (dir / "tube.json").string() + "' --window 640x480 --frames 4 --screenshot '" +
                                 shot.string() + "'" + extra + " > '" + (dir / "log.txt").string() + "' 2>&1";
         const int status = std::system(cmd.c_str());
