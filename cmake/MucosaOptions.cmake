@@ -10,6 +10,14 @@ if(MUCOSA_SANITIZE)
     -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
   target_link_options(mucosa_sanitizers INTERFACE -fsanitize=address,undefined)
 endif()
+# Fuzzing (fuzz/, clang only): the library and the harnesses carry libFuzzer's
+# coverage instrumentation; only the harnesses link libFuzzer's main.
+if(MUCOSA_BUILD_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "MUCOSA_BUILD_FUZZ needs clang (libFuzzer): use the 'fuzz' preset")
+  endif()
+  target_compile_options(mucosa_sanitizers INTERFACE -fsanitize=fuzzer-no-link)
+endif()
 
 # Floating point is reproducible by construction: no contraction of a*b+c into
 # FMA, so the vectorised noise path and the scalar reference (a port of Java,
