@@ -37,13 +37,13 @@ struct AnalyzeArgs {
 void runPlan(const PlanArgs& a, const Global& g) {
     requireWritable(a.output);
     const study::Plan plan = study::makePlan(study::readManifest(a.manifest), a.o);
-    study::writePlan(plan, a.output);
+    const std::string fingerprint = study::writePlan(plan, a.output);
     const auto& first = plan.observers.front();
     info(g, fmt::format("wrote {}: {} observer slots, {} images; each observer: calibration pair, {} Likert images "
                         "(series of {}), {} 2AFC pairs (plan {})",
                         a.output, plan.observers.size(), plan.images.size(), first.likertCount(),
                         plan.options.seriesLength,
-                        first.trials.size() - 1 - static_cast<std::size_t>(first.likertCount()), plan.fingerprint));
+                        first.trials.size() - 1 - static_cast<std::size_t>(first.likertCount()), fingerprint));
 }
 
 void runServe(const ServeArgs& a, const Global& g) {

@@ -1,6 +1,7 @@
 #include <mucosa/study/plan.hpp>
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -20,7 +21,8 @@ using nlohmann::json;
 namespace {
 
 constexpr const char* kPlanFormat = "mucosa-study-plan";
-constexpr int kPlanVersion = 1;
+// Version 2: the fingerprint also covers the options and the image files.
+constexpr int kPlanVersion = 2;
 // The paper's 2AFC compares categories 3, 4 and 5 pairwise.
 constexpr std::pair<int, int> kComparisons[] = {{3, 4}, {3, 5}, {4, 5}};
 
@@ -77,8 +79,50 @@ json observersJson(const std::vector<ObserverPlan>& observers) {
     return a;
 }
 
-std::string fingerprintOf(const json& images, const json& observers) {
-    return fmt::format("{:016x}", fnv1a(images.dump() + "\n" + observers.dump()));
+json optionsJson(const PlanOptions& o) {
+    return {{"observers", o.observers},
+            {"seed", o.seed},
+            {"series_length", o.seriesLength},
+            {"likert_limit", o.likertLimit},
+            {"twoafc_per_comparison", o.twoafcPerComparison}};
+}
+
+// Covers everything the server acts on: options, images (with their files
+// relative to the plan, so the folder can still move) and every trial.
+std::string fingerprintOf(const json& options, const json& images, const json& observers) {
+    return fmt::format("{:016x}", fnv1a(options.dump() + "\n" + images.dump() + "\n" + observers.dump()));
+}
+
+// Whether `rel` (relative to `folder`) names a file inside `folder` once `..`
+// and symlinks are resolved.
+bool insideFolder(const fs::path& rel, const fs::path& folder) {
+    if (rel.empty() || rel.is_absolute()) return false;
+    std::error_code ec;
+    const fs::path realFolder = fs::weakly_canonical(folder, ec);
+    if (ec) return false;
+    const fs::path real = fs::weakly_canonical(folder / rel, ec);
+    if (ec) return false;
+    const fs::path inside = real.lexically_relative(realFolder);
+    return !inside.empty() && *inside.begin() != ".." && *inside.begin() != ".";
+}
+
+// One rule for plans made and plans read: a plan file holding options outside
+// these ranges (series length 0 divides by zero in the server) is refused.
+void checkOptions(const PlanOptions& o, const std::string& file) {
+    if (o.observers < 1 || o.observers > 100000) throw InputError("observers", file, "must be 1..100000");
+    if (o.seriesLength < 1) throw InputError("series length", file, "must be at least 1");
+    if (o.likertLimit < 0) throw InputError("Likert limit", file, "must be 0 (every image) or more");
+    if (o.twoafcPerComparison < 0 || o.twoafcPerComparison > 10000)
+        throw InputError("2AFC pairs", file, "must be 0..10000 per comparison");
+}
+
+// Reads an int option exactly: 1e999, 3.5, "3" or 4294967299 are refused, never truncated.
+int intOption(const json& o, const char* key, const std::string& file) {
+    const json& v = o.at(key);
+    if (!v.is_number_integer() || v.get<long long>() < std::numeric_limits<int>::min() ||
+        v.get<long long>() > std::numeric_limits<int>::max())
+        throw InputError("plan", file, fmt::format("option \"{}\" must be an integer (got {})", key, v.dump()));
+    return static_cast<int>(v.get<long long>());
 }
 
 }  // namespace
@@ -105,7 +149,7 @@ std::vector<Image> readManifest(const fs::path& path) {
     json j;
     try {
         j = json::parse(readTextFile(path));
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {
         throw InputError("manifest", file, std::string("not valid JSON: ") + e.what());
     }
     const json* list = &j;
@@ -154,11 +198,7 @@ std::vector<Image> readManifest(const fs::path& path) {
 }
 
 Plan makePlan(std::vector<Image> images, const PlanOptions& o) {
-    if (o.observers < 1 || o.observers > 100000) throw InputError("observers", "", "must be 1..100000");
-    if (o.seriesLength < 1) throw InputError("series length", "", "must be at least 1");
-    if (o.likertLimit < 0) throw InputError("Likert limit", "", "must be 0 (every image) or more");
-    if (o.twoafcPerComparison < 0 || o.twoafcPerComparison > 10000)
-        throw InputError("2AFC pairs", "", "must be 0..10000 per comparison");
+    checkOptions(o, "");
     if (images.empty()) throw InputError("manifest", "", "lists no images");
 
     std::map<int, std::vector<int>> byCategory;
@@ -253,28 +293,33 @@ Plan makePlan(std::vector<Image> images, const PlanOptions& o) {
         op.trials.insert(op.trials.end(), afc.begin(), afc.end());
         plan.observers.push_back(std::move(op));
     }
-    plan.fingerprint = fingerprintOf(imagesJson(plan.images), observersJson(plan.observers));
+    // Without a plan file the files are absolute; writePlan and readPlan
+    // fingerprint them relative to the plan.
+    plan.fingerprint =
+        fingerprintOf(optionsJson(o), imagesJson(plan.images, fs::path("/")), observersJson(plan.observers));
     return plan;
 }
 
-void writePlan(const Plan& plan, const fs::path& path) {
+std::string writePlan(const Plan& plan, const fs::path& path) {
     // Files are stored relative to the plan, so the study folder (plan,
     // images, database) can be moved or copied to another machine as a whole.
     const fs::path base = fs::absolute(path).parent_path().lexically_normal();
     const json observers = observersJson(plan.observers);
+    for (const Image& im : plan.images) {
+        // The same rule as readPlan's, symlinks resolved, so what is written can be read.
+        if (!insideFolder(im.file.lexically_relative(base), base))
+            throw InputError("plan", path.string(),
+                             fmt::format("image '{}' ({}) is outside the plan's folder; put the plan beside or above "
+                                         "its images, so the study folder holds everything it serves",
+                                         im.id, im.file.string()));
+    }
     const json images = imagesJson(plan.images, base);
-    json j{{"format", kPlanFormat},
-           {"version", kPlanVersion},
-           {"fingerprint", fingerprintOf(imagesJson(plan.images), observers)},
-           {"options",
-            {{"observers", plan.options.observers},
-             {"seed", plan.options.seed},
-             {"series_length", plan.options.seriesLength},
-             {"likert_limit", plan.options.likertLimit},
-             {"twoafc_per_comparison", plan.options.twoafcPerComparison}}},
-           {"images", images},
-           {"observers", observers}};
+    const std::string fingerprint = fingerprintOf(optionsJson(plan.options), images, observers);
+    json j{{"format", kPlanFormat},      {"version", kPlanVersion},
+           {"fingerprint", fingerprint}, {"options", optionsJson(plan.options)},
+           {"images", images},           {"observers", observers}};
     writeFileAtomic(path, j.dump(1) + "\n");
+    return fingerprint;
 }
 
 Plan readPlan(const fs::path& path) {
@@ -282,7 +327,7 @@ Plan readPlan(const fs::path& path) {
     json j;
     try {
         j = json::parse(readTextFile(path));
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {
         throw InputError("plan", file, std::string("not valid JSON: ") + e.what());
     }
     try {
@@ -292,18 +337,35 @@ Plan readPlan(const fs::path& path) {
             throw InputError("plan", file, fmt::format("unsupported plan version {}", j.value("version", 0)));
         Plan plan;
         const json& o = j.at("options");
-        plan.options.observers = o.at("observers").get<int>();
+        if (!o.at("seed").is_number_unsigned())
+            throw InputError("plan", file, "option \"seed\" must be an unsigned integer");
+        plan.options.observers = intOption(o, "observers", file);
         plan.options.seed = o.at("seed").get<std::uint64_t>();
-        plan.options.seriesLength = o.at("series_length").get<int>();
-        plan.options.likertLimit = o.at("likert_limit").get<int>();
-        plan.options.twoafcPerComparison = o.at("twoafc_per_comparison").get<int>();
-        const fs::path base = fs::absolute(path).parent_path();
+        plan.options.seriesLength = intOption(o, "series_length", file);
+        plan.options.likertLimit = intOption(o, "likert_limit", file);
+        plan.options.twoafcPerComparison = intOption(o, "twoafc_per_comparison", file);
+        checkOptions(plan.options, file);
+        const fs::path base = fs::absolute(path).parent_path().lexically_normal();
         for (const json& e : j.at("images")) {
             Image im;
             im.id = e.at("id").get<std::string>();
-            im.file = fs::path(e.at("file").get<std::string>());
-            if (im.file.is_relative()) im.file = (base / im.file).lexically_normal();
-            im.category = e.at("category").get<int>();
+            const fs::path given(e.at("file").get<std::string>());
+            // Images stay inside the plan's folder: no absolute paths, no `..`
+            // escapes, no symlinks leading out of it.
+            if (given.empty() || given.is_absolute() || given.has_root_name())
+                throw InputError("plan", file,
+                                 fmt::format("image '{}': file must be a path inside the plan's folder", im.id));
+            im.file = (base / given).lexically_normal();
+            if (!insideFolder(given, base))
+                throw InputError(
+                    "plan", file,
+                    fmt::format("image '{}': file {} is outside the plan's folder", im.id, given.string()));
+            if (!e.at("category").is_number_integer())
+                throw InputError("plan", file, fmt::format("image '{}': category must be an integer", im.id));
+            const long long category = e.at("category").get<long long>();
+            if (category < kMinCategory || category > kMaxCategory)
+                throw InputError("plan", file, fmt::format("image '{}' has category {}", im.id, category));
+            im.category = static_cast<int>(category);
             im.patient = e.at("patient").get<std::string>();
             im.pose = e.at("pose").get<std::string>();
             if (im.category < kMinCategory || im.category > kMaxCategory)
@@ -312,7 +374,9 @@ Plan readPlan(const fs::path& path) {
         }
         const int nImages = static_cast<int>(plan.images.size());
         auto index = [&](const json& v) {
-            const int i = v.get<int>();
+            if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() >= nImages)
+                throw InputError("plan", file, fmt::format("image index {} out of range", v.dump()));
+            const int i = static_cast<int>(v.get<long long>());
             if (i < 0 || i >= nImages) throw InputError("plan", file, fmt::format("image index {} out of range", i));
             return i;
         };
@@ -338,7 +402,8 @@ Plan readPlan(const fs::path& path) {
             plan.observers.push_back(std::move(op));
         }
         if (plan.observers.empty()) throw InputError("plan", file, "plans no observers");
-        plan.fingerprint = fingerprintOf(imagesJson(plan.images), observersJson(plan.observers));
+        plan.fingerprint =
+            fingerprintOf(optionsJson(plan.options), imagesJson(plan.images, base), observersJson(plan.observers));
         if (j.value("fingerprint", "") != plan.fingerprint)
             throw InputError("plan", file, "fingerprint does not match its content (the file was edited by hand?)");
         return plan;

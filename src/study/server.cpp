@@ -11,6 +11,7 @@
 #include <mutex>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include <fmt/format.h>
 #include <httplib.h>
@@ -129,8 +130,9 @@ struct StudyServer::Impl {
             json j = json::parse(req.body);
             if (!j.is_object()) throw HttpError{400, "expected a JSON object"};
             return j;
-        } catch (const json::parse_error&) {
-            throw HttpError{400, "malformed JSON"};
+        } catch (const json::exception& e) {
+            // parse_error, but also out_of_range for numbers such as 1e999.
+            throw HttpError{400, std::string("malformed JSON: ") + e.what()};
         }
     }
 
@@ -201,10 +203,10 @@ struct StudyServer::Impl {
                 a.rightCategory = image(t.right).category;
                 break;
             case TrialKind::Likert: {
-                int score = 0;
-                if (ans->is_number_integer()) score = ans->get<int>();
-                if (ans->is_string() && ans->get<std::string>().size() == 1) score = ans->get<std::string>()[0] - '0';
-                if (score < 1 || score > 5) throw HttpError{400, "a Likert answer is a score 1-5"};
+                // Exactly an integer 1-5: 3.5, "3", -4294967295 or 4294967299 are refused, never truncated.
+                if (!ans->is_number_integer() || ans->get<long long>() < 1 || ans->get<long long>() > 5)
+                    throw HttpError{400, "a Likert answer is an integer score 1-5"};
+                const int score = static_cast<int>(ans->get<long long>());
                 a.answer = std::to_string(score);
                 a.score = score;
                 a.imageId = image(t.image).id;
@@ -272,7 +274,50 @@ struct StudyServer::Impl {
         };
     }
 
+    std::atomic<int> boundPort{0};
+
+    // The Host values this server answers to: its bound host:port, and the
+    // loopback aliases when bound to loopback. A page of another site that
+    // rebinds its DNS name to this address sends its own name and is refused.
+    // Bound to a wildcard address, the name observers use is unknown: any.
+    bool hostAllowed(const std::string& hostHeader) const {
+        const std::string& h = options.host;
+        if (h == "0.0.0.0" || h == "::" || h.empty()) return true;
+        const std::string port = std::to_string(boundPort.load());
+        std::vector<std::string> names{h};
+        if (h == "127.0.0.1" || h == "localhost" || h == "::1") names = {"127.0.0.1", "localhost", "[::1]"};
+        for (const std::string& n : names)
+            if (hostHeader == n + ":" + port || (port == "80" && hostHeader == n)) return true;
+        return false;
+    }
+
+    // Host, Origin and Content-Type, before any route: 403 for another host or
+    // origin, 415 for a POST that is not JSON (a cross-site form or a
+    // `text/plain` fetch cannot send application/json without a CORS
+    // preflight, which this server never grants).
+    httplib::Server::HandlerResponse screen(const httplib::Request& req, httplib::Response& res) const {
+        auto refuse = [&](int status, const std::string& message) {
+            res.status = status;
+            res.set_content(json{{"error", message}}.dump(), "application/json");
+            return httplib::Server::HandlerResponse::Handled;
+        };
+        const std::string host = req.get_header_value("Host");
+        if (!hostAllowed(host)) return refuse(403, "wrong Host header");
+        if (req.has_header("Origin") && req.get_header_value("Origin") != "http://" + host)
+            return refuse(403, "cross-origin requests are refused");
+        if (req.method == "POST" || req.method == "PUT" || req.method == "PATCH" || req.method == "DELETE") {
+            std::string type = req.get_header_value("Content-Type");
+            type = type.substr(0, type.find(';'));
+            std::transform(type.begin(), type.end(), type.begin(), [](unsigned char c) { return std::tolower(c); });
+            while (!type.empty() && type.back() == ' ') type.pop_back();
+            if (type != "application/json") return refuse(415, "requests must be Content-Type: application/json");
+        }
+        return httplib::Server::HandlerResponse::Unhandled;
+    }
+
     void routes() {
+        http.set_pre_routing_handler(
+            [this](const httplib::Request& req, httplib::Response& res) { return screen(req, res); });
         for (const auto& asset : detail::webAssets()) {
             const std::string path = asset.path == "index.html" ? "/" : "/" + asset.path;
             http.Get(path, [&asset](const httplib::Request&, httplib::Response& res) {
@@ -349,6 +394,7 @@ void StudyServer::run(const std::function<void(int)>& onListening) {
     // (a class starting together) would see refused connections. listen() on
     // a listening socket only changes its backlog (Linux).
     if (impl_->listenSocket >= 0) ::listen(impl_->listenSocket, kListenBacklog);
+    impl_->boundPort = port;
     if (onListening) onListening(port);
     // httplib's stop() only acts once its accept loop runs (and must be called
     // once), so a stop() that comes early (a Ctrl-C during start-up) is

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/study/plan.hpp>
@@ -41,7 +42,8 @@ TEST(studyPlan, PlanIsTheSameOnEveryMachineAndVersion) {
     PlanOptions o;
     o.observers = 4;
     o.seed = 42;
-    EXPECT_EQ(makePlan(paperImages(), o).fingerprint, "4e71abb2ad69567f");
+    // Version 2 of the plan format: the fingerprint covers the options and the files too.
+    EXPECT_EQ(makePlan(paperImages(), o).fingerprint, "ba89c840f0d4f9cf");
 }
 
 TEST(studyPlan, FollowsTheProtocol) {
@@ -115,14 +117,45 @@ TEST(studyPlan, RefusesTwoAfcWhenAllImagesShareOnePose) {
     EXPECT_NO_THROW(makePlan(images, o));
 }
 
+// Images in files inside `dir` (a plan must live beside or above its images).
+std::vector<Image> imagesIn(const std::filesystem::path& dir) {
+    auto images = paperImages(2, 2);
+    std::filesystem::create_directories(dir / "img");
+    for (Image& im : images) {
+        im.file = dir / ("img/" + im.id + ".png");
+        std::ofstream(im.file) << "png";
+    }
+    return images;
+}
+
+// The plan written into `dir`, as JSON, for tests that edit it.
+nlohmann::json writtenPlan(const std::filesystem::path& dir) {
+    PlanOptions o;
+    o.observers = 3;
+    writePlan(makePlan(imagesIn(dir), o), dir / "study.json");
+    return nlohmann::json::parse(test::readBytes(dir / "study.json"));
+}
+
+// readPlan's error for `text` saved as the plan, or "" when it is accepted.
+std::string planError(const std::filesystem::path& dir, const std::string& text) {
+    std::ofstream(dir / "edited.json") << text;
+    try {
+        readPlan(dir / "edited.json");
+        return "";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.file(), (dir / "edited.json").string());
+        return e.what();
+    }
+}
+
 TEST(studyPlan, WritesAndReadsBack) {
     test::TempDir dir;
     PlanOptions o;
     o.observers = 3;
-    const Plan plan = makePlan(paperImages(2, 2), o);
-    writePlan(plan, dir / "study.json");
+    const Plan plan = makePlan(imagesIn(dir.path()), o);
+    const std::string written = writePlan(plan, dir / "study.json");
     const Plan back = readPlan(dir / "study.json");
-    EXPECT_EQ(back.fingerprint, plan.fingerprint);
+    EXPECT_EQ(back.fingerprint, written);
     EXPECT_EQ(back.observers.size(), 3u);
     // Files are relative to the plan: a moved study folder still finds its images.
     EXPECT_EQ(back.images[0].file, plan.images[0].file);
@@ -130,8 +163,65 @@ TEST(studyPlan, WritesAndReadsBack) {
     // A hand-edited plan is refused rather than silently served.
     std::string text = test::readBytes(dir / "study.json");
     text.replace(text.find("\"likert\""), 8, "\"twoafc\"");
-    std::ofstream(dir / "edited.json") << text;
-    EXPECT_THROW(readPlan(dir / "edited.json"), InputError);
+    EXPECT_NE(planError(dir.path(), text), "");
+}
+
+TEST(studyPlan, RefusesImagesOutsideThePlansFolder) {
+    test::TempDir root;
+    const std::filesystem::path dir = root / "study", outside = root / "outside";
+    std::filesystem::create_directories(outside);
+    PlanOptions o;
+    o.observers = 1;
+    // Writing: an image outside the folder is refused before anything is written.
+    auto images = imagesIn(dir);
+    images[0].file = outside / "x.png";
+    EXPECT_THROW(writePlan(makePlan(images, o), dir / "study.json"), InputError);
+    EXPECT_FALSE(std::filesystem::exists(dir / "study.json"));
+
+    std::ofstream(outside / "secret.png") << "secret";
+    std::filesystem::create_symlink(outside, dir / "link");
+    const nlohmann::json plan = writtenPlan(dir);
+    EXPECT_EQ(planError(dir, plan.dump()), "");
+    for (const std::string bad : {std::string("/etc/passwd"), std::string("../../../../../../etc/passwd"),
+                                  std::string("img/../../outside/secret.png"), std::string("link/secret.png")}) {
+        nlohmann::json j = plan;
+        j["images"][0]["file"] = bad;
+        const std::string error = planError(dir, j.dump());
+        EXPECT_NE(error.find("plan's folder"), std::string::npos) << bad << ": " << error;
+    }
+}
+
+TEST(studyPlan, FingerprintCoversOptionsAndImageFiles) {
+    test::TempDir dir;
+    const nlohmann::json plan = writtenPlan(dir.path());
+    EXPECT_EQ(planError(dir.path(), plan.dump()), "");
+    nlohmann::json j = plan;
+    j["images"][0]["file"] = plan["images"][1]["file"];  // another image inside the folder
+    EXPECT_NE(planError(dir.path(), j.dump()).find("fingerprint"), std::string::npos);
+    j = plan;
+    j["options"]["series_length"] = plan["options"]["series_length"].get<int>() + 1;
+    EXPECT_NE(planError(dir.path(), j.dump()).find("fingerprint"), std::string::npos);
+}
+
+TEST(studyPlan, RefusesOptionsOutOfRangeWhenRead) {
+    test::TempDir dir;
+    const nlohmann::json plan = writtenPlan(dir.path());
+    for (const char* bad : {"0", "-1", "4294967297", "3.5", "\"3\"", "1e999"}) {
+        nlohmann::json j = plan;
+        std::string text = j.dump();
+        const std::string key = "\"series_length\":";
+        const auto at = text.find(key) + key.size();
+        text.replace(at, text.find_first_of(",}", at) - at, bad);
+        const std::string error = planError(dir.path(), text);
+        EXPECT_NE(error, "") << bad;
+        EXPECT_EQ(error.find("fingerprint"), std::string::npos) << bad << " reached the fingerprint: " << error;
+    }
+}
+
+TEST(studyPlan, OverflowingNumberInAManifestIsATypedError) {
+    test::TempDir dir;
+    std::ofstream(dir / "m.json") << R"([{"id": "a", "file": "a.png", "category": 1e999, "patient": 1, "pose": 1}])";
+    EXPECT_THROW(readManifest(dir / "m.json"), InputError);
 }
 
 }  // namespace

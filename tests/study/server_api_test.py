@@ -71,6 +71,18 @@ try:
     nxt = trials[4]
     s, _ = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": 4, "answer": 6 if nxt["kind"] == "likert" else "up"})
     check(s == 400, "out-of-range answer -> 400")
+    # Screens 1-8 are Likert (--likert 8): a score is exactly an integer 1-5, never truncated
+    # (get<int> once stored -4294967295 as 1 and 4294967299 as 3).
+    check(nxt["kind"] == "likert", "screen 4 is a Likert screen")
+    for bad in (-4294967295, 4294967299, 3.5, "3", 0, True, None, [3]):
+        s, r = fx.request(B, "POST", "/api/answer", {"observer": "N01", "trial": 4, "answer": bad})
+        check(s == 400 and "Likert" in r.get("error", ""), f"Likert answer {bad!r} -> 400 (got {s})")
+    for raw in (b'{"observer": "N01", "trial": 4, "answer": 1e999}', b'{"observer": "N01", "trial": 1e999, "answer": 3}',
+                b'{"observer": "N01", "trial": 4, "answer": 3, "shown_at_ms": -1e999}'):
+        s, r = fx.request(B, "POST", "/api/answer", raw=raw)
+        check(s == 400 and isinstance(r, dict) and r.get("error"), f"overflowing number {raw[-20:]!r} -> 400 with a message (got {s})")
+    s, st = fx.request(B, "GET", "/api/state?observer=N01")
+    check(s == 200 and st["trial"] == 4, "refused answers stored nothing: N01 still at screen 4")
     # --- malformed requests
     for raw, code, what in ((b"{bad json", 400, "malformed JSON"), (b"[1,2]", 400, "JSON array"),
                             (b"x" * 100000, 413, "oversized body")):
@@ -86,6 +98,43 @@ try:
         check(s == 200 and body == f.read(), "GET /image/0 serves the plan's first image")
     s, _ = fx.request(B, "GET", "/")
     check(s == 200, "GET / serves the page")
+    # --- Host, Origin, Content-Type (DNS rebinding and cross-site posts)
+    import http.client
+
+    def raw_request(method, path, headers, body=b""):
+        host, port = B.rsplit("/", 1)[1].rsplit(":", 1)
+        c = http.client.HTTPConnection(host, int(port), timeout=30)
+        c.putrequest(method, path, skip_host=True, skip_accept_encoding=True)
+        for k, v in headers.items():
+            c.putheader(k, v)
+        if body:
+            c.putheader("Content-Length", str(len(body)))
+        c.endheaders(body)
+        r = c.getresponse()
+        data = r.read()
+        c.close()
+        return r.status, r.getheader("Access-Control-Allow-Origin"), data
+
+    own = B.rsplit("/", 1)[1]
+    ans = json.dumps({"observer": "N01", "trial": 4, "answer": 3}).encode()
+    st_, cors, _ = raw_request("POST", "/api/answer", {"Host": own, "Origin": "http://evil.example",
+                                                      "Content-Type": "text/plain"}, ans)
+    check(st_ == 403 and cors is None, f"cross-origin text/plain POST -> 403, no CORS header (got {st_})")
+    st_, _, _ = raw_request("POST", "/api/answer", {"Host": own, "Origin": "http://evil.example",
+                                                    "Content-Type": "application/json"}, ans)
+    check(st_ == 403, f"cross-origin JSON POST -> 403 (got {st_})")
+    st_, _, _ = raw_request("POST", "/api/answer", {"Host": own, "Content-Type": "text/plain"}, ans)
+    check(st_ == 415, f"text/plain POST -> 415 (got {st_})")
+    for path in ("/", "/api/state?observer=N01", "/image/0"):
+        st_, _, body_ = raw_request("GET", path, {"Host": "evil.example:" + own.rsplit(":", 1)[1]})
+        check(st_ == 403, f"GET {path} with a foreign Host -> 403 (got {st_})")
+    st_, _, _ = raw_request("GET", "/api/state?observer=N01", {})
+    check(st_ == 403, f"no Host header -> 403 (got {st_})")
+    st_, _, _ = raw_request("GET", "/api/state?observer=N01", {"Host": "localhost:" + own.rsplit(":", 1)[1],
+                                                              "Origin": "http://localhost:" + own.rsplit(":", 1)[1]})
+    check(st_ == 200, f"localhost alias with its own Origin -> 200 (got {st_})")
+    s, st = fx.request(B, "GET", "/api/state?observer=N01")
+    check(s == 200 and st["trial"] == 4, "refused requests stored nothing: N01 still at screen 4")
     # --- slots
     for i, g in ((2, "expert"), (3, "naive")):
         s, st = fx.request(B, "POST", "/api/session", {"observer": f"X{i}", "group": g})
@@ -176,6 +225,28 @@ try:
 finally:
     srv.stop()
     os.rename(work + "_gone", work)
+
+# --- hostile plan files: one `error: ... in <plan>: ...` line, non-zero exit, nothing served
+with open(plan_path) as f:
+    text = f.read()
+key = '"series_length": '
+at = text.index(key) + len(key)
+end = min(text.index(c, at) for c in ",\n}" if c in text[at:])
+for bad, what in (("0", "series length"), ("1e999", "not valid JSON"), ("-4294967295", "series_length")):
+    edited = os.path.join(work, "edited.json")
+    with open(edited, "w") as f:
+        f.write(text[:at] + bad + text[end:])
+    r = fx.run(cli, "study", "serve", edited, "--db", os.path.join(work, "edited.sqlite"), "--port", "0", check=False)
+    lines = r.stderr.strip().splitlines()
+    check(r.returncode != 0 and len(lines) == 1 and lines[0].startswith("error: ") and f"in {edited}:" in lines[0]
+          and what in lines[0], f"plan with series_length {bad} refused: {r.stderr.strip()[:160]}")
+p = json.loads(text)
+p["images"][0]["file"] = "/etc/passwd"
+with open(edited, "w") as f:
+    json.dump(p, f)
+r = fx.run(cli, "study", "serve", edited, "--db", os.path.join(work, "edited.sqlite"), "--port", "0", check=False)
+check(r.returncode != 0 and r.stderr.startswith("error: ") and "plan's folder" in r.stderr,
+      "a plan serving /etc/passwd as image 0 is refused: " + r.stderr.strip()[:160])
 
 if failures:
     print(f"{len(failures)} check(s) failed")

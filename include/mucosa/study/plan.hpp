@@ -56,8 +56,9 @@ struct Plan {
     std::vector<Image> images;
     PlanOptions options;
     std::vector<ObserverPlan> observers;  // slot i is given to the i-th observer who signs in
-    std::string fingerprint;              // hash of image ids/categories/views + trials (not file
-                                          // locations); ties an answers database to its plan
+    std::string fingerprint;              // hash of options, images (files relative to the plan file) and
+                                          // trials; ties an answers database to its plan. makePlan's has
+                                          // absolute files; writePlan returns the one the file holds
 };
 
 // Builds a reproducible plan (same manifest, options and seed -> same plan on
@@ -65,8 +66,10 @@ struct Plan {
 // Throws InputError saying why a manifest cannot satisfy the protocol.
 Plan makePlan(std::vector<Image> images, const PlanOptions& options);
 
-// Atomic; image files are stored relative to the plan's folder.
-void writePlan(const Plan& plan, const std::filesystem::path& path);
+// Atomic; image files are stored relative to the plan's folder and must lie
+// inside it (InputError otherwise). Returns the fingerprint written, which is
+// what readPlan gives back.
+std::string writePlan(const Plan& plan, const std::filesystem::path& path);
 Plan readPlan(const std::filesystem::path& path);
 
 const char* trialKindName(TrialKind kind);
