@@ -11,6 +11,9 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/core/memory.hpp>
+
+#include <fmt/format.h>
 
 namespace mucosa::image {
 
@@ -27,6 +30,123 @@ std::vector<std::string> channelNames(int channels) {
             return {"R", "G", "B", "A"};
     }
 }
+std::uint32_t le32(const std::vector<std::byte>& b, std::size_t at) {
+    return std::uint32_t(b[at]) | (std::uint32_t(b[at + 1]) << 8) | (std::uint32_t(b[at + 2]) << 16) |
+           (std::uint32_t(b[at + 3]) << 24);
+}
+
+// Scanlines per chunk for each compression (OpenEXR file layout, "Compression").
+int linesPerChunk(unsigned compression) {
+    switch (compression) {
+        case 0:  // NONE
+        case 1:  // RLE
+        case 2:  // ZIPS
+            return 1;
+        case 3:  // ZIP
+        case 5:  // PXR24
+            return 16;
+        case 8:  // DWAA
+            return 32;
+        case 9:  // DWAB
+            return 256;
+        default:  // PIZ, B44, B44A
+            return 32;
+    }
+}
+
+// Reads the header from the bytes (OpenEXR file layout: magic, version, the
+// attribute list up to its empty name) and refuses, before OpenEXR allocates
+// anything, a file whose declared image the bytes present cannot describe.
+void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
+    auto bad = [&](const std::string& why) { return InputError("EXR", name, why); };
+    if (b.size() < 8 || le32(b, 0) != 20000630u) throw bad("not an OpenEXR file (bad magic number)");
+    const std::uint32_t version = le32(b, 4);
+    if ((version & 0xff) != 2) throw bad(fmt::format("unsupported version {}", version & 0xff));
+    if (version & 0x1800u) throw bad("multi-part and deep files are not supported");
+    const bool tiled = (version & 0x200u) != 0;
+    const std::size_t maxName = (version & 0x400u) ? 255 : 31;
+    std::size_t at = 8;
+    auto readName = [&]() {
+        std::string s;
+        while (true) {
+            if (at >= b.size()) throw bad("header is truncated");
+            const char c = static_cast<char>(b[at++]);
+            if (c == 0) return s;
+            if (s.size() >= maxName) throw bad("attribute name is too long");
+            s.push_back(c);
+        }
+    };
+    bool haveWindow = false, haveCompression = false;
+    std::int64_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    unsigned compression = 0;
+    std::uint64_t channels = 0;
+    for (int count = 0;; ++count) {
+        if (count > 10000) throw bad("header has too many attributes");
+        const std::string attr = readName();
+        if (attr.empty()) break;
+        const std::string type = readName();
+        if (at + 4 > b.size()) throw bad("header is truncated");
+        const std::uint64_t size = le32(b, at);
+        at += 4;
+        if (size > b.size() - at) throw bad(fmt::format("attribute '{}' runs past the end of the file", attr));
+        if (attr == "dataWindow" && type == "box2i" && size == 16) {
+            x0 = static_cast<std::int32_t>(le32(b, at));
+            y0 = static_cast<std::int32_t>(le32(b, at + 4));
+            x1 = static_cast<std::int32_t>(le32(b, at + 8));
+            y1 = static_cast<std::int32_t>(le32(b, at + 12));
+            haveWindow = true;
+        } else if (attr == "compression" && size == 1) {
+            compression = unsigned(b[at]);
+            haveCompression = true;
+        } else if (attr == "channels" && type == "chlist") {
+            // name\0 + 16 bytes per channel, then a terminating \0.
+            std::size_t p = at;
+            const std::size_t end = at + size;
+            while (p < end && b[p] != std::byte{0}) {
+                while (p < end && b[p] != std::byte{0}) ++p;
+                p += 1 + 16;
+                ++channels;
+            }
+        }
+        at += size;
+    }
+    if (!haveWindow || !haveCompression) throw bad("header lacks dataWindow or compression");
+    if (x1 < x0 || y1 < y0) throw bad(fmt::format("data window ({},{})-({},{}) is inverted", x0, y0, x1, y1));
+    const std::uint64_t w = std::uint64_t(x1 - x0) + 1, h = std::uint64_t(y1 - y0) + 1;
+    if (w > (1u << 24) || h > (1u << 24)) throw bad(fmt::format("data window {}x{} is too large", w, h));
+    const std::uint64_t fileLeft = b.size() - at;
+    if (!tiled) {
+        // The offset table holds one 8-byte offset per chunk and must be there.
+        const std::uint64_t chunks = (h + linesPerChunk(compression) - 1) / linesPerChunk(compression);
+        if (chunks * 8 > fileLeft)
+            throw bad(fmt::format("{}x{} image needs an offset table of {} bytes but only {} bytes follow the header",
+                                  w, h, chunks * 8, fileLeft));
+    }
+    // We read every channel as 32-bit float.
+    const std::uint64_t pixelBytes =
+        saturatingMul(saturatingMul(w, h), saturatingMul(std::max<std::uint64_t>(channels, 1), 4));
+    // Half samples are 2 bytes; NONE stores them verbatim, RLE expands at most
+    // 128 bytes per 2 coded, ZIP/ZIPS at most deflate's 1032:1. Other codecs
+    // (PIZ, PXR24, B44, DWA) get only the memory bound.
+    std::uint64_t ratio = 0;
+    if (compression == 0)
+        ratio = 1;
+    else if (compression == 1)
+        ratio = 64;
+    else if (compression == 2 || compression == 3)
+        ratio = 1032;
+    const std::uint64_t rawMin =
+        saturatingMul(saturatingMul(w, h), saturatingMul(std::max<std::uint64_t>(channels, 1), 2));
+    if (ratio != 0 && rawMin > saturatingMul(fileLeft + 1, ratio))
+        throw bad(
+            fmt::format("{}x{} image needs at least {} bytes of samples but the {} bytes present can hold at "
+                        "most {}",
+                        w, h, rawMin, fileLeft, saturatingMul(fileLeft + 1, ratio)));
+    if (pixelBytes > availableMemoryBytes())
+        throw ResourceError("EXR", name,
+                            fmt::format("{}x{} image needs {}, more than available", w, h, formatBytes(pixelBytes)));
+}
+
 }  // namespace
 
 void writeExr(const std::filesystem::path& path, const ImageF& img) {
@@ -56,6 +176,7 @@ void writeExr(const std::filesystem::path& path, const ImageF& img) {
 ImageF readExr(const std::filesystem::path& path) {
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) throw IoError("input", path.string(), "no such file");
+    checkExrHeader(readFile(path), path.string());
     try {
         Imf::InputFile in(path.c_str());
         const Imath::Box2i dw = in.header().dataWindow();

@@ -2,6 +2,7 @@
 
 #include <png.h>
 
+#include <algorithm>
 #include <csetjmp>
 #include <cstring>
 #include <string>
@@ -40,11 +41,60 @@ void onError(png_structp png, png_const_charp msg) {
 
 void onWarning(png_structp, png_const_charp) {}
 
+std::uint32_t be32(const std::byte* p) {
+    return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | std::uint32_t(p[3]);
+}
+
+// Deflate's best case is 1032:1 (a 258-byte match coded in 2 bits, RFC 1951);
+// zlib adds a 2-byte header and 4-byte Adler-32 that only lower the ratio.
+constexpr std::uint64_t kDeflateMaxRatio = 1032;
+
+// Walks the chunk list (PNG spec, 5.3) before libpng allocates anything and
+// refuses an image whose declared size cannot come out of the IDAT bytes that
+// are actually present: the filtered scanlines hold at least w*h*bitsPerPixel/8
+// bytes (interlaced or not), and n compressed bytes inflate to at most
+// 1032*n. Chunks past the end of the buffer count only what is there.
+void checkDeclaredSizeAgainstData(const std::vector<std::byte>& bytes, const std::string& name) {
+    std::size_t at = 8;
+    std::uint64_t idat = 0, w = 0, h = 0, bitsPerPixel = 0;
+    bool header = false;
+    while (at + 8 <= bytes.size()) {
+        const std::uint64_t len = be32(bytes.data() + at);
+        const std::byte* type = bytes.data() + at + 4;
+        const std::size_t dataAt = at + 8;
+        const std::uint64_t present = std::min<std::uint64_t>(len, bytes.size() - dataAt);
+        if (std::memcmp(type, "IHDR", 4) == 0 && present >= 13) {
+            const std::byte* d = bytes.data() + dataAt;
+            w = be32(d);
+            h = be32(d + 4);
+            const unsigned depth = unsigned(d[8]), colorType = unsigned(d[9]);
+            const unsigned samples = colorType == 2 ? 3 : colorType == 4 ? 2 : colorType == 6 ? 4 : 1;
+            bitsPerPixel = std::uint64_t(depth) * samples;
+            header = true;
+        } else if (std::memcmp(type, "IDAT", 4) == 0) {
+            idat += present;
+        } else if (std::memcmp(type, "IEND", 4) == 0) {
+            break;
+        }
+        if (len > bytes.size() - dataAt) break;
+        at = dataAt + len + 4;  // data + CRC
+    }
+    if (!header) return;  // libpng reports the missing IHDR itself
+    const std::uint64_t rawBytes = saturatingMul(saturatingMul(w, h), bitsPerPixel) / 8;
+    const std::uint64_t canInflateTo = saturatingMul(idat + 1, kDeflateMaxRatio);
+    if (rawBytes > canInflateTo)
+        throw InputError("PNG", name,
+                         fmt::format("{}x{} image needs at least {} bytes of pixel data but its {} compressed bytes "
+                                     "can hold at most {} (deflate's 1032:1 limit)",
+                                     w, h, rawBytes, idat, canInflateTo));
+}
+
 }  // namespace
 
 PngImage decodePng(const std::vector<std::byte>& bytes, const std::string& name) {
     if (bytes.size() < 8 || png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()), 0, 8) != 0)
         throw InputError("PNG", name, "not a PNG file (bad signature)");
+    checkDeclaredSizeAgainstData(bytes, name);
     ErrorState st;
     png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &st, onError, onWarning);
     png_infop info = png ? png_create_info_struct(png) : nullptr;

@@ -26,3 +26,63 @@ TEST(Exr, MissingOrCorruptFileIsAnInputError) {
     writeFileAtomic(dir / "bad.exr", std::string("not an exr"));
     EXPECT_THROW(readExr(dir / "bad.exr"), InputError);
 }
+
+namespace {
+
+// A scanline EXR header (OpenEXR file layout) with the given data window and
+// compression, padded with zeros to `total` bytes.
+std::string hostileExr(std::int32_t x1, std::int32_t y1, std::uint8_t compression, std::size_t total) {
+    std::string s;
+    auto u32 = [&](std::uint32_t v) {
+        for (int i = 0; i < 4; ++i) s.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
+    };
+    auto attr = [&](const char* name, const char* type, const std::string& value) {
+        s += name;
+        s.push_back('\0');
+        s += type;
+        s.push_back('\0');
+        u32(static_cast<std::uint32_t>(value.size()));
+        s += value;
+    };
+    auto box = [&](std::int32_t a, std::int32_t b) {
+        std::string v;
+        for (std::int32_t x : {0, 0, a, b})
+            for (int i = 0; i < 4; ++i)
+                v.push_back(static_cast<char>((static_cast<std::uint32_t>(x) >> (8 * i)) & 0xff));
+        return v;
+    };
+    u32(20000630u);
+    u32(2);
+    std::string ch = std::string("R\0", 2) + std::string("\x01\0\0\0", 4) + std::string(4, '\0') +
+                     std::string("\x01\0\0\0\x01\0\0\0", 8) + std::string(1, '\0');
+    attr("channels", "chlist", ch);
+    attr("compression", "compression", std::string(1, static_cast<char>(compression)));
+    attr("dataWindow", "box2i", box(x1, y1));
+    attr("displayWindow", "box2i", box(x1, y1));
+    attr("lineOrder", "lineOrder", std::string(1, '\0'));
+    s.push_back('\0');
+    if (s.size() < total) s.resize(total, '\0');
+    return s;
+}
+
+}  // namespace
+
+// Issue 13: a 240-byte EXR made OpenEXR allocate 2.6 GB before exr.cpp
+// checked anything. The header is now read from the bytes first.
+TEST(Exr, HostileHeaderIsRefusedBeforeOpenExrRuns) {
+    test::TempDir dir;
+    const std::string bytes = hostileExr(1 << 10, 1 << 30, 3, 240);
+    ASSERT_EQ(bytes.size(), 240u);
+    writeFileAtomic(dir / "hostile.exr", bytes);
+    try {
+        readExr(dir / "hostile.exr");
+        FAIL() << "accepted a 2^30-line image from 240 bytes";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("hostile.exr"), std::string::npos) << e.what();
+    }
+    writeFileAtomic(dir / "inverted.exr", hostileExr(-5, 10, 0, 240));
+    EXPECT_THROW(readExr(dir / "inverted.exr"), InputError);
+    // Small window, enough offset table, but uncompressed samples missing.
+    writeFileAtomic(dir / "short.exr", hostileExr(999, 3, 0, 240));
+    EXPECT_THROW(readExr(dir / "short.exr"), InputError);
+}

@@ -1,7 +1,9 @@
 #include <mucosa/image/png.hpp>
 
 #include <png.h>
+#include <zlib.h>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 
@@ -146,4 +148,50 @@ TEST(Png, WritesAtomicallyAndLeavesNoTemporaryOnError) {
         ++entries;
     }
     EXPECT_EQ(entries, 1);
+}
+
+namespace {
+
+void appendChunk(std::vector<std::byte>& out, const char* type, const std::vector<std::uint8_t>& data) {
+    auto put32 = [&](std::uint32_t v) {
+        for (int s = 24; s >= 0; s -= 8) out.push_back(static_cast<std::byte>((v >> s) & 0xff));
+    };
+    put32(static_cast<std::uint32_t>(data.size()));
+    std::vector<std::uint8_t> typed(type, type + 4);
+    typed.insert(typed.end(), data.begin(), data.end());
+    for (std::uint8_t b : typed) out.push_back(static_cast<std::byte>(b));
+    put32(static_cast<std::uint32_t>(crc32(0, typed.data(), static_cast<uInt>(typed.size()))));
+}
+
+}  // namespace
+
+// Issue 13: a 69-byte PNG claiming 30000x30000 RGBA took 4.0 GB and 6.6 s
+// before libpng said "Not enough image data". 24 compressed bytes can inflate
+// to at most 24*1032 bytes, far from the 3.6 GB the header declares.
+TEST(Png, RefusesADeclaredSizeItsCompressedDataCannotHold) {
+    std::vector<std::byte> bytes;
+    for (int b : std::initializer_list<int>{0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'})
+        bytes.push_back(static_cast<std::byte>(b));
+    appendChunk(bytes, "IHDR", {0, 0, 0x75, 0x30, 0, 0, 0x75, 0x30, 8, 6, 0, 0, 0});
+    appendChunk(bytes, "IDAT", std::vector<std::uint8_t>(24, 0x78));
+    ASSERT_EQ(bytes.size(), 69u);
+    try {
+        decodePng(bytes, "hostile.png");
+        FAIL() << "accepted a 30000x30000 image from 24 compressed bytes";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("hostile.png"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("1032"), std::string::npos) << e.what();
+    }
+}
+
+// The bound must not refuse what deflate really achieves: a constant 4096x4096
+// image from our encoder compresses close to the 1032:1 limit and still loads.
+TEST(Png, HighlyCompressedLegitimateImagesStillLoad) {
+    Image8 img(4096, 4096, 1);
+    std::fill(img.data(), img.data() + img.size(), std::uint8_t{77});
+    const auto bytes = encodePng(img);
+    const PngImage back = decodePng(bytes, "constant.png");
+    ASSERT_EQ(back.pixels.width(), 4096);
+    ASSERT_EQ(back.pixels.height(), 4096);
+    EXPECT_EQ(back.pixels.data()[4096 * 4096 - 1], 77);
 }
