@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <sstream>
 
 #include <assimp/importerdesc.h>
 #include <assimp/postprocess.h>
@@ -37,9 +38,18 @@ std::string lowerExtension(const std::filesystem::path& p) {
 void checkDeclaredSizes(const std::filesystem::path& path, const std::string& ext, std::uintmax_t fileBytes) {
     std::ifstream in(path, std::ios::binary);
     if (ext == ".ply") {
+        // The header is read from a bounded prefix only: Assimp 5.2.5 hangs (and
+        // ignores SIGTERM) or crashes on a header without end_header, so such a
+        // file is refused here, never handed to it.
+        constexpr std::size_t maxHeaderBytes = 1 << 20;
+        std::string head(static_cast<std::size_t>(std::min<std::uintmax_t>(fileBytes, maxHeaderBytes)), '\0');
+        in.read(head.data(), static_cast<std::streamsize>(head.size()));
+        head.resize(static_cast<std::size_t>(std::max<std::streamsize>(in.gcount(), 0)));
+        std::istringstream headIn(head);
         std::string line, format;
         std::uint64_t declared = 0;
-        for (int i = 0; i < 10000 && std::getline(in, line); ++i) {
+        bool ended = false;
+        for (int i = 0; i < 10000 && std::getline(headIn, line); ++i) {
             if (line.rfind("format", 0) == 0) format = line;
             unsigned long long count = 0;
             char name[64] = {};
@@ -48,8 +58,15 @@ void checkDeclaredSizes(const std::filesystem::path& path, const std::string& ex
                     throw InputError("PLY header", path.string(), "element count overflows");
                 declared += count;
             }
-            if (line.rfind("end_header", 0) == 0) break;
+            if (line.rfind("end_header", 0) == 0) {
+                ended = true;
+                break;
+            }
         }
+        if (!ended)
+            throw InputError("PLY header", path.string(),
+                             fmt::format("no end_header line within the first {} bytes or 10000 lines",
+                                         std::min<std::uintmax_t>(fileBytes, maxHeaderBytes)));
         // Every element takes at least one byte (binary) or two characters (ASCII).
         const std::uint64_t minBytes = format.find("ascii") != std::string::npos ? 2 * declared : declared;
         if (minBytes > fileBytes)
@@ -189,14 +206,6 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     }
     if (mesh.indices.empty()) throw InputError("mesh", name, "the file contains no triangles");
 
-    // Non-finite values.
-    std::size_t nonFinite = 0;
-    for (const Vec3& p : mesh.positions) nonFinite += finite(p) ? 0 : 1;
-    if (nonFinite > 0 && !options.allowNonFinite)
-        throw InputError(
-            "mesh", name,
-            fmt::format("non-finite (NaN/Inf) coordinates at {} of {} vertices", nonFinite, mesh.positions.size()));
-
     // Units.
     double scale = 1.0;
     const bool gltf = ext == ".gltf" || ext == ".glb";
@@ -229,6 +238,15 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
         for (Vec3& p : mesh.positions)
             for (float& c : p) c = static_cast<float>(c * scale);
     info.upAxis = gltf ? "+Y (glTF)" : "as stored in the file (not rotated)";
+
+    // Non-finite values, counted after the scale to mm: a glTF coordinate of
+    // 1e36 is finite in float but infinite after x1000, and is refused as well.
+    std::size_t nonFinite = 0;
+    for (const Vec3& p : mesh.positions) nonFinite += finite(p) ? 0 : 1;
+    if (nonFinite > 0 && !options.allowNonFinite)
+        throw InputError("mesh", name,
+                         fmt::format("non-finite (NaN/Inf) coordinates in millimetres at {} of {} vertices", nonFinite,
+                                     mesh.positions.size()));
 
     // Normals: unit length, and computed where missing or unusable.
     if (mesh.hasNormals()) {
