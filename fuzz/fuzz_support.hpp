@@ -24,7 +24,7 @@ inline const std::filesystem::path& scratchDir() {
     static const std::filesystem::path dir = [] {
         std::error_code ec;
         std::filesystem::path base = std::filesystem::exists("/dev/shm", ec) ? std::filesystem::path("/dev/shm")
-                                                                              : std::filesystem::temp_directory_path();
+                                                                             : std::filesystem::temp_directory_path();
         auto d = base / ("mucosa-fuzz-" + std::to_string(::getpid()));
         std::filesystem::create_directories(d);
         static struct Cleanup {

@@ -7,6 +7,8 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 
+#include "core/json_parse.hpp"
+
 namespace mucosa::fit {
 
 using json = nlohmann::json;
@@ -44,13 +46,7 @@ BrdfParams brdfFromJson(const json& j, const std::string& file) {
 }
 
 BrdfParams readBrdf(const std::filesystem::path& path) {
-    json j;
-    try {
-        j = json::parse(readTextFile(path));
-    } catch (const json::parse_error& e) {
-        throw InputError("JSON", path.string(), "parse error at byte " + std::to_string(e.byte));
-    }
-    return brdfFromJson(j, path.string());
+    return brdfFromJson(detail::parseJsonFile(readTextFile(path), path.string()), path.string());
 }
 
 }  // namespace mucosa::fit

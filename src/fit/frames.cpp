@@ -8,6 +8,8 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 
+#include "core/json_parse.hpp"
+
 namespace mucosa::fit {
 
 using json = nlohmann::json;
@@ -31,12 +33,7 @@ double number(const json& j, const char* key, const std::string& where, const st
 
 FrameSet readFrames(const fs::path& path) {
     const std::string file = path.string();
-    json j;
-    try {
-        j = json::parse(readTextFile(path));
-    } catch (const json::parse_error& e) {
-        throw InputError("JSON", file, fmt::format("parse error at byte {}", e.byte));
-    }
+    const json j = detail::parseJsonFile(readTextFile(path), file);
     if (!j.is_object()) throw InputError("frames file", file, "must be a JSON object");
     FrameSet set;
     if (j.contains("units")) {

@@ -150,10 +150,10 @@ void writeGltf(const Mesh& mesh, const std::filesystem::path& path, bool binary,
                                     {{"baseColorFactor", J::array({0.80, 0.36, 0.34, 1.0})},
                                      {"metallicFactor", 0.0},
                                      {"roughnessFactor", 0.35}}}}});
-    doc["meshes"] = J::array(
-        {J{{"name", options.name},
-           {"primitives",
-            J::array({J{{"attributes", attributes}, {"indices", indices}, {"material", 0}, {"mode", 4}}})}}});
+    doc["meshes"] =
+        J::array({J{{"name", options.name},
+                    {"primitives",
+                     J::array({J{{"attributes", attributes}, {"indices", indices}, {"material", 0}, {"mode", 4}}})}}});
     doc["accessors"] = std::move(b.accessors);
     doc["bufferViews"] = std::move(b.views);
     nlohmann::json buffer = {{"byteLength", b.bin.size()}};

@@ -16,6 +16,8 @@
 #include <mucosa/image/png.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
 
+#include "core/json_parse.hpp"
+
 namespace mucosa::reflectance {
 
 namespace fs = std::filesystem;
@@ -142,12 +144,7 @@ MapParams mapParamsFromJson(const json& j, const std::string& file) {
 
 Sidecar readSidecar(const fs::path& path) {
     const std::string text = readTextFile(path);
-    json j;
-    try {
-        j = json::parse(text);
-    } catch (const json::parse_error& e) {
-        throw InputError("JSON", path.string(), fmt::format("parse error at byte {}", e.byte));
-    }
+    const json j = detail::parseJsonFile(text, path.string());
     if (!j.is_object() || !j.contains("params"))
         throw InputError("field 'params'", path.string(), "missing: not a Mucosa map sidecar");
     Sidecar s;

@@ -19,6 +19,8 @@
 #include <mucosa/render/primitives.hpp>
 #include <mucosa/render/renderer.hpp>
 
+#include "core/json_parse.hpp"
+
 namespace mucosa::render {
 
 namespace fs = std::filesystem;
@@ -183,7 +185,7 @@ void setMapParameter(Scene& scene, const std::string& key, const std::string& va
         try {
             v = json::parse(value);
             if (!v.is_number()) v = value;
-        } catch (const json::parse_error&) {
+        } catch (const json::exception&) {  // not JSON, or a number out of range: a string
             v = value;
         }
     }
@@ -229,12 +231,7 @@ Scene defaultScene() {
 
 Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     const Parser P{fileForErrors.string(), fileForErrors.parent_path()};
-    json j;
-    try {
-        j = json::parse(text);
-    } catch (const json::parse_error& e) {
-        throw InputError("JSON", P.file, e.what());
-    }
+    const json j = detail::parseJsonFile(text, P.file);
     P.object(j, "scene");
     P.known(j, "",
             {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
@@ -325,11 +322,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         fit::BrdfParams b;
         json bj;  // brdf.json, read once: the BRDF and (below) the atlas rectangle
         try {
-            try {
-                bj = json::parse(readTextFile(dir / "brdf.json"));
-            } catch (const json::parse_error& e) {
-                throw InputError("JSON", (dir / "brdf.json").string(), "parse error at byte " + std::to_string(e.byte));
-            }
+            bj = detail::parseJsonFile(readTextFile(dir / "brdf.json"), (dir / "brdf.json").string());
             b = fit::brdfFromJson(bj, (dir / "brdf.json").string());
         } catch (const Error& e) {
             P.fail("fit", e.what());

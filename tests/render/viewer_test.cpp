@@ -27,9 +27,9 @@ TEST(RenderViewer, OpensUnderXvfbDrawsFramesAndCloses) {
         const std::string preload;
 #endif
         const std::string cmd = "xvfb-run -a -s '-screen 0 1024x768x24' " + preload + "'" + std::string(MUCOSA_CLI) +
-                                "' view '" +
-                                (dir / "tube.json").string() + "' --window 640x480 --frames 4 --screenshot '" +
-                                shot.string() + "'" + extra + " > '" + (dir / "log.txt").string() + "' 2>&1";
+                                "' view '" + (dir / "tube.json").string() +
+                                "' --window 640x480 --frames 4 --screenshot '" + shot.string() + "'" + extra + " > '" +
+                                (dir / "log.txt").string() + "' 2>&1";
         const int status = std::system(cmd.c_str());
         ASSERT_EQ(status, 0) << extra << test::readBytes(dir / "log.txt");
         EXPECT_NE(test::readBytes(dir / "log.txt").find("4 frames"), std::string::npos)
