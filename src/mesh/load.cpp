@@ -37,7 +37,15 @@ std::string lowerExtension(const std::filesystem::path& p) {
 // before an importer reserves memory for it.
 void checkDeclaredSizes(const std::filesystem::path& path, const std::string& ext, std::uintmax_t fileBytes) {
     std::ifstream in(path, std::ios::binary);
-    if (ext == ".ply") {
+    // Assimp picks an importer by content when the extension's refuses the
+    // file, so PLY bytes under another name (x.gltf) reach its PLY reader too:
+    // the PLY checks go by the magic as well as by the extension.
+    char magic[4] = {};
+    in.read(magic, 4);
+    in.clear();
+    in.seekg(0);
+    const bool plyMagic = std::strncmp(magic, "ply", 3) == 0 && (magic[3] == '\n' || magic[3] == '\r');
+    if (ext == ".ply" || plyMagic) {
         // The header is read from a bounded prefix only: Assimp 5.2.5 hangs (and
         // ignores SIGTERM) or crashes on a header without end_header, so such a
         // file is refused here, never handed to it.

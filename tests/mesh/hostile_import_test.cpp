@@ -54,6 +54,16 @@ TEST(HostileImport, PlyWithoutEndHeaderIsRefused) {
     EXPECT_NE(what.find("end_header"), std::string::npos) << what;
 }
 
+TEST(HostileImport, PlyBytesUnderAnotherExtensionAreCheckedAsPly) {
+    TempDir dir;
+    // Assimp falls back to the PLY reader by content: found by fuzz_mesh_gltf.
+    for (const char* name : {"hang.gltf", "hang.obj", "hang.stl"}) {
+        writeText(dir / name, std::string("ply\nformat binary_little_endian 1.0\n"));
+        const std::string what = expectInputErrorWithin20s(dir / name);
+        EXPECT_NE(what.find("end_header"), std::string::npos) << name << ": " << what;
+    }
+}
+
 TEST(HostileImport, TruncatedPlyThatCrashesAssimpIsRefused) {
     TempDir dir;
     // 47 bytes: segfaults inside Assimp's BaseImporter::ReadFile.
