@@ -7,6 +7,7 @@
 #include <ImfOutputFile.h>
 
 #include <algorithm>
+#include <array>
 #include <string>
 
 #include <mucosa/core/error.hpp>
@@ -80,6 +81,7 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
     std::int64_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     unsigned compression = 0;
     std::uint64_t channels = 0;
+    std::vector<std::array<std::uint32_t, 2>> sampling;  // x, y sampling per channel
     for (int count = 0;; ++count) {
         if (count > 10000) throw bad("header has too many attributes");
         const std::string attr = readName();
@@ -99,12 +101,19 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
             compression = unsigned(b[at]);
             haveCompression = true;
         } else if (attr == "channels" && type == "chlist") {
-            // name\0 + 16 bytes per channel, then a terminating \0.
+            // name\0 + 16 bytes per channel (pixel type, pLinear, 3 reserved,
+            // x and y sampling), then a terminating \0. Subsampled channels
+            // store fewer samples: count each at its own sampling.
             std::size_t p = at;
             const std::size_t end = at + size;
             while (p < end && b[p] != std::byte{0}) {
                 while (p < end && b[p] != std::byte{0}) ++p;
-                p += 1 + 16;
+                ++p;
+                if (p + 16 <= end) {
+                    const std::uint32_t xs = le32(b, p + 8), ys = le32(b, p + 12);
+                    sampling.push_back({std::max<std::uint32_t>(xs, 1), std::max<std::uint32_t>(ys, 1)});
+                }
+                p += 16;
                 ++channels;
             }
         }
@@ -135,8 +144,9 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
         ratio = 64;
     else if (compression == 2 || compression == 3)
         ratio = 1032;
-    const std::uint64_t rawMin =
-        saturatingMul(saturatingMul(w, h), saturatingMul(std::max<std::uint64_t>(channels, 1), 2));
+    std::uint64_t rawMin = 0;
+    for (const auto& [xs, ys] : sampling)
+        rawMin += saturatingMul(saturatingMul((w + xs - 1) / xs, (h + ys - 1) / ys), 2);
     if (ratio != 0 && rawMin > saturatingMul(fileLeft + 1, ratio))
         throw bad(
             fmt::format("{}x{} image needs at least {} bytes of samples but the {} bytes present can hold at "
