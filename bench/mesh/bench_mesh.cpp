@@ -3,6 +3,7 @@
 // phantom's generation time.
 //   bench_mesh --benchmark_filter=Tangents
 //   bench_mesh --benchmark_filter=Phantom
+//   bench_mesh --benchmark_filter=Load
 #include <map>
 #include <memory>
 
@@ -104,6 +105,25 @@ void BM_TangentsAssimp(benchmark::State& state) {
     std::remove(file.c_str());
 }
 
+// Import of the phantom as binary PLY, isolated (Assimp in a forked child with
+// limits, the result piped back and validated: the default) next to Assimp in
+// the calling process: the price of surviving hostile files.
+void BM_Load(benchmark::State& state) {
+    const Mesh& m = benchMesh(static_cast<int>(state.range(0)));
+    const std::string file = "/tmp/mucosa-bench-load-" + std::to_string(state.range(0)) + ".ply";
+    writePly(m, file);
+    LoadOptions options;
+    options.isolate = state.range(1) != 0;
+    std::size_t triangles = 0;
+    for (auto _ : state) {
+        const Mesh loaded = load(file, options);
+        triangles = loaded.triangleCount();
+    }
+    state.counters["triangles"] = static_cast<double>(triangles);
+    state.SetLabel(options.isolate ? "isolated" : "in-process");
+    std::remove(file.c_str());
+}
+
 void BM_PhantomDefault(benchmark::State& state) {
     std::size_t triangles = 0;
     for (auto _ : state) {
@@ -118,6 +138,8 @@ void BM_PhantomDefault(benchmark::State& state) {
 // range(0): 0 = 250k, 1 = 1M, 2 = 4M triangles; range(1): threads (0 = all).
 BENCHMARK(BM_TangentsMucosa)->ArgsProduct({{0, 1, 2}, {1, 0}})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_TangentsAssimp)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+// range(0): mesh size as above; range(1): 1 = isolated (default), 0 = in-process.
+BENCHMARK(BM_Load)->ArgsProduct({{0, 1}, {1, 0}})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 BENCHMARK(BM_PhantomDefault)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 BENCHMARK_MAIN();

@@ -7,6 +7,7 @@
 #include <limits>
 #include <sstream>
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/importerdesc.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -18,11 +19,13 @@
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/repair.hpp>
 
+#include "core/isolate.hpp"
+#include "import_checks.hpp"
 #include "vecmath.hpp"
 
 namespace mucosa::mesh {
 
-using namespace detail;
+using namespace detail;  // mesh::detail
 
 namespace {
 
@@ -32,95 +35,143 @@ std::string lowerExtension(const std::filesystem::path& p) {
     return e;
 }
 
-// Sizes a file declares before its data (PLY element counts, binary STL's
-// triangle count) checked against the file's size, so a lying header is refused
-// before an importer reserves memory for it.
-void checkDeclaredSizes(const std::filesystem::path& path, const std::string& ext, std::uintmax_t fileBytes) {
-    std::ifstream in(path, std::ios::binary);
-    // Assimp picks an importer by content when the extension's refuses the
-    // file, so PLY bytes under another name (x.gltf) reach its PLY reader too:
-    // the PLY checks go by the magic as well as by the extension.
-    char magic[4] = {};
-    in.read(magic, 4);
-    in.clear();
-    in.seekg(0);
-    const bool plyMagic = std::strncmp(magic, "ply", 3) == 0 && (magic[3] == '\n' || magic[3] == '\r');
-    if (ext == ".ply" || plyMagic) {
-        // The header is read from a bounded prefix only: Assimp 5.2.5 hangs (and
-        // ignores SIGTERM) or crashes on a header without end_header, so such a
-        // file is refused here, never handed to it.
-        constexpr std::size_t maxHeaderBytes = 1 << 20;
-        std::string head(static_cast<std::size_t>(std::min<std::uintmax_t>(fileBytes, maxHeaderBytes)), '\0');
-        in.read(head.data(), static_cast<std::streamsize>(head.size()));
-        head.resize(static_cast<std::size_t>(std::max<std::streamsize>(in.gcount(), 0)));
-        std::istringstream headIn(head);
-        std::string line, format;
-        std::uint64_t declared = 0;
-        bool ended = false;
-        for (int i = 0; i < 10000 && std::getline(headIn, line); ++i) {
-            if (line.rfind("format", 0) == 0) format = line;
-            unsigned long long count = 0;
-            char name[64] = {};
-            if (std::sscanf(line.c_str(), "element %63s %llu", name, &count) == 2) {
-                if (count > std::numeric_limits<std::uint64_t>::max() / 4 - declared)
-                    throw InputError("PLY header", path.string(), "element count overflows");
-                declared += count;
-            }
-            if (line.rfind("end_header", 0) == 0) {
-                ended = true;
-                break;
-            }
+// Assimp opens every file through this: the model itself and what it names
+// (glTF buffers and images, OBJ material libraries) only inside the model's
+// folder. What is refused is reported as a warning (an OBJ still loads
+// without its materials, which Mucosa does not use).
+class ConfinedIOSystem : public Assimp::DefaultIOSystem {
+public:
+    ConfinedIOSystem(std::filesystem::path model, std::vector<std::string>& refused)
+        : model_(std::move(model)), refused_(refused) {}
+    bool Exists(const char* file) const override { return allowed(file) && DefaultIOSystem::Exists(file); }
+    Assimp::IOStream* Open(const char* file, const char* mode = "rb") override {
+        if (!allowed(file) || std::strpbrk(mode, "wa+") != nullptr) {
+            refused_.push_back(file);
+            return nullptr;
         }
-        if (!ended)
-            throw InputError("PLY header", path.string(),
-                             fmt::format("no end_header line within the first {} bytes or 10000 lines",
-                                         std::min<std::uintmax_t>(fileBytes, maxHeaderBytes)));
-        // Every element takes at least one byte (binary) or two characters (ASCII).
-        const std::uint64_t minBytes = format.find("ascii") != std::string::npos ? 2 * declared : declared;
-        if (minBytes > fileBytes)
-            throw InputError("PLY header", path.string(),
-                             fmt::format("declares {} elements but the file has only {} bytes", declared, fileBytes));
-        requireMemory(saturatingMul(declared, 64), fmt::format("mesh '{}'", path.string()));
-    } else if (ext == ".stl") {
-        char head[84] = {};
-        in.read(head, 84);
-        if (in.gcount() == 84 && std::strncmp(head, "solid", 5) != 0) {
-            std::uint32_t count = 0;
-            std::memcpy(&count, head + 80, 4);
-            if (84 + 50ull * count != fileBytes)
-                throw InputError("STL header", path.string(),
-                                 fmt::format("declares {} triangles ({} bytes) but the file has {} bytes", count,
-                                             84 + 50ull * count, fileBytes));
-        }
+        return DefaultIOSystem::Open(file, mode);
     }
+
+private:
+    bool allowed(const char* file) const {
+        // Assimp hands over paths already joined to the model's folder (or
+        // absolute ones, when the file wrote them so): compare resolved paths.
+        return std::filesystem::path(file) == model_ || resolvesInside(model_.parent_path(), file);
+    }
+    std::filesystem::path model_;
+    std::vector<std::string>& refused_;
+};
+
+// What the isolated importer sends back: the merged mesh and the facts for
+// LoadInfo, as little-endian bytes (same machine, same build: no versioning).
+struct Imported {
+    Mesh mesh;
+    std::string format;
+    std::size_t subMeshes = 0, droppedPrimitives = 0;
+    bool allNormals = false, allUvs = false, allTangents = false;
+    std::vector<std::string> warnings;
+};
+
+class Writer {
+public:
+    void u64(std::uint64_t v) { bytes_.append(reinterpret_cast<const char*>(&v), 8); }
+    void str(const std::string& s) {
+        u64(s.size());
+        bytes_ += s;
+    }
+    template <class T>
+    void array(const std::vector<T>& v) {
+        u64(v.size());
+        bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    }
+    std::string take() { return std::move(bytes_); }
+
+private:
+    std::string bytes_;
+};
+
+class Reader {
+public:
+    Reader(const std::string& bytes, const std::string& file) : bytes_(bytes), file_(file) {}
+    std::uint64_t u64() {
+        need(8);
+        std::uint64_t v;
+        std::memcpy(&v, bytes_.data() + at_, 8);
+        at_ += 8;
+        return v;
+    }
+    std::string str() {
+        const std::uint64_t n = u64();
+        need(n);
+        std::string s(bytes_, at_, n);
+        at_ += n;
+        return s;
+    }
+    template <class T>
+    void array(std::vector<T>& v) {
+        const std::uint64_t n = u64();
+        if (n > (bytes_.size() - at_) / sizeof(T)) fail();
+        v.resize(n);
+        std::memcpy(v.data(), bytes_.data() + at_, n * sizeof(T));
+        at_ += n * sizeof(T);
+    }
+    bool done() const { return at_ == bytes_.size(); }
+
+private:
+    void need(std::uint64_t n) const {
+        if (n > bytes_.size() - at_) fail();
+    }
+    [[noreturn]] void fail() const { throw InputError("mesh", file_, "the importer's result is malformed"); }
+    const std::string& bytes_;
+    std::string file_;
+    std::size_t at_ = 0;
+};
+
+std::string encode(const Imported& r) {
+    Writer w;
+    w.str(r.format);
+    w.u64(r.subMeshes);
+    w.u64(r.droppedPrimitives);
+    w.u64((r.allNormals ? 1 : 0) | (r.allUvs ? 2 : 0) | (r.allTangents ? 4 : 0));
+    w.u64(r.warnings.size());
+    for (const std::string& s : r.warnings) w.str(s);
+    w.array(r.mesh.positions);
+    w.array(r.mesh.normals);
+    w.array(r.mesh.uvs);
+    w.array(r.mesh.tangents);
+    w.array(r.mesh.indices);
+    return w.take();
 }
 
-}  // namespace
+Imported decode(const std::string& bytes, const std::string& file) {
+    Reader r(bytes, file);
+    Imported out;
+    out.format = r.str();
+    out.subMeshes = r.u64();
+    out.droppedPrimitives = r.u64();
+    const std::uint64_t flags = r.u64();
+    out.allNormals = flags & 1, out.allUvs = flags & 2, out.allTangents = flags & 4;
+    const std::uint64_t warnings = r.u64();
+    for (std::uint64_t i = 0; i < warnings && i < 1000; ++i) out.warnings.push_back(r.str());
+    r.array(out.mesh.positions);
+    r.array(out.mesh.normals);
+    r.array(out.mesh.uvs);
+    r.array(out.mesh.tangents);
+    r.array(out.mesh.indices);
+    if (!r.done()) throw InputError("mesh", file, "the importer's result is malformed");
+    // The child's output is checked like any input: lengths agree, indices in range.
+    validateIndices(out.mesh, file);
+    return out;
+}
 
-Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInfo* infoOut) {
-    namespace fs = std::filesystem;
+// Runs in the isolated child: Assimp reads the file, every triangle mesh is
+// merged into one Mesh (as stored: no unit scale, no normal repair yet).
+Imported importWithAssimp(const std::filesystem::path& path, const std::string& ext) {
     const std::string name = path.string();
-    std::error_code ec;
-    if (!fs::exists(path, ec)) throw IoError("mesh", name, "no such file");
-    if (fs::is_directory(path, ec)) throw IoError("mesh", name, "is a directory");
-    const std::uintmax_t fileBytes = fs::file_size(path, ec);
-    if (ec) throw IoError("mesh", name, ec.message());
-    {
-        std::ifstream probe(path, std::ios::binary);
-        if (!probe) throw IoError("mesh", name, "cannot be opened for reading");
-    }
-    if (fileBytes == 0) throw InputError("mesh", name, "the file is empty");
-
-    LoadInfo info;
-    info.fileBytes = static_cast<std::size_t>(fileBytes);
-    const std::string ext = lowerExtension(path);
+    Imported out;
     Assimp::Importer importer;
-    if (ext.empty() || !importer.IsExtensionSupported(ext))
-        throw InputError("mesh", name, fmt::format("unsupported format '{}'", ext.empty() ? "(no extension)" : ext));
-    checkDeclaredSizes(path, ext, fileBytes);
-    // Parsers hold the file and the scene at once: refuse up front what cannot fit.
-    requireMemory(saturatingMul(fileBytes, 6), fmt::format("importing '{}'", name));
-
+    std::vector<std::string> refused;
+    importer.SetIOHandler(new ConfinedIOSystem(path, refused));  // the importer owns it
     // Lossless steps only: triangulate polygons, apply node transforms, merge
     // vertices whose every attribute is equal, and keep points/lines apart.
     importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
@@ -132,14 +183,16 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     } catch (const std::exception& e) {
         throw InputError("mesh", name, e.what());
     }
+    for (const std::string& r : refused)
+        out.warnings.push_back(fmt::format("did not read '{}': outside the model's folder", r));
     if (!scene) {
         std::string why = importer.GetErrorString();
         if (why.empty()) why = "the importer could not read it";
+        if (!refused.empty()) why += fmt::format(" ('{}' is outside the model's folder and was not read)", refused[0]);
         throw InputError("mesh", name, why);
     }
-
     if (const aiImporterDesc* d = importer.GetImporterInfo(importer.GetImporterIndex(ext.c_str())))
-        info.format = d->mName;
+        out.format = d->mName;
 
     // Count first, check memory, then copy.
     std::size_t vertices = 0, triangles = 0;
@@ -147,10 +200,10 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
         const aiMesh* am = scene->mMeshes[m];
         if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) {
-            ++info.droppedPrimitives;
+            ++out.droppedPrimitives;
             continue;
         }
-        ++info.subMeshes;
+        ++out.subMeshes;
         vertices += am->mNumVertices;
         triangles += am->mNumFaces;
         allNormals = allNormals && am->HasNormals();
@@ -165,17 +218,17 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     requireMemory(
         saturatingMul(vertices, sizeof(Vec3) * 2 + sizeof(Vec2) + sizeof(Vec4)) + saturatingMul(triangles, 12),
         fmt::format("mesh '{}'", name));
-    info.fileHadNormals = allNormals;
-    info.fileHadUvs = allUvs;
-    info.fileHadTangents = allTangents;
-    if (info.subMeshes > 1) {
+    out.allNormals = allNormals;
+    out.allUvs = allUvs;
+    out.allTangents = allTangents;
+    if (out.subMeshes > 1) {
         std::size_t anyUv = 0;
         for (unsigned m = 0; m < scene->mNumMeshes; ++m) anyUv += scene->mMeshes[m]->HasTextureCoords(0) ? 1 : 0;
         if (!allUvs && anyUv > 0)
-            info.warnings.push_back("some parts have texture coordinates and some not: all dropped");
+            out.warnings.push_back("some parts have texture coordinates and some not: all dropped");
     }
 
-    Mesh mesh;
+    Mesh& mesh = out.mesh;
     mesh.positions.reserve(vertices);
     mesh.indices.reserve(3 * triangles);
     if (allNormals) mesh.normals.reserve(vertices);
@@ -212,6 +265,65 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
             }
         }
     }
+    if (mesh.indices.empty()) throw InputError("mesh", name, "the file contains no triangles");
+    return out;
+}
+
+}  // namespace
+
+Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInfo* infoOut) {
+    namespace fs = std::filesystem;
+    const std::string name = path.string();
+    std::error_code ec;
+    if (!fs::exists(path, ec)) throw IoError("mesh", name, "no such file");
+    if (fs::is_directory(path, ec)) throw IoError("mesh", name, "is a directory");
+    const std::uintmax_t fileBytes = fs::file_size(path, ec);
+    if (ec) throw IoError("mesh", name, ec.message());
+    {
+        std::ifstream probe(path, std::ios::binary);
+        if (!probe) throw IoError("mesh", name, "cannot be opened for reading");
+    }
+    if (fileBytes == 0) throw InputError("mesh", name, "the file is empty");
+
+    LoadInfo info;
+    info.fileBytes = static_cast<std::size_t>(fileBytes);
+    const std::string ext = lowerExtension(path);
+    if (ext.empty() || !Assimp::Importer().IsExtensionSupported(ext))
+        throw InputError("mesh", name, fmt::format("unsupported format '{}'", ext.empty() ? "(no extension)" : ext));
+    checkDeclaredSizes(path, ext, fileBytes);
+    if (ext == ".gltf" || ext == ".glb") checkGltf(path, ext == ".glb", fileBytes);
+    // Parsers hold the file and the scene at once: refuse up front what cannot fit.
+    requireMemory(saturatingMul(fileBytes, 6), fmt::format("importing '{}'", name));
+
+    // Assimp runs in a child process with memory, CPU and time limits (see
+    // core/isolate.hpp): a crash, a hang or an exhaustion inside it becomes an
+    // InputError naming the file. The limits scale with the file: a real
+    // 100 MB scan needs ~1 GB and seconds, a 1 KB file neither.
+    mucosa::detail::IsolationLimits limits;
+    const std::uint64_t mib = 1ull << 20;
+    limits.memoryBytes = options.importMemoryBytes
+                             ? options.importMemoryBytes
+                             : std::min<std::uint64_t>(std::max<std::uint64_t>(512 * mib, saturatingMul(fileBytes, 40)),
+                                                       std::max<std::uint64_t>(availableMemoryBytes() / 2, 256 * mib));
+    limits.cpuSeconds = options.importSeconds > 0 ? options.importSeconds : 30.0 + double(fileBytes) / double(mib);
+    limits.wallSeconds = 2 * limits.cpuSeconds + 5;
+    limits.maxResultBytes = limits.memoryBytes;
+    Imported imported;
+    if (options.isolate) {
+        imported = decode(
+            mucosa::detail::runIsolated([&] { return encode(importWithAssimp(path, ext)); }, limits, "mesh", name),
+            name);
+    } else {
+        imported = importWithAssimp(path, ext);
+    }
+    Mesh mesh = std::move(imported.mesh);
+    info.format = std::move(imported.format);
+    info.subMeshes = imported.subMeshes;
+    info.droppedPrimitives = imported.droppedPrimitives;
+    info.fileHadNormals = imported.allNormals;
+    info.fileHadUvs = imported.allUvs;
+    info.fileHadTangents = imported.allTangents;
+    info.warnings = std::move(imported.warnings);
     if (mesh.indices.empty()) throw InputError("mesh", name, "the file contains no triangles");
 
     // Units.

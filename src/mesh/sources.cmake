@@ -7,6 +7,7 @@ target_sources(mucosa PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/centerline.cpp
   ${CMAKE_CURRENT_LIST_DIR}/centerline_uv.cpp
   ${CMAKE_CURRENT_LIST_DIR}/gltf_write.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/import_checks.cpp
   ${CMAKE_CURRENT_LIST_DIR}/io.cpp
   ${CMAKE_CURRENT_LIST_DIR}/load.cpp
   ${CMAKE_CURRENT_LIST_DIR}/marching_tetrahedra.cpp

@@ -98,5 +98,106 @@ TEST(HostileImport, ValidPlyStillLoads) {
     EXPECT_EQ(m.indices.size(), 3u);
 }
 
+// A one-triangle glTF whose buffer is the file `bufferUri` (36 bytes of
+// positions), with accessor count and buffer byteLength as given.
+std::string triangleGltf(const std::string& bufferUri, int byteLength = 36, long long count = 3, bool withView = true) {
+    const std::string accessorView = withView ? R"("bufferView": 0, )" : "";
+    return R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+  "buffers": [{"uri": ")" +
+           bufferUri + R"(", "byteLength": )" + std::to_string(byteLength) + R"(}],
+  "bufferViews": [{"buffer": 0, "byteLength": 36}],
+  "accessors": [{)" +
+           accessorView + R"("componentType": 5126, "count": )" + std::to_string(count) +
+           R"(, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}]})";
+}
+
+void writeTriangleBuffer(const std::filesystem::path& p) {
+    const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(xyz), sizeof xyz);
+}
+
+TEST(HostileImport, GltfBufferInsideTheFolderLoads) {
+    TempDir dir;
+    std::filesystem::create_directories(dir / "bin");
+    writeTriangleBuffer(dir / "bin" / "tri.bin");
+    writeText(dir / "ok.gltf", triangleGltf("bin/tri.bin"));
+    const Mesh m = mesh::load(dir / "ok.gltf");
+    ASSERT_EQ(m.positions.size(), 3u);
+    EXPECT_FLOAT_EQ(m.positions[1][0], 1000.0f);  // metres -> mm
+}
+
+TEST(HostileImport, GltfUrisOutsideTheModelsFolderAreNeverRead) {
+    TempDir dir;
+    std::filesystem::create_directories(dir / "model");
+    std::filesystem::create_directories(dir / "secret");
+    writeTriangleBuffer(dir / "secret" / "tri.bin");  // a well-formed buffer, outside
+    std::filesystem::create_symlink(dir / "secret" / "tri.bin", dir / "model" / "link.bin");
+    const std::string outside = (dir / "secret" / "tri.bin").string();
+    for (const std::string& uri : {std::string("../../../../../../etc/passwd"), std::string("../secret/tri.bin"),
+                                   std::string("%2e%2e/secret/tri.bin"), outside, "file://" + outside,
+                                   std::string("link.bin"), std::string("http://127.0.0.1:9/tri.bin")}) {
+        writeText(dir / "model" / "evil.gltf", triangleGltf(uri));
+        const std::string what = expectInputErrorWithin20s(dir / "model" / "evil.gltf");
+        EXPECT_NE(what.find("not a file inside the model's folder"), std::string::npos) << uri << ": " << what;
+    }
+}
+
+TEST(HostileImport, GltfSizesBeyondTheirDataAreRefusedBeforeAllocating) {
+    TempDir dir;
+    writeTriangleBuffer(dir / "tri.bin");
+    // A buffer longer than its file.
+    writeText(dir / "a.gltf", triangleGltf("tri.bin", 1 << 30));
+    EXPECT_NE(expectInputErrorWithin20s(dir / "a.gltf").find("only 36 back it"), std::string::npos);
+    // An accessor of 2^32 elements in a 36-byte view (the issue's 64 GiB request).
+    writeText(dir / "b.gltf", triangleGltf("tri.bin", 36, 1ll << 32));
+    EXPECT_NE(expectInputErrorWithin20s(dir / "b.gltf").find("buffer view"), std::string::npos);
+    // An accessor with no data at all: zero-filled, bounded by the file's size.
+    writeText(dir / "c.gltf", triangleGltf("tri.bin", 36, 1ll << 32, false));
+    EXPECT_NE(expectInputErrorWithin20s(dir / "c.gltf").find("accessors without data"), std::string::npos);
+    // Negative and fractional counts.
+    writeText(dir / "d.gltf", triangleGltf("tri.bin", 36, -3));
+    EXPECT_NE(expectInputErrorWithin20s(dir / "d.gltf").find("not a whole number"), std::string::npos);
+}
+
+TEST(HostileImport, GlbChunkLongerThanTheFileIsRefused) {
+    TempDir dir;
+    // 79 bytes whose JSON chunk claims 0xfa000248 bytes (Assimp: 4.7 GB RSS).
+    std::string glb(
+        "glTF\x02\0\0\0\x4f\0\0\0\x48\x02\0\xfa"
+        "JSON",
+        20);
+    glb += std::string(79 - glb.size(), ' ');
+    ASSERT_EQ(glb.size(), 79u);
+    writeText(dir / "huge.glb", glb);
+    const std::string what = expectInputErrorWithin20s(dir / "huge.glb");
+    EXPECT_NE(what.find("chunk 0 declares 4194304584 bytes"), std::string::npos) << what;
+}
+
+TEST(HostileImport, ObjMaterialLibraryOutsideTheFolderIsNotRead) {
+    TempDir dir;
+    std::filesystem::create_directories(dir / "model");
+    writeText(dir / "outside.mtl", "newmtl stolen\nKd 1 0 0\n");
+    writeText(dir / "model" / "m.obj", "mtllib ../outside.mtl\nusemtl stolen\nv 0 0 0\nv 10 0 0\nv 0 10 0\nf 1 2 3\n");
+    mesh::LoadInfo info;
+    const Mesh m = mesh::load(dir / "model" / "m.obj", {}, &info);
+    EXPECT_EQ(m.indices.size(), 3u);
+    bool warned = false;
+    for (const std::string& w : info.warnings) warned = warned || w.find("outside.mtl") != std::string::npos;
+    EXPECT_TRUE(warned) << "no warning about the refused material library";
+}
+
+TEST(HostileImport, ParserLimitsComeFromTheOptions) {
+    TempDir dir;
+    writeText(dir / "ok.obj", "v 0 0 0\nv 10 0 0\nv 0 10 0\nf 1 2 3\n");
+    mesh::LoadOptions tight;
+    tight.importMemoryBytes = 1;  // no mesh fits in one byte (resident set or result)
+    const std::string what = expectInputErrorWithin20s(dir / "ok.obj", tight);
+    EXPECT_NE(what.find("than 1 B"), std::string::npos) << what;
+    mesh::LoadOptions inProcess;
+    inProcess.isolate = false;
+    EXPECT_EQ(mesh::load(dir / "ok.obj", inProcess).indices.size(), 3u);
+}
+
 }  // namespace
 }  // namespace mucosa::test

@@ -2,6 +2,7 @@
 // Reading any mesh format Assimp understands into a Mesh (millimetres, good
 // normals), and writing glTF 2.0 (.glb/.gltf), PLY and OBJ.
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -25,6 +26,15 @@ struct LoadOptions {
     bool allowNonFinite = false;
     // Compute angle-weighted normals where the file has none (or zero ones).
     bool computeMissingNormals = true;
+    // Assimp parses the file in a child process (fork) with these limits, so a
+    // crash, hang or memory exhaustion inside it becomes an InputError. 0 =
+    // scaled to the file (memory: 40x its size, at least 512 MiB, at most half
+    // of what is available; CPU: 30 s + 1 s per MiB; wall clock: 2x CPU + 5 s).
+    std::uint64_t importMemoryBytes = 0;
+    double importSeconds = 0;
+    // false parses in the calling process (for debugging the importer only:
+    // then a hostile file can crash or hang the caller).
+    bool isolate = true;
 };
 
 // What the importer found and did, for reports.
