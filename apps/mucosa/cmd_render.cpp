@@ -1,5 +1,6 @@
 // mucosa render: frames of a scene, headless (EGL), to PNG files.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -9,6 +10,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/core/memory.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/offscreen.hpp>
 
@@ -25,6 +27,13 @@ struct RenderArgs {
     bool overwrite = false;
     bool reference = false;
 };
+
+std::string formatDuration(double seconds) {
+    const long long t = std::llround(std::max(seconds, 0.0));
+    if (t >= 3600) return fmt::format("{}h{:02}m", t / 3600, t / 60 % 60);
+    if (t >= 60) return fmt::format("{}m{:02}s", t / 60, t % 60);
+    return fmt::format("{}s", t);
+}
 
 void run(const RenderArgs& a, const Global& g) {
     namespace fs = std::filesystem;
@@ -72,12 +81,24 @@ void run(const RenderArgs& a, const Global& g) {
                               render::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height),
                               refTextures)
                         : session->render(poses[static_cast<std::size_t>(i)]);
-        image::writePng(name, img);
+        const std::vector<std::byte> png = image::encodePng(img);
+        if (written == 0 && frames - existing > 1) {
+            // The first frame encoded is the estimate for the rest: refuse a run
+            // whose frames will not fit before writing any of them (x1.25 for
+            // frames that compress less well, plus 64 MiB to spare).
+            const std::uint64_t toWrite = static_cast<std::uint64_t>(frames - existing);
+            requireDisk(saturatingMul(toWrite, png.size() + png.size() / 4) + (64ull << 20), out,
+                        fmt::format("{} frames of ~{}", toWrite, formatBytes(png.size())));
+        }
+        writeFileAtomic(name, png);
         ++written;
         if (frames > 1 && !g.quiet) {
             const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            const std::string line = fmt::format("frame {}/{} {} ({:.1f} frames/s)", i + 1, frames,
-                                                 name.filename().string(), written / std::max(s, 1e-9));
+            const double rate = written / std::max(s, 1e-9);
+            const int left = frames - existing - written;
+            const std::string line =
+                fmt::format("frame {}/{} ({:.0f}%) {} ({:.1f} frames/s, ETA {})", i + 1, frames,
+                            100.0 * (i + 1) / frames, name.filename().string(), rate, formatDuration(left / rate));
             if (tty)
                 std::fprintf(stderr, "\r%s\x1b[K", line.c_str());
             else if ((i + 1) % std::max(1, frames / 10) == 0 || i + 1 == frames)

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -10,7 +11,10 @@
 #include <fstream>
 #include <iterator>
 
+#include <fmt/format.h>
+
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/memory.hpp>
 
 namespace mucosa {
 
@@ -113,6 +117,50 @@ std::string readTextFile(const fs::path& path) {
 
 void requireWritable(const fs::path& path) {
     AtomicFile probe(path);  // creates and removes a temporary next to the target
+}
+
+std::uint64_t availableDiskBytes(const fs::path& path) {
+    fs::path probe = path.empty() ? fs::path(".") : path;
+    std::error_code ec;
+    while (!fs::exists(probe, ec) && probe.has_parent_path() && probe.parent_path() != probe)
+        probe = probe.parent_path();
+    struct statvfs st {};
+    if (::statvfs(probe.c_str(), &st) != 0) throw IoError("disk", path.string(), std::strerror(errno));
+    return static_cast<std::uint64_t>(st.f_bavail) * static_cast<std::uint64_t>(st.f_frsize);
+}
+
+void requireDisk(std::uint64_t bytes, const fs::path& path, const std::string& what) {
+    const std::uint64_t free = availableDiskBytes(path);
+    if (bytes > free)
+        throw ResourceError(what, path.string(),
+                            fmt::format("needs {} of disk but only {} are free on its file system", formatBytes(bytes),
+                                        formatBytes(free)));
+}
+
+bool resolvesInside(const std::filesystem::path& folder, const std::filesystem::path& target) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path base = fs::weakly_canonical(folder.empty() ? fs::path(".") : folder, ec);
+    if (ec) return false;
+    const fs::path resolved = fs::weakly_canonical(target, ec);
+    if (ec) return false;
+    auto b = base.begin(), t = resolved.begin();
+    for (; b != base.end(); ++b, ++t) {
+        if (b->empty()) break;  // a trailing separator: the last element
+        if (t == resolved.end() || *b != *t) return false;
+    }
+    return true;
+}
+
+std::optional<std::filesystem::path> confinedPath(const std::filesystem::path& folder, const std::string& reference) {
+    if (reference.empty() || reference.find('\0') != std::string::npos) return std::nullopt;
+    // A scheme ("file:", "http:") or a drive letter ("C:") is never local-relative.
+    const auto colon = reference.find(':');
+    if (colon != std::string::npos && reference.find('/') > colon) return std::nullopt;
+    if (reference.front() == '/' || reference.front() == '\\') return std::nullopt;
+    const std::filesystem::path joined = (folder.empty() ? std::filesystem::path(".") : folder) / reference;
+    if (!resolvesInside(folder, joined)) return std::nullopt;
+    return folder.empty() ? std::filesystem::path(reference) : folder / reference;
 }
 
 }  // namespace mucosa

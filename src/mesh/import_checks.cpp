@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
 #include <mucosa/core/memory.hpp>
 
 #include "core/json_parse.hpp"
@@ -140,25 +141,7 @@ std::uint64_t componentsOf(const std::string& type) {
 }  // namespace
 
 bool insideFolder(const fs::path& folder, const std::string& reference) {
-    const std::string decoded = percentDecoded(reference);
-    if (decoded.empty() || decoded.find('\0') != std::string::npos) return false;
-    // A scheme ("file:", "http:") or a drive letter ("C:") is never local-relative.
-    const auto colon = decoded.find(':');
-    if (colon != std::string::npos && decoded.find('/') > colon) return false;
-    if (decoded.front() == '/' || decoded.front() == '\\') return false;
-    return resolvesInside(folder, (folder.empty() ? fs::path(".") : folder) / decoded);
-}
-
-bool resolvesInside(const fs::path& folder, const fs::path& target) {
-    std::error_code ec;
-    const fs::path base = fs::weakly_canonical(folder.empty() ? fs::path(".") : folder, ec);
-    if (ec) return false;
-    const fs::path resolved = fs::weakly_canonical(target, ec);
-    if (ec) return false;
-    auto b = base.begin(), t = resolved.begin();
-    for (; b != base.end(); ++b, ++t)
-        if (t == resolved.end() || *b != *t) return false;
-    return true;
+    return confinedPath(folder, percentDecoded(reference)).has_value();
 }
 
 void checkGltf(const fs::path& path, bool binary, std::uintmax_t fileBytes) {

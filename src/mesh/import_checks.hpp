@@ -13,8 +13,6 @@ namespace mucosa::mesh::detail {
 // `folder` (or the folder itself's tree): relative, no scheme, no escape by
 // "..", after symlinks are resolved. Percent-escapes are decoded first.
 bool insideFolder(const std::filesystem::path& folder, const std::string& reference);
-// True when the path `target` resolves (symlinks followed) inside `folder`.
-bool resolvesInside(const std::filesystem::path& folder, const std::filesystem::path& target);
 
 // PLY element counts and binary STL's triangle count against the file's size;
 // a PLY header must end (end_header) within 1 MiB / 10000 lines.

@@ -15,6 +15,7 @@
 #include <assimp/Importer.hpp>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
 #include <mucosa/core/memory.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/repair.hpp>

@@ -97,22 +97,7 @@ MapParams mapParamsFromJson(const json& j, const std::string& file) {
     };
     auto integer = [&](const char* key, auto& out) {
         if (!j.contains(key)) return;
-        if (!j[key].is_number_integer())
-            throw InputError(std::string("field '") + key + "'", file, "must be an integer");
-        if constexpr (std::is_unsigned_v<std::remove_reference_t<decltype(out)>>) {
-            if (j[key].is_number_unsigned()) {
-                out = j[key].get<std::uint64_t>();
-                return;
-            }
-            const auto v = j[key].get<std::int64_t>();
-            if (v < 0) throw InputError(std::string("field '") + key + "'", file, "must be >= 0");
-            out = static_cast<std::uint64_t>(v);
-        } else {
-            const auto v = j[key].get<std::int64_t>();
-            if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
-                throw InputError(std::string("field '") + key + "'", file, "is out of range");
-            out = static_cast<int>(v);
-        }
+        out = detail::wholeNumber<std::remove_reference_t<decltype(out)>>(j[key], key, file);
     };
     auto boolean = [&](const char* key, bool& out) {
         if (!j.contains(key)) return;
@@ -152,8 +137,23 @@ Sidecar readSidecar(const fs::path& path) {
     const fs::path dir = path.parent_path();
     if (j.contains("outputs") && j["outputs"].is_object()) {
         const json& o = j["outputs"];
-        if (o.contains("map") && o["map"].is_string()) s.map = dir / o["map"].get<std::string>();
-        if (o.contains("height") && o["height"].is_string()) s.height = dir / o["height"].get<std::string>();
+        // Outputs are written beside the sidecar only: a sidecar from elsewhere
+        // must not be able to overwrite files outside its folder.
+        auto output = [&](const char* key) -> std::optional<fs::path> {
+            if (!o.contains(key)) return std::nullopt;
+            if (!o[key].is_string())
+                throw InputError(fmt::format("field 'outputs.{}'", key), path.string(), "must be a file name");
+            const std::string name = o[key].get<std::string>();
+            auto confined = confinedPath(dir, name);
+            if (!confined)
+                throw InputError(fmt::format("field 'outputs.{}'", key), path.string(),
+                                 fmt::format("'{}' is not a file inside the sidecar's folder (outputs are written "
+                                             "beside the sidecar only)",
+                                             name.substr(0, 200)));
+            return confined;
+        };
+        if (auto m = output("map")) s.map = *m;
+        s.height = output("height");
     }
     if (s.map.empty()) {
         s.map = path;

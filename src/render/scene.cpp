@@ -73,9 +73,11 @@ struct Parser {
     }
     int integer(const json& j, const std::string& field, int lo, int hi) const {
         if (!j.is_number_integer()) fail(field, "must be an integer, not " + typeName(j));
-        const auto v = j.get<std::int64_t>();
-        if (v < lo || v > hi) fail(field, fmt::format("{} is out of range [{}, {}]", v, lo, hi));
-        return static_cast<int>(v);
+        try {
+            return detail::wholeNumber<int>(j, field, file, lo, hi);
+        } catch (const InputError& e) {
+            fail(field, e.reason());
+        }
     }
     bool boolean(const json& j, const std::string& field) const {
         if (!j.is_boolean()) fail(field, "must be true or false, not " + typeName(j));

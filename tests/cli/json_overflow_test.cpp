@@ -12,6 +12,7 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/fit/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
+#include <mucosa/mesh/centerline.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/render/scene.hpp>
 
@@ -65,6 +66,80 @@ TEST(JsonInput, CliPrintsOneErrorLineForAnOverflowingScene) {
     EXPECT_EQ(r.err.rfind("error: JSON in " + (dir / "scene.json").string() + ": ", 0), 0u) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "f.png"));
+}
+
+// Whole numbers are taken whole or refused: never wrapped or truncated
+// (4294967297 is not 1, -1 is not 18446744073709551615), and a float field
+// holds a finite float.
+TEST(JsonInput, IntegersOutOfRangeAreRefusedNotTruncated) {
+    test::TempDir dir;
+    struct Case {
+        const char* name;
+        std::string text;
+        std::function<void(const std::filesystem::path&)> read;
+        const char* field;
+    };
+    const auto scene = [](const std::filesystem::path& p) { (void)render::loadScene(p); };
+    const auto sidecar = [](const std::filesystem::path& p) { (void)reflectance::readSidecar(p); };
+    const auto centerline = [](const std::filesystem::path& p) { (void)mesh::readCenterlineJson(p); };
+    const std::string branch = R"("points": [[0, 0, 0]], "radii": [1])";
+    const Case cases[] = {
+        {"s1.json", R"({"mesh": "tube", "frames": 18446744073709551615})", scene, "frames"},
+        {"s2.json", R"({"mesh": "tube", "frames": 4294967297})", scene, "frames"},
+        {"m1.json", R"({"params": {"octaves": 4294967300}})", sidecar, "octaves"},
+        {"m2.json", R"({"params": {"seed": -1}})", sidecar, "seed"},
+        {"m3.json", R"({"params": {"size": 18446744073709551615}})", sidecar, "size"},
+        {"c1.json", R"({"branches": [{"parent": 4294967295, )" + branch + "}]}", centerline, "branches[0].parent"},
+        {"c2.json", R"({"branches": [{"parent": -1, )" + branch + R"(}, {"parent": 1, )" + branch + "}]}", centerline,
+         "branches[1].parent"},
+        {"c3.json", R"({"branches": [{"parent": -1, "points": [[0, 1e39, 0]], "radii": [1]}]})", centerline,
+         "branches[0].points[0]"},
+        {"c4.json", R"({"branches": [{"parent": "root", )" + branch + "}]}", centerline, "branches[0].parent"},
+    };
+    for (const Case& c : cases) {
+        const auto path = dir / c.name;
+        write(path, c.text);
+        try {
+            c.read(path);
+            ADD_FAILURE() << c.name << " was accepted: " << c.text;
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.file(), path.string()) << c.name;
+            EXPECT_NE(e.subject().find(c.field), std::string::npos) << c.name << ": " << e.what();
+        } catch (const std::exception& e) {
+            ADD_FAILURE() << c.name << ": untyped exception " << e.what();
+        }
+    }
+    // In range, and whole-valued floats, are taken as they are.
+    write(dir / "ok.json", R"({"params": {"seed": 18446744073709551615, "octaves": 3.0}})");
+    const auto ok = reflectance::readSidecar(dir / "ok.json");
+    EXPECT_EQ(ok.params.noise.seed, 18446744073709551615ull);
+    EXPECT_EQ(ok.params.noise.octaves, 3);
+}
+
+// A sidecar names its outputs; `map --from` writes them beside the sidecar
+// only, never where a sidecar from elsewhere points.
+TEST(JsonInput, SidecarOutputsOutsideItsFolderAreRefused) {
+    test::TempDir dir;
+    std::filesystem::create_directories(dir / "maps");
+    std::filesystem::create_directories(dir / "victim");
+    write(dir / "victim" / "notes.png", "precious");
+    for (const std::string& target : {std::string("../victim/notes.png"), (dir / "victim" / "notes.png").string(),
+                                      std::string("file:///tmp/x.png")}) {
+        write(dir / "maps" / "m.json", R"({"params": {"size": 64}, "outputs": {"map": ")" + target + R"("}})");
+        const auto r = test::runCli("map --from '" + (dir / "maps" / "m.json").string() + "'");
+        EXPECT_NE(r.exitCode, 0) << target;
+        EXPECT_EQ(r.err.rfind("error: field 'outputs.map' in " + (dir / "maps" / "m.json").string(), 0), 0u) << r.err;
+        EXPECT_NE(r.err.find("not a file inside the sidecar's folder"), std::string::npos) << r.err;
+    }
+    std::ifstream in(dir / "victim" / "notes.png");
+    std::string kept((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(kept, "precious");
+    // Beside the sidecar (also in a subfolder of it) is fine.
+    write(dir / "maps" / "m.json", R"({"params": {"size": 64}, "outputs": {"map": "out/m.png"}})");
+    std::filesystem::create_directories(dir / "maps" / "out");
+    const auto r = test::runCli("map --from '" + (dir / "maps" / "m.json").string() + "'");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(dir / "maps" / "out" / "m.png"));
 }
 
 }  // namespace

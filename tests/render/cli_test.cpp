@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include <mucosa/core/file.hpp>
 #include <mucosa/image/png.hpp>
 
 #include "test_support.hpp"
@@ -107,6 +108,23 @@ TEST(RenderCli, ProceduralRenderGeneratesNoMap) {
     // The C++ reference too (it falls back to the flat map it never reads).
     r = test::runCli("render tube.json -o q.png --mode procedural --reference", dir.path());
     ASSERT_EQ(r.exitCode, 0) << r.err;
+}
+
+// A long run that will not fit on the disk is refused before it writes any
+// frame: the first frame encoded is the estimate for the rest.
+TEST(RenderCli, FramesThatWillNotFitOnTheDiskAreRefusedBeforeWriting) {
+    test::TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [4096, 4096]})";
+    // 10^6 frames of >= 256 KiB is >= 244 GiB: more than this machine's disk.
+    ASSERT_LT(availableDiskBytes(dir.path()), 1000000ull * (256u << 10)) << "the disk is too large for this test";
+    const auto r = test::runCli("render '" + (dir / "tube.json").string() + "' -o '" + (dir / "fly.png").string() +
+                                "' --frames 1000000");
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_EQ(r.err.rfind("error: 1000000 frames of ~", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find("of disk but only"), std::string::npos) << r.err;
+    std::size_t files = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir.path())) files += e.path().extension() == ".png";
+    EXPECT_EQ(files, 0u);
 }
 
 }  // namespace

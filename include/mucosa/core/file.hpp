@@ -3,7 +3,9 @@
 // destination directory and renamed over the final name only when complete, so
 // a crash, a full disk or an error never leaves a half-written file behind.
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -46,5 +48,24 @@ std::string readTextFile(const std::filesystem::path& path);
 // Fails early (before any work) if `path` could not be created: its directory
 // is missing or not writable. Throws IoError.
 void requireWritable(const std::filesystem::path& path);
+
+// Bytes an unprivileged writer may still use on the file system holding
+// `path` (or its parent folder when it does not exist yet): statvfs f_bavail.
+std::uint64_t availableDiskBytes(const std::filesystem::path& path);
+
+// Throws ResourceError("<what>", path, "needs N (X GiB) but only M are free
+// on its file system") when `bytes` will not fit: checked before a long run
+// starts writing, so it is refused instead of failing half way.
+void requireDisk(std::uint64_t bytes, const std::filesystem::path& path, const std::string& what);
+
+// True when `target` resolves (symlinks followed, ".." applied) to `folder` or
+// a path below it.
+bool resolvesInside(const std::filesystem::path& folder, const std::filesystem::path& target);
+
+// For a path a file names (a sidecar's outputs, a glTF buffer URI, a frames
+// list's image): the path joined to `folder` if `reference` is relative, has
+// no scheme or drive ("file:", "C:"), and stays inside `folder`; otherwise
+// nothing. The one rule for "a file may only name files beside it".
+std::optional<std::filesystem::path> confinedPath(const std::filesystem::path& folder, const std::string& reference);
 
 }  // namespace mucosa

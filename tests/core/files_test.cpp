@@ -1,0 +1,78 @@
+// The one rule for "a file may only name files beside it", the disk check
+// before long runs, and whole numbers from JSON taken whole or refused.
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+
+#include "core/json_parse.hpp"
+#include "test_support.hpp"
+
+namespace mucosa::test {
+namespace {
+
+TEST(ConfinedPath, RelativePathsBelowTheFolderOnly) {
+    TempDir dir;
+    std::filesystem::create_directories(dir / "model" / "sub");
+    std::filesystem::create_directories(dir / "outside");
+    const auto folder = dir / "model";
+    EXPECT_EQ(confinedPath(folder, "a.bin"), folder / "a.bin");
+    EXPECT_EQ(confinedPath(folder, "sub/a.bin"), folder / "sub/a.bin");
+    EXPECT_TRUE(confinedPath(folder, "sub/../a.bin"));  // stays inside
+    EXPECT_TRUE(confinedPath(folder, "not-yet/created/a.bin"));
+    for (const char* bad : {"../outside/a.bin", "sub/../../outside/a.bin", "/etc/passwd", "file:///etc/passwd",
+                            "C:/Windows/x", "http://127.0.0.1/x", "", "\\\\server\\share"})
+        EXPECT_FALSE(confinedPath(folder, bad)) << bad;
+    // A symlink inside that points outside does not count as inside.
+    std::ofstream(dir / "outside" / "secret") << "x";
+    std::filesystem::create_symlink(dir / "outside" / "secret", folder / "link");
+    std::filesystem::create_directory_symlink(dir / "outside", folder / "dirlink");
+    EXPECT_FALSE(confinedPath(folder, "link"));
+    EXPECT_FALSE(confinedPath(folder, "dirlink/secret"));
+    EXPECT_TRUE(resolvesInside(folder, folder));
+    EXPECT_FALSE(resolvesInside(folder, dir.path()));
+}
+
+TEST(Disk, RequireDiskRefusesWhatWillNotFit) {
+    TempDir dir;
+    const std::uint64_t free = availableDiskBytes(dir / "does/not/exist/yet.png");  // nearest existing parent
+    EXPECT_GT(free, 0u);
+    EXPECT_NO_THROW(requireDisk(1, dir / "f.png", "a frame"));
+    try {
+        requireDisk(free + (1ull << 40), dir / "f.png", "1000 frames");
+        FAIL() << "not refused";
+    } catch (const ResourceError& e) {
+        EXPECT_EQ(e.subject(), "1000 frames");
+        EXPECT_NE(e.reason().find("of disk but only"), std::string::npos) << e.what();
+    }
+}
+
+TEST(WholeNumber, TakenWholeOrRefused) {
+    using detail::wholeNumber;
+    using nlohmann::json;
+    EXPECT_EQ(wholeNumber<int>(json::parse("7"), "f", "x.json"), 7);
+    EXPECT_EQ(wholeNumber<int>(json::parse("-7"), "f", "x.json"), -7);
+    EXPECT_EQ(wholeNumber<int>(json::parse("3.0"), "f", "x.json"), 3);
+    EXPECT_EQ(wholeNumber<std::uint64_t>(json::parse("18446744073709551615"), "f", "x.json"), UINT64_MAX);
+    EXPECT_EQ(wholeNumber<std::int64_t>(json::parse("-9223372036854775808"), "f", "x.json"), INT64_MIN);
+    for (const char* bad : {"4294967297", "-4294967295", "2147483648", "2.5", "1e300", "\"3\"", "true", "null"})
+        EXPECT_THROW(wholeNumber<int>(json::parse(bad), "f", "x.json"), InputError) << bad;
+    EXPECT_THROW(wholeNumber<std::uint32_t>(json::parse("-1"), "f", "x.json"), InputError);
+    EXPECT_THROW(wholeNumber<int>(json::parse("9"), "f", "x.json", 1, 8), InputError);
+    try {
+        wholeNumber<int>(json::parse("4294967297"), "likert", "answers.json", 1, 5);
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.subject(), "field 'likert'");
+        EXPECT_EQ(e.file(), "answers.json");
+        EXPECT_EQ(e.reason(), "4294967297 is out of range [1, 5]");
+    }
+}
+
+}  // namespace
+}  // namespace mucosa::test
