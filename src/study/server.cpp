@@ -23,6 +23,7 @@
 
 #include <mucosa/core/error.hpp>
 
+#include "beast_request.hpp"
 #include "http_handler.hpp"
 #include "store.hpp"
 
@@ -108,8 +109,7 @@ private:
 
     void readRequest() {
         parser_.emplace();
-        parser_->header_limit(static_cast<std::uint32_t>(detail::kHeaderLimit));
-        parser_->body_limit(detail::kBodyLimit);  // chunked bodies too: counted as they arrive
+        detail::limitParser(*parser_);  // chunked bodies too: counted as they arrive
         stream_.expires_after(kRequestDeadline);
         http::async_read(stream_, buffer_, *parser_,
                          [self = shared_from_this()](beast::error_code ec, std::size_t) { self->onRead(ec); });
@@ -123,15 +123,9 @@ private:
             return close();
         if (ec) return refuse(400, "malformed HTTP request");
         stream_.expires_never();  // while a worker answers
-        auto& req = parser_->get();
-        detail::HttpRequest r;
-        r.method = std::string(req.method_string());
-        r.target = std::string(req.target());
-        for (const auto& f : req) r.headers.emplace_back(std::string(f.name_string()), std::string(f.value()));
-        r.body = std::move(req.body());
-        r.peer = peer_;
-        version_ = req.version();
-        keepAlive_ = req.keep_alive();
+        version_ = parser_->get().version();
+        keepAlive_ = parser_->get().keep_alive();
+        detail::HttpRequest r = detail::fromBeast(parser_->release(), peer_);
         asio::post(workers_, [self = shared_from_this(), r = std::move(r)] {
             detail::HttpResponse res = self->handler_.handle(r);
             asio::post(self->stream_.get_executor(),
