@@ -229,7 +229,7 @@ check(con.execute("SELECT DISTINCT grp FROM answers WHERE observer='N01'").fetch
 con.close()
 
 # SIGINT and SIGTERM stop the server cleanly, also the instant it has started
-# (before its accept loop runs: httplib's own stop() would miss that).
+# (a stop() before the server runs is kept, not lost).
 import signal  # noqa: E402
 import time  # noqa: E402
 for sig in (signal.SIGINT, signal.SIGTERM):
