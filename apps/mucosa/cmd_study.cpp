@@ -26,7 +26,7 @@ struct PlanArgs {
 };
 
 struct ServeArgs {
-    std::string plan;
+    std::string plan, linksOut;
     study::ServeOptions o;
 };
 
@@ -47,6 +47,7 @@ void runPlan(const PlanArgs& a, const Global& g) {
 }
 
 void runServe(const ServeArgs& a, const Global& g) {
+    if (!a.linksOut.empty()) requireWritable(a.linksOut);
     study::Plan plan = study::readPlan(a.plan);
     const std::size_t slots = plan.observers.size();
     // SIGINT/SIGTERM stop the server cleanly: they are blocked in every thread
@@ -64,8 +65,17 @@ void runServe(const ServeArgs& a, const Global& g) {
     });
     try {
         server.run([&](int port) {
-            info(g, fmt::format("serving the study on http://{}:{}/ ({} observer slots, answers in {}); Ctrl-C stops",
-                                a.o.host, port, slots, a.o.db.string()));
+            // The links are the observers' credentials: in a 0600 file with
+            // --links-out, else on stdout, one per slot, after this line.
+            const std::vector<std::string> links = server.observerLinks(port);
+            if (!a.linksOut.empty()) study::writeLinksFile(a.linksOut, links);
+            info(g,
+                 fmt::format("serving the study on http://{}:{}/ ({} observer slots, answers in {}); {}; Ctrl-C stops",
+                             a.o.host, port, slots, a.o.db.string(),
+                             a.linksOut.empty() ? "each observer opens their own link below"
+                                                : "observer links in " + a.linksOut));
+            if (a.linksOut.empty())
+                for (const std::string& l : links) std::fprintf(stdout, "%s\n", l.c_str());
             std::fflush(stdout);
         });
     } catch (...) {
@@ -121,14 +131,24 @@ void addStudyCommand(CLI::App& app, Global& g) {
     auto sv = std::make_shared<ServeArgs>();
     CLI::App* serve = study->add_subcommand("serve", "Run the study in a browser; answers go to SQLite as given");
     serve->footer(
-        "Example: mucosa study serve study.json --db answers.sqlite --port 8080\n"
-        "Observers open http://HOST:PORT/, enter an id and group; reloading resumes.");
+        "Example: mucosa study serve study.json --db answers.sqlite --port 8080 --links-out links.txt\n"
+        "Each observer slot has a secret link (http://HOST:PORT/?t=TOKEN, the same at every restart);\n"
+        "an observer opens their link, enters an id and group once; reloading resumes.");
     serve->add_option("plan", sv->plan, "Study plan from `mucosa study plan`")->required();
     serve->add_option("--db", sv->o.db, "Answers database (SQLite; created if missing, resumed if present)")
         ->required();
     serve->add_option("--port", sv->o.port, "TCP port; 0 = any free port [8080]")->check(CLI::Range(0, 65535));
     serve->add_option("--host", sv->o.host, "Address to listen on; 0.0.0.0 exposes it to the network [127.0.0.1]");
-    serve->add_option("--http-threads", sv->o.threads, "HTTP worker threads [64]")->check(CLI::Range(1, 1024));
+    serve->add_option("--links-out", sv->linksOut,
+                      "Write the observer links here (mode 0600) instead of printing them");
+    serve->add_option("--http-threads", sv->o.threads, "Request worker threads (they wait on SQLite commits) [8]")
+        ->check(CLI::Range(1, 1024));
+    serve->add_option("--max-connections", sv->o.maxConnections, "Open connections in total; more are closed [512]")
+        ->check(CLI::Range(1, 100000));
+    serve
+        ->add_option("--client-connections", sv->o.maxClientConnections,
+                     "Open connections from one address; raise it for observers behind one NAT [16]")
+        ->check(CLI::Range(1, 100000));
     serve->callback([sv, &g] { runServe(*sv, g); });
 
     auto an = std::make_shared<AnalyzeArgs>();

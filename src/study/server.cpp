@@ -1,60 +1,204 @@
 #include <mucosa/study/server.hpp>
 
-#include <sys/socket.h>
+#include <fcntl.h>
+#include <unistd.h>
 
-#include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
-#include <fstream>
-#include <map>
+#include <memory>
 #include <mutex>
-#include <sstream>
+#include <optional>
+#include <string>
 #include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include <fmt/format.h>
-#include <httplib.h>
-#include <nlohmann/json.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/asio/thread_pool.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
 
 #include <mucosa/core/error.hpp>
 
+#include "beast_request.hpp"
+#include "http_handler.hpp"
 #include "store.hpp"
-#include "web_assets.hpp"
 
 namespace mucosa::study {
 
-namespace fs = std::filesystem;
-using nlohmann::json;
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+using tcp = asio::ip::tcp;
+using namespace std::chrono_literals;
 
 namespace {
 
-constexpr std::size_t kMaxBody = 16 * 1024;           // an answer is ~200 bytes
-constexpr int kListenBacklog = 1024;                  // pending connections (clamped to somaxconn)
-constexpr std::size_t kImageCacheBytes = 256u << 20;  // keep stimuli in memory up to this
+constexpr int kListenBacklog = 1024;            // pending connections (clamped to somaxconn)
+constexpr int kIoThreads = 2;                   // run the sockets (async: a slow client costs no thread)
+constexpr int kDefaultWorkers = 8;              // run the handler (SQLite commits block)
+constexpr auto kRequestDeadline = 10s;          // a whole request, headers and body, from its first byte
+constexpr auto kIdleTimeout = 5s;               // a keep-alive connection waiting for its next request
+constexpr auto kWriteDeadline = 30s;            // a whole response
+constexpr auto kDrainDeadline = 2s;             // reading what a refused request still sends, before closing
+constexpr std::size_t kDrainBytes = 1u << 20;   // ... at most this much
+constexpr std::size_t kReadBuffer = 64 * 1024;  // bounds a chunk header line too
 
-bool validObserverId(const std::string& s) {
-    return !s.empty() && s.size() <= 64 && std::all_of(s.begin(), s.end(), [](char c) {
-        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
-               c == '.';
-    });
-}
+// Open connections, in total and per client address; a connection past
+// either limit is closed at once.
+class ConnectionLimits {
+public:
+    ConnectionLimits(int total, int perClient) : maxTotal_(total), maxPerClient_(perClient) {}
+    bool acquire(const std::string& peer) {
+        std::lock_guard lock(mutex_);
+        int& n = perPeer_[peer];
+        if (total_ >= maxTotal_ || n >= maxPerClient_) {
+            if (n == 0) perPeer_.erase(peer);
+            return false;
+        }
+        ++n;
+        ++total_;
+        return true;
+    }
+    void release(const std::string& peer) {
+        std::lock_guard lock(mutex_);
+        if (--perPeer_[peer] <= 0) perPeer_.erase(peer);
+        --total_;
+    }
 
-std::string mimeOf(const fs::path& p) {
-    std::string e = p.extension().string();
-    std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-    if (e == ".png") return "image/png";
-    if (e == ".jpg" || e == ".jpeg") return "image/jpeg";
-    if (e == ".webp") return "image/webp";
-    if (e == ".gif") return "image/gif";
-    if (e == ".svg") return "image/svg+xml";
-    return "application/octet-stream";
-}
+private:
+    std::mutex mutex_;
+    std::unordered_map<std::string, int> perPeer_;
+    int total_ = 0;
+    const int maxTotal_, maxPerClient_;
+};
 
-// A client error: status and a message the page shows.
-struct HttpError {
-    int status;
-    std::string message;
+// One client connection: read a request within its deadline, have a worker
+// answer it, write the answer, repeat while keep-alive.
+class Connection : public std::enable_shared_from_this<Connection> {
+public:
+    Connection(tcp::socket socket, std::string peer, ConnectionLimits& limits, detail::HttpHandler& handler,
+               asio::thread_pool& workers)
+        : stream_(std::move(socket)),
+          buffer_(kReadBuffer),
+          peer_(std::move(peer)),
+          limits_(limits),
+          handler_(handler),
+          workers_(workers) {}
+    ~Connection() { limits_.release(peer_); }
+
+    void start() { waitForRequest(); }
+
+private:
+    // Idle until the next request's first byte (kIdleTimeout), then the whole
+    // request within kRequestDeadline: a client sending a byte a second is
+    // cut off at the deadline, however it paces them.
+    void waitForRequest() {
+        if (buffer_.size() > 0) return readRequest();  // pipelined: already here
+        stream_.expires_after(kIdleTimeout);
+        stream_.async_read_some(buffer_.prepare(1024),
+                                [self = shared_from_this()](beast::error_code ec, std::size_t n) {
+                                    if (ec) return self->close();
+                                    self->buffer_.commit(n);
+                                    self->readRequest();
+                                });
+    }
+
+    void readRequest() {
+        parser_.emplace();
+        detail::limitParser(*parser_);  // chunked bodies too: counted as they arrive
+        stream_.expires_after(kRequestDeadline);
+        http::async_read(stream_, buffer_, *parser_,
+                         [self = shared_from_this()](beast::error_code ec, std::size_t) { self->onRead(ec); });
+    }
+
+    void onRead(beast::error_code ec) {
+        if (ec == http::error::body_limit) return refuse(413, "request too large");
+        if (ec == http::error::header_limit) return refuse(431, "request header too large");
+        if (ec == beast::error::timeout || ec == http::error::end_of_stream || ec == asio::error::eof ||
+            ec == asio::error::connection_reset || ec == asio::error::operation_aborted)
+            return close();
+        if (ec) return refuse(400, "malformed HTTP request");
+        stream_.expires_never();  // while a worker answers
+        version_ = parser_->get().version();
+        keepAlive_ = parser_->get().keep_alive();
+        detail::HttpRequest r = detail::fromBeast(parser_->release(), peer_);
+        asio::post(workers_, [self = shared_from_this(), r = std::move(r)] {
+            detail::HttpResponse res = self->handler_.handle(r);
+            asio::post(self->stream_.get_executor(),
+                       [self, res = std::move(res)]() mutable { self->write(std::move(res), self->keepAlive_); });
+        });
+    }
+
+    void refuse(int status, const std::string& message) {
+        detail::HttpResponse res;
+        res.status = status;
+        res.contentType = "application/json";
+        res.body = fmt::format("{{\"error\":\"{}\"}}", message);
+        version_ = 11;
+        write(std::move(res), false);
+    }
+
+    void write(detail::HttpResponse r, bool keepAlive) {
+        res_ = {};
+        res_.version(version_);
+        res_.result(static_cast<unsigned>(r.status));
+        res_.set(http::field::content_type, r.contentType);
+        for (const auto& [k, v] : r.headers) res_.set(k, v);
+        res_.body() = std::move(r.body);
+        res_.keep_alive(keepAlive);
+        res_.prepare_payload();
+        stream_.expires_after(kWriteDeadline);
+        http::async_write(stream_, res_, [self = shared_from_this(), keepAlive](beast::error_code ec, std::size_t) {
+            if (ec) return self->close();
+            if (keepAlive) return self->waitForRequest();
+            self->drainAndClose();
+        });
+    }
+
+    // A refused request may still be sending its body; closing with unread
+    // data would reset the connection before the client reads the answer. So
+    // stop sending, read and discard a bounded amount, then close.
+    void drainAndClose() {
+        beast::error_code ec;
+        stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+        drainDeadline_ = std::chrono::steady_clock::now() + kDrainDeadline;
+        drain();
+    }
+
+    void drain() {
+        if (drained_ >= kDrainBytes || std::chrono::steady_clock::now() >= drainDeadline_) return close();
+        stream_.expires_at(drainDeadline_);
+        buffer_.clear();
+        stream_.async_read_some(buffer_.prepare(16 * 1024),
+                                [self = shared_from_this()](beast::error_code ec, std::size_t n) {
+                                    if (ec) return self->close();
+                                    self->drained_ += n;
+                                    self->drain();
+                                });
+    }
+
+    void close() {
+        beast::error_code ec;
+        stream_.socket().shutdown(tcp::socket::shutdown_both, ec);
+        stream_.close();
+    }
+
+    beast::tcp_stream stream_;
+    beast::flat_buffer buffer_;
+    std::optional<http::request_parser<http::string_body>> parser_;
+    http::response<http::string_body> res_;
+    unsigned version_ = 11;
+    bool keepAlive_ = false;
+    std::size_t drained_ = 0;
+    std::chrono::steady_clock::time_point drainDeadline_;
+    std::string peer_;
+    ConnectionLimits& limits_;
+    detail::HttpHandler& handler_;
+    asio::thread_pool& workers_;
 };
 
 }  // namespace
@@ -63,298 +207,34 @@ struct StudyServer::Impl {
     Plan plan;
     ServeOptions options;
     detail::AnswerStore store;
-    httplib::Server http;
-    std::mutex cacheMutex;
-    std::map<int, std::shared_ptr<const std::string>> imageCache;
-    std::size_t cachedBytes = 0;
-    int listenSocket = -1;
-    std::mutex stopMutex;
-    std::condition_variable stopCv;
-    bool stopRequested = false;
+    std::vector<std::string> tokens;
+    detail::HttpHandler handler;
+    ConnectionLimits limits{options.maxConnections, options.maxClientConnections};
+    asio::io_context ioc{kIoThreads};  // after `limits`: connections release into it when destroyed
+    std::optional<tcp::acceptor> acceptor;
+    int boundPort = 0;
 
-    Impl(Plan p, ServeOptions o) : plan(std::move(p)), options(std::move(o)), store(options.db, plan.fingerprint) {}
+    Impl(Plan p, ServeOptions o)
+        : plan(std::move(p)),
+          options(std::move(o)),
+          store(options.db, plan.fingerprint),
+          tokens(store.slotTokens(static_cast<int>(plan.observers.size()))),
+          handler(plan, store, tokens, options.host) {}
 
-    static std::string url(int image) { return "/image/" + std::to_string(image); }
-
-    json screenOf(const ObserverPlan& op, int trial) const {
-        const Trial& t = op.trials[static_cast<std::size_t>(trial)];
-        json s{{"kind", trialKindName(t.kind)}};
-        if (t.kind == TrialKind::Likert) {
-            int index = 0;  // position among the Likert trials
-            for (int i = 0; i < trial; ++i) index += op.trials[static_cast<std::size_t>(i)].kind == TrialKind::Likert;
-            const int count = op.likertCount(), series = plan.options.seriesLength;
-            s["image"] = url(t.image);
-            s["index"] = index;
-            s["count"] = count;
-            s["series"] = index / series;
-            s["series_count"] = (count + series - 1) / series;
-            s["series_start"] = index > 0 && index % series == 0;
-        } else {
-            s["left"] = url(t.left);
-            s["right"] = url(t.right);
-            if (t.kind == TrialKind::TwoAfc) {
-                int index = 0, count = 0;
-                for (std::size_t i = 0; i < op.trials.size(); ++i)
-                    if (op.trials[i].kind == TrialKind::TwoAfc) {
-                        index += static_cast<int>(i) < trial;
-                        ++count;
-                    }
-                s["index"] = index;
-                s["count"] = count;
+    void accept(asio::thread_pool& workers) {
+        acceptor->async_accept(asio::make_strand(ioc), [this, &workers](beast::error_code ec, tcp::socket socket) {
+            if (ec == asio::error::operation_aborted || !acceptor->is_open()) return;
+            if (!ec) {
+                beast::error_code e;
+                const auto remote = socket.remote_endpoint(e);
+                const std::string peer = e ? std::string("?") : remote.address().to_string();
+                if (!e && limits.acquire(peer)) {
+                    std::make_shared<Connection>(std::move(socket), peer, limits, handler, workers)->start();
+                } else {
+                    socket.close(e);  // over a limit: closed at once, costs nothing more
+                }
             }
-        }
-        return s;
-    }
-
-    json stateOf(const detail::ObserverRow& o) {
-        const ObserverPlan& op = plan.observers[static_cast<std::size_t>(o.slot)];
-        const int next = store.answeredCount(o.id);
-        const int total = static_cast<int>(op.trials.size());
-        json j{{"observer", o.id}, {"group", o.group}, {"trial", next}, {"total", total}, {"done", next >= total}};
-        if (next < total) {
-            j["screen"] = screenOf(op, next);
-            json preload = json::array();  // the following screen's images, fetched while this one is rated
-            if (next + 1 < total) {
-                const Trial& t = op.trials[static_cast<std::size_t>(next + 1)];
-                for (int i : {t.image, t.left, t.right})
-                    if (i >= 0) preload.push_back(url(i));
-            }
-            j["preload"] = preload;
-        }
-        return j;
-    }
-
-    static json parseBody(const httplib::Request& req) {
-        if (req.body.size() > kMaxBody) throw HttpError{413, "request too large"};
-        try {
-            json j = json::parse(req.body);
-            if (!j.is_object()) throw HttpError{400, "expected a JSON object"};
-            return j;
-        } catch (const json::exception& e) {
-            // parse_error, but also out_of_range for numbers such as 1e999.
-            throw HttpError{400, std::string("malformed JSON: ") + e.what()};
-        }
-    }
-
-    static std::string stringField(const json& j, const char* key) {
-        auto it = j.find(key);
-        if (it == j.end() || !it->is_string()) throw HttpError{400, fmt::format("\"{}\" must be a string", key)};
-        return it->get<std::string>();
-    }
-
-    static std::optional<std::int64_t> timeField(const json& j, const char* key) {
-        auto it = j.find(key);
-        if (it == j.end() || it->is_null()) return std::nullopt;
-        if (!it->is_number()) throw HttpError{400, fmt::format("\"{}\" must be a number (ms since 1970)", key)};
-        const double v = it->get<double>();
-        if (!(v >= 0 && v < 1e15)) throw HttpError{400, fmt::format("\"{}\" is out of range", key)};
-        return static_cast<std::int64_t>(v);
-    }
-
-    detail::ObserverRow requireObserver(const std::string& id) {
-        if (!validObserverId(id)) throw HttpError{400, "observer id: 1-64 letters, digits, '.', '_' or '-'"};
-        auto o = store.findObserver(id);
-        if (!o) throw HttpError{404, "unknown observer '" + id + "'"};
-        return *o;
-    }
-
-    json session(const httplib::Request& req) {
-        const json b = parseBody(req);
-        const std::string id = stringField(b, "observer"), group = stringField(b, "group");
-        if (!validObserverId(id)) throw HttpError{400, "observer id: 1-64 letters, digits, '.', '_' or '-'"};
-        if (group != "naive" && group != "expert") throw HttpError{400, "group must be naive or expert"};
-        auto o = store.addObserver(id, group, static_cast<int>(plan.observers.size()));
-        if (!o)
-            throw HttpError{409, fmt::format("all {} planned observer slots are taken (plan more with --observers)",
-                                             plan.observers.size())};
-        if (o->group != group)
-            throw HttpError{409, fmt::format("observer '{}' is registered in the {} group", id, o->group)};
-        return stateOf(*o);
-    }
-
-    json answer(const httplib::Request& req) {
-        const json b = parseBody(req);
-        const detail::ObserverRow o = requireObserver(stringField(b, "observer"));
-        const ObserverPlan& op = plan.observers[static_cast<std::size_t>(o.slot)];
-        auto tr = b.find("trial");
-        if (tr == b.end() || !tr->is_number_integer()) throw HttpError{400, "\"trial\" must be an integer"};
-        const long long trial = tr->get<long long>();
-        if (trial < 0 || trial >= static_cast<long long>(op.trials.size()))
-            throw HttpError{400, "\"trial\" is outside this observer's plan"};
-        const Trial& t = op.trials[static_cast<std::size_t>(trial)];
-
-        detail::AnswerRow a;
-        a.observer = o.id;
-        a.group = o.group;
-        a.trial = static_cast<int>(trial);
-        a.kind = trialKindName(t.kind);
-        a.shownAtMs = timeField(b, "shown_at_ms");
-        a.answeredAtMs = timeField(b, "answered_at_ms");
-        const auto ans = b.find("answer");
-        if (ans == b.end()) throw HttpError{400, "\"answer\" is missing"};
-        auto image = [&](int i) -> const Image& { return plan.images[static_cast<std::size_t>(i)]; };
-        switch (t.kind) {
-            case TrialKind::Calibration:
-                if (*ans != "seen") throw HttpError{400, "the calibration screen's answer is \"seen\""};
-                a.answer = "seen";
-                a.leftId = image(t.left).id;
-                a.leftCategory = image(t.left).category;
-                a.rightId = image(t.right).id;
-                a.rightCategory = image(t.right).category;
-                break;
-            case TrialKind::Likert: {
-                // Exactly an integer 1-5: 3.5, "3", -4294967295 or 4294967299 are refused, never truncated.
-                if (!ans->is_number_integer() || ans->get<long long>() < 1 || ans->get<long long>() > 5)
-                    throw HttpError{400, "a Likert answer is an integer score 1-5"};
-                const int score = static_cast<int>(ans->get<long long>());
-                a.answer = std::to_string(score);
-                a.score = score;
-                a.imageId = image(t.image).id;
-                a.category = image(t.image).category;
-                break;
-            }
-            case TrialKind::TwoAfc: {
-                if (*ans != "left" && *ans != "right") throw HttpError{400, "a 2AFC answer is \"left\" or \"right\""};
-                a.answer = ans->get<std::string>();
-                a.leftId = image(t.left).id;
-                a.leftCategory = image(t.left).category;
-                a.rightId = image(t.right).id;
-                a.rightCategory = image(t.right).category;
-                a.chosenCategory = a.answer == "left" ? a.leftCategory : a.rightCategory;
-                break;
-            }
-        }
-        switch (store.insert(a)) {
-            case detail::AnswerStore::Insert::Stored:
-            case detail::AnswerStore::Insert::Duplicate:
-                break;
-            case detail::AnswerStore::Insert::Conflict:
-                throw HttpError{409, "this screen was already answered differently; the first answer is kept"};
-            case detail::AnswerStore::Insert::OutOfOrder:
-                throw HttpError{409, "not the observer's current screen (answered elsewhere?)"};
-        }
-        return stateOf(o);
-    }
-
-    std::shared_ptr<const std::string> imageBytes(int index) {
-        {
-            std::lock_guard lock(cacheMutex);
-            if (auto it = imageCache.find(index); it != imageCache.end()) return it->second;
-        }
-        const fs::path& file = plan.images[static_cast<std::size_t>(index)].file;
-        std::ifstream in(file, std::ios::binary);
-        if (!in) throw HttpError{404, "image file missing on the server"};
-        std::ostringstream ss;
-        ss << in.rdbuf();
-        auto bytes = std::make_shared<const std::string>(ss.str());
-        std::lock_guard lock(cacheMutex);
-        if (cachedBytes + bytes->size() <= kImageCacheBytes) {
-            imageCache.emplace(index, bytes);
-            cachedBytes += bytes->size();
-        }
-        return bytes;
-    }
-
-    template <class F>
-    httplib::Server::Handler api(F&& f) {
-        return [this, f](const httplib::Request& req, httplib::Response& res) {
-            try {
-                res.set_content(f(req).dump(), "application/json");
-            } catch (const HttpError& e) {
-                res.status = e.status;
-                res.set_content(json{{"error", e.message}}.dump(), "application/json");
-            } catch (const Error& e) {
-                // Database trouble (disk full, I/O error): the answer was not
-                // stored; the page keeps it and retries.
-                res.status = 503;
-                res.set_content(json{{"error", std::string("server could not store the answer: ") + e.what()}}.dump(),
-                                "application/json");
-            }
-            res.set_header("Cache-Control", "no-store");
-        };
-    }
-
-    std::atomic<int> boundPort{0};
-
-    // The Host values this server answers to: its bound host:port, and the
-    // loopback aliases when bound to loopback. A page of another site that
-    // rebinds its DNS name to this address sends its own name and is refused.
-    // Bound to a wildcard address, the name observers use is unknown: any.
-    bool hostAllowed(const std::string& hostHeader) const {
-        const std::string& h = options.host;
-        if (h == "0.0.0.0" || h == "::" || h.empty()) return true;
-        const std::string port = std::to_string(boundPort.load());
-        std::vector<std::string> names{h};
-        if (h == "127.0.0.1" || h == "localhost" || h == "::1") names = {"127.0.0.1", "localhost", "[::1]"};
-        for (const std::string& n : names)
-            if (hostHeader == n + ":" + port || (port == "80" && hostHeader == n)) return true;
-        return false;
-    }
-
-    // Host, Origin and Content-Type, before any route: 403 for another host or
-    // origin, 415 for a POST that is not JSON (a cross-site form or a
-    // `text/plain` fetch cannot send application/json without a CORS
-    // preflight, which this server never grants).
-    httplib::Server::HandlerResponse screen(const httplib::Request& req, httplib::Response& res) const {
-        auto refuse = [&](int status, const std::string& message) {
-            res.status = status;
-            res.set_content(json{{"error", message}}.dump(), "application/json");
-            return httplib::Server::HandlerResponse::Handled;
-        };
-        const std::string host = req.get_header_value("Host");
-        if (!hostAllowed(host)) return refuse(403, "wrong Host header");
-        if (req.has_header("Origin") && req.get_header_value("Origin") != "http://" + host)
-            return refuse(403, "cross-origin requests are refused");
-        if (req.method == "POST" || req.method == "PUT" || req.method == "PATCH" || req.method == "DELETE") {
-            std::string type = req.get_header_value("Content-Type");
-            type = type.substr(0, type.find(';'));
-            std::transform(type.begin(), type.end(), type.begin(), [](unsigned char c) { return std::tolower(c); });
-            while (!type.empty() && type.back() == ' ') type.pop_back();
-            if (type != "application/json") return refuse(415, "requests must be Content-Type: application/json");
-        }
-        return httplib::Server::HandlerResponse::Unhandled;
-    }
-
-    void routes() {
-        http.set_pre_routing_handler(
-            [this](const httplib::Request& req, httplib::Response& res) { return screen(req, res); });
-        for (const auto& asset : detail::webAssets()) {
-            const std::string path = asset.path == "index.html" ? "/" : "/" + asset.path;
-            http.Get(path, [&asset](const httplib::Request&, httplib::Response& res) {
-                res.set_content(asset.data, asset.size, asset.mime);
-                res.set_header("Cache-Control", "no-cache");
-            });
-        }
-        http.Post("/api/session", api([this](const httplib::Request& r) { return session(r); }));
-        http.Post("/api/answer", api([this](const httplib::Request& r) { return answer(r); }));
-        http.Get("/api/state", api([this](const httplib::Request& r) {
-                     if (!r.has_param("observer")) throw HttpError{400, "?observer= is missing"};
-                     return stateOf(requireObserver(r.get_param_value("observer")));
-                 }));
-        // Only the plan's images, by index: a request never names a path.
-        http.Get(R"(/image/(\d{1,9}))", [this](const httplib::Request& req, httplib::Response& res) {
-            const long index = std::stol(req.matches[1].str());
-            if (index >= static_cast<long>(plan.images.size())) {
-                res.status = 404;
-                res.set_content("no such image", "text/plain");
-                return;
-            }
-            try {
-                auto bytes = imageBytes(static_cast<int>(index));
-                res.set_content(bytes->data(), bytes->size(),
-                                mimeOf(plan.images[static_cast<std::size_t>(index)].file));
-                res.set_header("Cache-Control", "private, max-age=3600");
-            } catch (const HttpError& e) {
-                res.status = e.status;
-                res.set_content(e.message, "text/plain");
-            }
-        });
-        http.set_error_handler([](const httplib::Request&, httplib::Response& res) {
-            if (res.body.empty()) res.set_content(fmt::format("error {}", res.status), "text/plain");
-        });
-        http.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr) {
-            res.status = 500;
-            res.set_content("internal error", "text/plain");
+            accept(workers);
         });
     }
 };
@@ -362,64 +242,81 @@ struct StudyServer::Impl {
 StudyServer::StudyServer(Plan plan, ServeOptions options) {
     if (options.db.empty()) throw InputError("database", "", "give --db answers.sqlite");
     if (options.port < 0 || options.port > 65535) throw InputError("port", "", "must be 0..65535");
+    if (options.maxConnections < 1 || options.maxClientConnections < 1)
+        throw InputError("connection limits", "", "must be at least 1");
     impl_ = std::make_unique<Impl>(std::move(plan), std::move(options));
-    const int threads = impl_->options.threads > 0 ? impl_->options.threads : 64;
-    impl_->http.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<std::size_t>(threads)); };
-    // httplib's default also sets SO_REUSEPORT, which lets a second `serve`
-    // (with another database!) share the port and receive half the answers.
-    // SO_REUSEADDR alone still allows a quick restart after a kill.
-    impl_->http.set_socket_options([impl = impl_.get()](socket_t sock) {
-        int yes = 1;
-        setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
-        impl->listenSocket = sock;
-    });
-    impl_->http.set_payload_max_length(kMaxBody);
-    impl_->http.set_keep_alive_timeout(2);  // idle browsers must not hold worker threads
-    impl_->http.set_read_timeout(10);
-    impl_->routes();
 }
 
 StudyServer::~StudyServer() = default;
 
-void StudyServer::run(const std::function<void(int)>& onListening) {
-    int port = impl_->options.port;
-    if (port == 0) {
-        port = impl_->http.bind_to_any_port(impl_->options.host);
-        if (port < 0) throw IoError("address", impl_->options.host, "cannot listen on any port");
-    } else if (!impl_->http.bind_to_port(impl_->options.host, port)) {
-        throw IoError("address", fmt::format("{}:{}", impl_->options.host, port),
-                      "cannot listen (port in use, or not a local address?)");
+std::vector<std::string> StudyServer::observerLinks(int port) const {
+    std::vector<std::string> links;
+    std::string host = impl_->options.host;
+    if (host.find(':') != std::string::npos) host = "[" + host + "]";  // IPv6 literal
+    for (const std::string& t : impl_->tokens) links.push_back(fmt::format("http://{}:{}/?t={}", host, port, t));
+    return links;
+}
+
+void writeLinksFile(const std::filesystem::path& path, const std::vector<std::string>& links) {
+    // Secrets: created 0600 under a temporary name, fsynced, renamed.
+    std::filesystem::path dir = path.parent_path();
+    if (dir.empty()) dir = ".";
+    std::string tmpl = (dir / ("." + path.filename().string() + ".tmp-XXXXXX")).string();
+    const int fd = ::mkstemp(tmpl.data());  // mode 0600
+    if (fd < 0) throw IoError("links file", path.string(), "cannot create a file there");
+    std::string text;
+    for (const std::string& l : links) text += l + "\n";
+    bool ok = ::fchmod(fd, 0600) == 0;
+    for (std::size_t done = 0; ok && done < text.size();) {
+        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+        ok = n > 0;
+        done += ok ? static_cast<std::size_t>(n) : 0;
     }
-    // Debian's libcpp-httplib listens with a backlog of 5: a burst of observers
-    // (a class starting together) would see refused connections. listen() on
-    // a listening socket only changes its backlog (Linux).
-    if (impl_->listenSocket >= 0) ::listen(impl_->listenSocket, kListenBacklog);
-    impl_->boundPort = port;
-    if (onListening) onListening(port);
-    // httplib's stop() only acts once its accept loop runs (and must be called
-    // once), so a stop() that comes early (a Ctrl-C during start-up) is
-    // carried out here, as soon as the loop is running.
-    std::atomic<bool> done{false};
-    std::thread watcher([this, &done] {
-        std::unique_lock lock(impl_->stopMutex);
-        while (!done) {
-            if (impl_->stopRequested && impl_->http.is_running()) {
-                impl_->http.stop();
-                return;
-            }
-            impl_->stopCv.wait_for(lock, std::chrono::milliseconds(20));
-        }
-    });
-    impl_->http.listen_after_bind();
-    done = true;
-    impl_->stopCv.notify_all();
-    watcher.join();
+    ok = ok && ::fsync(fd) == 0;
+    ok = ::close(fd) == 0 && ok;
+    if (!ok || ::rename(tmpl.c_str(), path.c_str()) != 0) {
+        ::unlink(tmpl.c_str());
+        throw IoError("links file", path.string(), "cannot write it");
+    }
+}
+
+void StudyServer::run(const std::function<void(int)>& onListening) {
+    Impl& s = *impl_;
+    const std::string where = fmt::format("{}:{}", s.options.host, s.options.port);
+    beast::error_code ec;
+    asio::ip::address address =
+        asio::ip::make_address(s.options.host == "localhost" ? "127.0.0.1" : s.options.host, ec);
+    if (ec) throw IoError("address", s.options.host, "not an IP address (give e.g. 127.0.0.1 or 0.0.0.0)");
+    tcp::acceptor acceptor(s.ioc);
+    const tcp::endpoint endpoint(address, static_cast<unsigned short>(s.options.port));
+    // SO_REUSEADDR allows a quick restart after a kill; never SO_REUSEPORT,
+    // which would let a second `serve` (with another database!) share the
+    // port and receive half the answers.
+    acceptor.open(endpoint.protocol(), ec);
+    if (!ec) acceptor.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec) acceptor.bind(endpoint, ec);
+    if (!ec) acceptor.listen(kListenBacklog, ec);
+    if (ec)
+        throw IoError(
+            "address", where,
+            s.options.port == 0 ? "cannot listen on any port" : "cannot listen (port in use, or not a local address?)");
+    s.boundPort = acceptor.local_endpoint().port();
+    s.handler.setPort(s.boundPort);
+    s.acceptor.emplace(std::move(acceptor));
+    if (onListening) onListening(s.boundPort);
+
+    asio::thread_pool workers(static_cast<std::size_t>(s.options.threads > 0 ? s.options.threads : kDefaultWorkers));
+    s.accept(workers);
+    std::vector<std::thread> io;
+    for (int i = 1; i < kIoThreads; ++i) io.emplace_back([&s] { s.ioc.run(); });
+    s.ioc.run();  // returns at stop(), also if stop() came before it
+    for (auto& t : io) t.join();
+    workers.join();  // an answer being committed is finished, never cut
+    s.acceptor.reset();
 }
 
 void StudyServer::stop() {
-    std::lock_guard lock(impl_->stopMutex);
-    impl_->stopRequested = true;
-    impl_->stopCv.notify_all();
+    impl_->ioc.stop();
 }
 
 }  // namespace mucosa::study

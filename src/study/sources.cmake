@@ -1,12 +1,9 @@
 # study: perceptual realism study kit (plan, web runner, statistics, report).
 find_package(SQLite3 REQUIRED)
-find_package(Boost 1.74 REQUIRED)  # Boost.Math is header-only: chi-squared, normal, binomial
-# Debian's cpp-httplib is the split build (declarations in httplib.h, code in
-# libcpp-httplib.so built with OpenSSL/zlib/brotli): its pkg-config flags must
-# be used as they are, or the class layouts would not match the library. We
-# serve plain HTTP on loopback; SSL is never used at run time.
-find_package(PkgConfig REQUIRED)
-pkg_check_modules(CPP_HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
+# Header-only Boost: Math (chi-squared, normal, binomial), Beast and Asio (the
+# study server's HTTP: async, per-request deadlines and size limits).
+find_package(Boost 1.74 REQUIRED)
+find_package(Threads REQUIRED)
 
 # The web page, embedded into the library at build time.
 set(mucosa_study_web
@@ -35,6 +32,8 @@ target_sources(mucosa PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/data_io.cpp
   ${CMAKE_CURRENT_LIST_DIR}/report.cpp
   ${CMAKE_CURRENT_LIST_DIR}/store.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/sha256.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/http_handler.cpp
   ${CMAKE_CURRENT_LIST_DIR}/server.cpp
   ${mucosa_study_web_cpp})
-target_link_libraries(mucosa PRIVATE SQLite::SQLite3 Boost::headers PkgConfig::CPP_HTTPLIB)
+target_link_libraries(mucosa PRIVATE SQLite::SQLite3 Boost::headers Threads::Threads)

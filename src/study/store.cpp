@@ -1,5 +1,8 @@
 #include "store.hpp"
 
+#include <sys/random.h>
+
+#include <cerrno>
 #include <chrono>
 
 #include <fmt/chrono.h>
@@ -30,6 +33,10 @@ CREATE TABLE IF NOT EXISTS answers(
   shown_at_ms INTEGER, answered_at_ms INTEGER,
   received_at TEXT NOT NULL,
   PRIMARY KEY (observer, trial));
+CREATE TABLE IF NOT EXISTS slot_tokens(
+  slot INTEGER PRIMARY KEY,
+  token TEXT NOT NULL UNIQUE,
+  created_at TEXT NOT NULL);
 )sql";
 
 std::string nowIso() {
@@ -78,6 +85,23 @@ private:
     sqlite3* db_;
     sqlite3_stmt* st_ = nullptr;
 };
+
+// A new secret: 128 bits from getrandom(2) (the kernel's CSPRNG), as 32 hex digits.
+std::string newToken() {
+    unsigned char bytes[16];
+    std::size_t got = 0;
+    while (got < sizeof bytes) {
+        const ssize_t n = ::getrandom(bytes + got, sizeof bytes - got, 0);
+        if (n < 0) {
+            if (errno == EINTR) continue;
+            throw ResourceError("observer tokens", "getrandom", "the kernel gave no random bytes");
+        }
+        got += static_cast<std::size_t>(n);
+    }
+    std::string hex;
+    for (unsigned char b : bytes) hex += fmt::format("{:02x}", b);
+    return hex;
+}
 
 }  // namespace
 
@@ -146,29 +170,69 @@ std::optional<ObserverRow> AnswerStore::findObserver(const std::string& id) {
     return std::nullopt;
 }
 
-std::optional<ObserverRow> AnswerStore::addObserver(const std::string& id, const std::string& group, int slots) {
+std::optional<ObserverRow> AnswerStore::observerInSlot(int slot) {
+    std::lock_guard lock(mutex_);
+    Stmt q(db_, "SELECT observer, grp FROM observers WHERE slot = ?1");
+    if (!q.ok()) fail("reading observers");
+    q.bind(1, slot);
+    const int rc = q.step();
+    if (rc == SQLITE_ROW) return ObserverRow{q.text(0), q.text(1), slot};
+    if (rc != SQLITE_DONE) fail("reading observers");
+    return std::nullopt;
+}
+
+std::optional<ObserverRow> AnswerStore::claimSlot(int slot, const std::string& id, const std::string& group) {
     std::lock_guard lock(mutex_);
     exec("BEGIN IMMEDIATE");
     try {
-        Stmt q(db_, "SELECT grp, slot FROM observers WHERE observer = ?1");
-        q.bind(1, id);
-        if (q.step() == SQLITE_ROW) {
-            ObserverRow r{id, q.text(0), q.integer(1)};
-            exec("COMMIT");
-            return r;
+        Stmt q(db_, "SELECT observer, grp, slot FROM observers WHERE slot = ?1 OR observer = ?2");
+        q.bind(1, slot).bind(2, id);
+        std::optional<ObserverRow> found;
+        int rc;
+        while ((rc = q.step()) == SQLITE_ROW) {
+            ObserverRow r{q.text(0), q.text(1), q.integer(2)};
+            if (r.slot != slot || r.id != id) {  // the slot holds another id, or the id another slot
+                exec("COMMIT");
+                return std::nullopt;
+            }
+            found = r;
         }
-        Stmt c(db_, "SELECT COUNT(*) FROM observers");
-        if (c.step() != SQLITE_ROW) fail("counting observers");
-        const int slot = c.integer(0);
-        if (slot >= slots) {
-            exec("COMMIT");
-            return std::nullopt;
+        if (rc != SQLITE_DONE) fail("reading observers");
+        if (!found) {
+            Stmt ins(db_, "INSERT INTO observers(observer, grp, slot, created_at) VALUES (?1, ?2, ?3, ?4)");
+            ins.bind(1, id).bind(2, group).bind(3, slot).bind(4, nowIso());
+            if (ins.step() != SQLITE_DONE) fail("adding an observer");
+            found = ObserverRow{id, group, slot};
         }
-        Stmt ins(db_, "INSERT INTO observers(observer, grp, slot, created_at) VALUES (?1, ?2, ?3, ?4)");
-        ins.bind(1, id).bind(2, group).bind(3, slot).bind(4, nowIso());
-        if (ins.step() != SQLITE_DONE) fail("adding an observer");
         exec("COMMIT");
-        return ObserverRow{id, group, slot};
+        return found;
+    } catch (...) {
+        sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+        throw;
+    }
+}
+
+std::vector<std::string> AnswerStore::slotTokens(int slots) {
+    std::lock_guard lock(mutex_);
+    exec("BEGIN IMMEDIATE");
+    try {
+        std::vector<std::string> tokens(static_cast<std::size_t>(slots));
+        Stmt q(db_, "SELECT slot, token FROM slot_tokens WHERE slot < ?1");
+        q.bind(1, slots);
+        int rc;
+        while ((rc = q.step()) == SQLITE_ROW) tokens[static_cast<std::size_t>(q.integer(0))] = q.text(1);
+        if (rc != SQLITE_DONE) fail("reading observer tokens");
+        const std::string now = nowIso();
+        for (int i = 0; i < slots; ++i) {
+            std::string& t = tokens[static_cast<std::size_t>(i)];
+            if (!t.empty()) continue;
+            t = newToken();
+            Stmt ins(db_, "INSERT INTO slot_tokens(slot, token, created_at) VALUES (?1, ?2, ?3)");
+            ins.bind(1, i).bind(2, t).bind(3, now);
+            if (ins.step() != SQLITE_DONE) fail("storing observer tokens");
+        }
+        exec("COMMIT");
+        return tokens;
     } catch (...) {
         sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
         throw;

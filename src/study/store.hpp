@@ -7,6 +7,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 struct sqlite3;
 
@@ -37,8 +38,13 @@ public:
     AnswerStore& operator=(const AnswerStore&) = delete;
 
     std::optional<ObserverRow> findObserver(const std::string& id);
-    // Registers a new observer in the next free slot; nullopt if all `slots` are taken.
-    std::optional<ObserverRow> addObserver(const std::string& id, const std::string& group, int slots);
+    std::optional<ObserverRow> observerInSlot(int slot);
+    // Binds `id` to `slot` (an observer link's first use) or returns the row
+    // already bound; nullopt if the slot holds another id or the id another slot.
+    std::optional<ObserverRow> claimSlot(int slot, const std::string& id, const std::string& group);
+    // The secret token of every slot 0..slots-1, made (getrandom) and stored
+    // the first time, so a restarted server keeps the same observer links.
+    std::vector<std::string> slotTokens(int slots);
     int answeredCount(const std::string& observer);  // = index of the next trial
     std::optional<std::string> answerOf(const std::string& observer, int trial);
 

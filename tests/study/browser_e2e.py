@@ -47,8 +47,11 @@ driver = webdriver.Chrome(service=Service(executable_path="/usr/bin/chromedriver
 given = []
 
 
+token = srv.tokens[0]
+
+
 def server_trial():
-    s, st = fx.request(srv.base, "GET", "/api/state?observer=E2E-1")
+    s, st = fx.request(srv.base, "GET", "/api/state?observer=E2E-1", token=token)
     return st["trial"] if s == 200 else None
 
 
@@ -79,9 +82,10 @@ def at(trial, screen):
     t = trials[trial]
     src = lambda i: driver.find_element(By.ID, i).get_attribute("src")  # noqa: E731
     if screen == "likert":
-        assert src("likert-image").endswith(f"/image/{t['image']}"), "page shows the planned image"
+        assert src("likert-image").endswith(f"/image/{t['image']}?t={token}"), "page shows the planned image"
     elif screen == "twoafc":
-        assert src("afc-left").endswith(f"/image/{t['left']}") and src("afc-right").endswith(f"/image/{t['right']}")
+        assert src("afc-left").endswith(f"/image/{t['left']}?t={token}")
+        assert src("afc-right").endswith(f"/image/{t['right']}?t={token}")
 
 
 def shot(name):
@@ -100,7 +104,11 @@ def click(i):
 
 
 try:
-    driver.get(srv.base + "/")
+    for bad in ("/", "/?t=" + "0" * 32, "/?t=" + srv.tokens[1][:-2]):  # no, a wrong, a cut link
+        driver.get(srv.base + bad)
+        wait(lambda: visible("invalid") and not visible("welcome"), f"'link not valid' screen for {bad}")
+    shot("invalid_link")
+    driver.get(srv.links[0])
     wait(lambda: visible("welcome"), "welcome screen")
     driver.find_element(By.ID, "observer").send_keys("E2E-1")
     click("group-naive")

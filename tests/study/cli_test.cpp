@@ -1,4 +1,4 @@
-// `mucosa study plan|analyze` from the outside: outputs, and bad input giving
+// `mucosa study plan|serve|analyze` from the outside: outputs, and bad input giving
 // one `error:` line, a non-zero exit and no output file.
 #include <fstream>
 
@@ -46,6 +46,21 @@ TEST(studyCli, EverySubcommandHasHelp) {
         EXPECT_EQ(r.exitCode, 0) << sub;
         EXPECT_NE(r.out.find("Usage"), std::string::npos) << sub;
     }
+}
+
+TEST(studyCli, ServeHelpNamesTheLinksAndLimits) {
+    const auto r = runCli("study serve --help");
+    for (const char* opt : {"--links-out", "--client-connections", "--max-connections", "?t=TOKEN"})
+        EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
+}
+
+TEST(studyCli, ServeRefusesAnUnwritableLinksFileBeforeServing) {
+    TempDir dir;
+    expectOneLineError(
+        runCli("study serve '" + (dir / "study.json").string() + "' --db '" + (dir / "a.sqlite").string() +
+               "' --port 0 --links-out '" + (dir / "missing" / "links.txt").string() + "'"),
+        "links.txt");
+    EXPECT_FALSE(std::filesystem::exists(dir / "a.sqlite"));
 }
 
 TEST(studyCli, PlanWritesAReproduciblePlan) {

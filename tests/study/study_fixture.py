@@ -60,10 +60,14 @@ def make_plan(cli, folder, observers=4, seed=3, extra=()):
 
 
 class Server:
-    """`mucosa study serve` on a free loopback port."""
+    """`mucosa study serve` on a free loopback port; its observer links are
+    written with --links-out to `links` (default: beside the database), and
+    `tokens[i]` is slot i's secret."""
 
-    def __init__(self, cli, plan, db, extra=(), port=0):
-        self.proc = subprocess.Popen([cli, "study", "serve", plan, "--db", db, "--port", str(port), *extra],
+    def __init__(self, cli, plan, db, extra=(), port=0, links=None):
+        self.links_file = links or db + ".links.txt"
+        self.proc = subprocess.Popen([cli, "study", "serve", plan, "--db", db, "--port", str(port),
+                                      "--links-out", self.links_file, *extra],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         line = self.proc.stdout.readline()
         m = re.search(r"http://([0-9.]+):(\d+)/", line)
@@ -71,6 +75,9 @@ class Server:
             self.proc.kill()
             raise RuntimeError(f"server did not start: {line!r} {self.proc.stderr.read()}")
         self.base = f"http://127.0.0.1:{m.group(2)}"
+        with open(self.links_file) as f:  # written before the line above
+            self.links = f.read().split()
+        self.tokens = [re.search(r"\?t=([0-9a-f]+)$", u).group(1) for u in self.links]
 
     def kill(self):  # SIGKILL: no chance to flush or clean up
         self.proc.send_signal(signal.SIGKILL)
@@ -87,11 +94,14 @@ class Server:
         return self.proc.returncode
 
 
-def request(base, method, path, body=None, raw=None, timeout=30):
-    """Returns (status, parsed JSON or text). Never raises on HTTP errors."""
+def request(base, method, path, body=None, raw=None, timeout=30, token=None):
+    """Returns (status, parsed JSON or text). Never raises on HTTP errors.
+    `token`: the observer link's secret, sent as Authorization: Bearer."""
     data = raw if raw is not None else (json.dumps(body).encode() if body is not None else None)
-    req = urllib.request.Request(base + path, data=data, method=method,
-                                 headers={"Content-Type": "application/json", "Connection": "close"})
+    headers = {"Content-Type": "application/json", "Connection": "close"}
+    if token is not None:
+        headers["Authorization"] = "Bearer " + token
+    req = urllib.request.Request(base + path, data=data, method=method, headers=headers)
     try:
         with urllib.request.urlopen(req, timeout=timeout) as r:
             status, payload, ctype = r.status, r.read(), r.headers.get("Content-Type", "")

@@ -55,7 +55,7 @@ struct ObserverPlan {
 struct Plan {
     std::vector<Image> images;
     PlanOptions options;
-    std::vector<ObserverPlan> observers;  // slot i is given to the i-th observer who signs in
+    std::vector<ObserverPlan> observers;  // slot i: the observer who opens link i (serve)
     std::string fingerprint;              // hash of options, images (files relative to the plan file) and
                                           // trials; ties an answers database to its plan. makePlan's has
                                           // absolute files; writePlan returns the one the file holds

@@ -2,10 +2,13 @@
 // comes from /api/state or the reply to an answer, so a reload or a server
 // restart resumes exactly where the observer was. An answer not yet
 // acknowledged is kept in localStorage and sent again until it is.
+// Each observer has a secret link, /?t=TOKEN: the token goes with every API
+// call (Authorization: Bearer) and image (?t=); the server binds it to one
+// observer id, so without it nothing can be read or answered.
 'use strict';
 (() => {
-  const KEY = 'mucosa-study-session';
-  const PENDING = 'mucosa-study-pending';
+  const TOKEN = new URLSearchParams(location.search).get('t') || '';
+  const PENDING = 'mucosa-study-pending:' + TOKEN;
   const $ = (id) => document.getElementById(id);
   let state = null;        // last state from the server
   let busy = false;        // an answer is in flight: input is ignored
@@ -23,10 +26,18 @@
     for (const b of document.querySelectorAll('.screen button')) b.disabled = !enabled;
   }
 
+  const withToken = (url) => `${url}?t=${encodeURIComponent(TOKEN)}`;
+  function invalidLink() {
+    show('invalid');
+    $('progress').textContent = '';
+    message('');
+  }
+
   async function call(method, url, body) {
+    const headers = { Authorization: `Bearer ${TOKEN}` };
+    if (body) headers['Content-Type'] = 'application/json';
     const res = await fetch(url, {
-      method, cache: 'no-store',
-      headers: body ? { 'Content-Type': 'application/json' } : {},
+      method, cache: 'no-store', headers,
       body: body ? JSON.stringify(body) : undefined,
     });
     let data = null;
@@ -35,7 +46,8 @@
   }
 
   function loadImages(pairs) {  // [[img element, url]] -> resolves when all have loaded
-    return Promise.all(pairs.map(([img, url]) => new Promise((resolve) => {
+    return Promise.all(pairs.map(([img, plain]) => new Promise((resolve) => {
+      const url = withToken(plain);
       if (img.getAttribute('src') === url && img.complete && img.naturalWidth) return resolve();
       img.onload = () => resolve();
       img.onerror = () => { message('An image failed to load; reload the page.'); resolve(); };
@@ -54,7 +66,7 @@
     // A button keeps focus after a click; Enter or Space would then answer the
     // next screen by accident.
     if (document.activeElement && document.activeElement !== document.body) document.activeElement.blur();
-    if (s.done) { show('done'); localStorage.removeItem(KEY); return; }
+    if (s.done) { show('done'); return; }
     const sc = s.screen;
     ready = false;
     setButtons(false);
@@ -79,7 +91,7 @@
     }
     await loadImages(images);
     if (state !== s) return;  // a newer state arrived meanwhile
-    for (const url of s.preload || []) { const im = new Image(); im.src = url; }
+    for (const url of s.preload || []) { const im = new Image(); im.src = withToken(url); }
     shownAt = Date.now();
     ready = true;
     setButtons(true);
@@ -92,6 +104,7 @@
     for (let attempt = 0; ; attempt++) {
       let r;
       try { r = await call('POST', '/api/answer', body); } catch (e) { r = { status: 0, data: null }; }
+      if (r.status === 401) { localStorage.removeItem(PENDING); invalidLink(); return null; }
       if (r.status === 200 || r.status === 409 || r.status === 400 || r.status === 404) {
         localStorage.removeItem(PENDING);
         if (r.status === 200) { message(''); return r.data; }
@@ -103,18 +116,27 @@
     }
   }
 
+  // Where this link stands: not yet started (the welcome form), or its screen.
   async function refresh() {
-    const sess = JSON.parse(localStorage.getItem(KEY) || 'null');
-    if (!sess) { show('welcome'); return; }
     for (let attempt = 0; ; attempt++) {
       let r;
-      try { r = await call('POST', '/api/session', sess); } catch (e) { r = { status: 0, data: null }; }
+      try { r = await call('GET', '/api/state'); } catch (e) { r = { status: 0, data: null }; }
+      if (r.status === 401) return invalidLink();
+      if (r.status === 200 && r.data && r.data.registered === false) { message(''); show('welcome'); return; }
       if (r.status === 200) { message(''); return render(r.data); }
-      if (r.status >= 400 && r.status < 500) {
-        localStorage.removeItem(KEY);
-        show('welcome');
-        return message(r.data && r.data.error || 'could not start');
-      }
+      if (r.status >= 400 && r.status < 500) return message(r.data && r.data.error || 'could not start');
+      message('Connecting to the study server... retrying');
+      await new Promise((res) => setTimeout(res, Math.min(5000, 300 * 2 ** attempt)));
+    }
+  }
+
+  async function start(observer, group) {
+    for (let attempt = 0; ; attempt++) {
+      let r;
+      try { r = await call('POST', '/api/session', { observer, group }); } catch (e) { r = { status: 0, data: null }; }
+      if (r.status === 200) { message(''); return render(r.data); }
+      if (r.status === 401) return message('This id belongs to another link; enter your own id.');
+      if (r.status >= 400 && r.status < 500) return message(r.data && r.data.error || 'could not start');
       message('Connecting to the study server... retrying');
       await new Promise((res) => setTimeout(res, Math.min(5000, 300 * 2 ** attempt)));
     }
@@ -150,8 +172,7 @@
     const observer = $('observer').value.trim();
     const g = document.querySelector('input[name=group]:checked');
     if (!observer || !g) return message('Enter your id and choose a group.');
-    localStorage.setItem(KEY, JSON.stringify({ observer, group: g.value }));
-    await refresh();
+    await start(observer, g.value);
   });
   $('cal-continue').addEventListener('click', () => answer('seen'));
   $('break-continue').addEventListener('click', continueBreak);
@@ -170,6 +191,7 @@
   });
 
   (async () => {
+    if (!/^[0-9a-f]{32}$/.test(TOKEN)) return invalidLink();
     const pendingState = await sendPending().catch(() => null);
     if (pendingState) return render(pendingState);
     return refresh();
