@@ -147,7 +147,7 @@ void addStudyCommand(CLI::App& app, Global& g) {
         ->check(CLI::Range(1, 100000));
     serve
         ->add_option("--client-connections", sv->o.maxClientConnections,
-                     "Open connections from one address; raise it for observers behind one NAT [16]")
+                     "Open connections from one address; raise it for observers behind one NAT [64]")
         ->check(CLI::Range(1, 100000));
     serve->callback([sv, &g] { runServe(*sv, g); });
 

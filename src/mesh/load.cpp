@@ -83,7 +83,7 @@ public:
     template <class T>
     void array(const std::vector<T>& v) {
         u64(v.size());
-        bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+        if (!v.empty()) bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
     }
     std::string take() { return std::move(bytes_); }
 
@@ -113,7 +113,7 @@ public:
         const std::uint64_t n = u64();
         if (n > (bytes_.size() - at_) / sizeof(T)) fail();
         v.resize(n);
-        std::memcpy(v.data(), bytes_.data() + at_, n * sizeof(T));
+        if (n > 0) std::memcpy(v.data(), bytes_.data() + at_, n * sizeof(T));
         at_ += n * sizeof(T);
     }
     bool done() const { return at_ == bytes_.size(); }

@@ -22,7 +22,7 @@ struct ServeOptions {
     std::filesystem::path db;
     int threads = 0;                // request workers (they wait on SQLite commits); 0 = 8
     int maxConnections = 512;       // open connections in total; more are closed at once
-    int maxClientConnections = 16;  // ... from one client address (raise it for observers behind one NAT)
+    int maxClientConnections = 64;  // ... from one client address (~10 browsers behind one NAT; raise for more)
 };
 
 class StudyServer {
