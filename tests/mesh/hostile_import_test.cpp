@@ -199,5 +199,23 @@ TEST(HostileImport, ParserLimitsComeFromTheOptions) {
     EXPECT_EQ(mesh::load(dir / "ok.obj", inProcess).indices.size(), 3u);
 }
 
+// A 274-byte ASCII PLY that the fuzz campaign found: its header is complete,
+// so it passes every check, and Assimp 5.2.5 then spins on it (30 s of CPU
+// and counting). The sandbox ends it at the CPU limit with one error.
+TEST(HostileImport, AssimpHangIsEndedByTheSandbox) {
+    TempDir dir;
+    const std::filesystem::path hang =
+        std::filesystem::path(MUCOSA_SOURCE_DIR) / "fuzz/corpus/mesh/assimp_ply_hang.ply";
+    ASSERT_TRUE(std::filesystem::exists(hang));
+    std::filesystem::copy_file(hang, dir / "hang.ply");
+    mesh::LoadOptions quick;
+    quick.importSeconds = 1;  // wall deadline 2x + 5 s
+    const auto start = std::chrono::steady_clock::now();
+    const std::string what = expectInputErrorWithin20s(dir / "hang.ply", quick);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_TRUE(what.find("s of CPU") != std::string::npos || what.find("did not finish") != std::string::npos) << what;
+    EXPECT_LT(seconds, 10.0);
+}
+
 }  // namespace
 }  // namespace mucosa::test

@@ -29,7 +29,8 @@ struct LoadOptions {
     // Assimp parses the file in a child process (fork) with these limits, so a
     // crash, hang or memory exhaustion inside it becomes an InputError. 0 =
     // scaled to the file (memory: 40x its size, at least 512 MiB, at most half
-    // of what is available; CPU: 30 s + 1 s per MiB; wall clock: 2x CPU + 5 s).
+    // of what is available; CPU: 10 s + 1 s per MiB, whole seconds; wall clock:
+    // 2x CPU + 5 s).
     std::uint64_t importMemoryBytes = 0;
     double importSeconds = 0;
     // false parses in the calling process (for debugging the importer only:
