@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <set>
 #include <string>
 
 #include <mucosa/core/error.hpp>
@@ -82,25 +83,32 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
     unsigned compression = 0;
     std::uint64_t channels = 0;
     std::vector<std::array<std::uint32_t, 2>> sampling;  // x, y sampling per channel
+    std::set<std::string> seen;
     for (int count = 0;; ++count) {
         if (count > 10000) throw bad("header has too many attributes");
         const std::string attr = readName();
         if (attr.empty()) break;
+        // One value per name: a second dataWindow (found by fuzz_exr) would let
+        // this check read one window while OpenEXR allocates for the other.
+        if (!seen.insert(attr).second) throw bad(fmt::format("attribute '{}' appears twice", attr));
         const std::string type = readName();
         if (at + 4 > b.size()) throw bad("header is truncated");
         const std::uint64_t size = le32(b, at);
         at += 4;
         if (size > b.size() - at) throw bad(fmt::format("attribute '{}' runs past the end of the file", attr));
-        if (attr == "dataWindow" && type == "box2i" && size == 16) {
+        if ((attr == "dataWindow" && (type != "box2i" || size != 16)) ||
+            (attr == "compression" && (type != "compression" || size != 1)) || (attr == "channels" && type != "chlist"))
+            throw bad(fmt::format("attribute '{}' has type '{}' of {} bytes", attr, type.substr(0, 40), size));
+        if (attr == "dataWindow") {
             x0 = static_cast<std::int32_t>(le32(b, at));
             y0 = static_cast<std::int32_t>(le32(b, at + 4));
             x1 = static_cast<std::int32_t>(le32(b, at + 8));
             y1 = static_cast<std::int32_t>(le32(b, at + 12));
             haveWindow = true;
-        } else if (attr == "compression" && size == 1) {
+        } else if (attr == "compression") {
             compression = unsigned(b[at]);
             haveCompression = true;
-        } else if (attr == "channels" && type == "chlist") {
+        } else if (attr == "channels") {
             // name\0 + 16 bytes per channel (pixel type, pLinear, 3 reserved,
             // x and y sampling), then a terminating \0. Subsampled channels
             // store fewer samples: count each at its own sampling.

@@ -86,3 +86,17 @@ TEST(Exr, HostileHeaderIsRefusedBeforeOpenExrRuns) {
     writeFileAtomic(dir / "short.exr", hostileExr(999, 3, 0, 240));
     EXPECT_THROW(readExr(dir / "short.exr"), InputError);
 }
+
+// Found by the fuzz campaign: two dataWindow attributes, 20000631x35 then
+// 8x8. The pre-check read the second, OpenEXR allocated 3.8 GB for the first.
+// A repeated attribute is refused.
+TEST(Exr, RepeatedHeaderAttributeIsRefused) {
+    const auto file = std::filesystem::path(MUCOSA_SOURCE_DIR) / "fuzz/corpus/exr/hostile_duplicate_datawindow.exr";
+    ASSERT_TRUE(std::filesystem::exists(file));
+    try {
+        readExr(file);
+        FAIL() << "accepted a header with two data windows";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("appears twice"), std::string::npos) << e.what();
+    }
+}
