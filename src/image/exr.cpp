@@ -143,15 +143,21 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
     const std::uint64_t pixelBytes =
         saturatingMul(saturatingMul(w, h), saturatingMul(std::max<std::uint64_t>(channels, 1), 4));
     // Half samples are 2 bytes; NONE stores them verbatim, RLE expands at most
-    // 128 bytes per 2 coded, ZIP/ZIPS at most deflate's 1032:1. Other codecs
-    // (PIZ, PXR24, B44, DWA) get only the memory bound.
+    // 128 bytes per 2 coded, ZIP/ZIPS and PXR24 (a byte transform, then zlib)
+    // at most deflate's 1032:1; B44 codes a 4x4 block of halves (32 bytes) in
+    // 14 bytes, B44A a flat block in 3 (ratios under 3 and 11; other sample
+    // types are stored raw). PIZ and DWA get only the memory bound.
     std::uint64_t ratio = 0;
     if (compression == 0)
         ratio = 1;
     else if (compression == 1)
         ratio = 64;
-    else if (compression == 2 || compression == 3)
+    else if (compression == 2 || compression == 3 || compression == 5)
         ratio = 1032;
+    else if (compression == 6)
+        ratio = 3;
+    else if (compression == 7)
+        ratio = 11;
     std::uint64_t rawMin = 0;
     for (const auto& [xs, ys] : sampling)
         rawMin += saturatingMul(saturatingMul((w + xs - 1) / xs, (h + ys - 1) / ys), 2);

@@ -1,5 +1,9 @@
 #include <mucosa/image/exr.hpp>
 
+#include <vector>
+
+#include <ImfRgbaFile.h>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <mucosa/core/error.hpp>
@@ -65,6 +69,32 @@ std::string hostileExr(std::int32_t x1, std::int32_t y1, std::uint8_t compressio
     return s;
 }
 
+// The B44 bounds never refuse a real file: flat and noisy half images written
+// by OpenEXR itself with B44 and B44A (the best case, 32 bytes in 3) load.
+TEST(Exr, RealB44FilesStillLoad) {
+    test::TempDir dir;
+    for (const Imf::Compression c : {Imf::B44_COMPRESSION, Imf::B44A_COMPRESSION, Imf::PXR24_COMPRESSION}) {
+        for (const bool flat : {true, false}) {
+            const int w = 256, h = 128;
+            std::vector<Imf::Rgba> px(static_cast<std::size_t>(w) * h);
+            for (int i = 0; i < w * h; ++i) {
+                const float v = flat ? 0.5f : static_cast<float>((i * 2654435761u) >> 24) / 255.0f;
+                px[static_cast<std::size_t>(i)] = Imf::Rgba(v, v, v, 1.0f);
+            }
+            const auto file = dir / fmt::format("c{}_{}.exr", int(c), flat ? "flat" : "noise");
+            {
+                Imf::RgbaOutputFile out(file.c_str(), w, h, Imf::WRITE_RGBA, 1, Imath::V2f(0, 0), 1, Imf::INCREASING_Y,
+                                        c);
+                out.setFrameBuffer(px.data(), 1, static_cast<std::size_t>(w));
+                out.writePixels(h);
+            }
+            const auto img = readExr(file);
+            EXPECT_EQ(img.width(), w) << file;
+            EXPECT_EQ(img.height(), h) << file;
+        }
+    }
+}
+
 }  // namespace
 
 // Issue 13: a 240-byte EXR made OpenEXR allocate 2.6 GB before exr.cpp
@@ -98,5 +128,18 @@ TEST(Exr, RepeatedHeaderAttributeIsRefused) {
         FAIL() << "accepted a header with two data windows";
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("appears twice"), std::string::npos) << e.what();
+    }
+}
+
+// Found by the campaign: 126 bytes declaring a 5832705x3 B44A image (70 MB
+// of floats to allocate and decode); B44A codes 32 bytes in 3 at best.
+TEST(Exr, B44HeaderWithoutTheDataIsRefused) {
+    const auto file = std::filesystem::path(MUCOSA_SOURCE_DIR) / "fuzz/corpus/exr/hostile_b44a_no_data.exr";
+    ASSERT_TRUE(std::filesystem::exists(file));
+    try {
+        readExr(file);
+        FAIL() << "accepted a 5832705x3 B44A image from 12 bytes of data";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("bytes present can hold at most"), std::string::npos) << e.what();
     }
 }
