@@ -140,6 +140,10 @@ std::string runIsolated(const std::function<std::string()>& work, const Isolatio
     if (::pipe2(fds, O_CLOEXEC) != 0)
         throw ResourceError(what, file, fmt::format("cannot create a pipe: {}", std::strerror(errno)));
     std::fflush(nullptr);  // nothing buffered is written twice
+    // The child starts with the caller's resident pages (shared copy-on-write
+    // after fork, but counted in its RSS): the limit is on what it adds.
+    const std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+    const std::uint64_t baselineRss = statmPages(0, 1) * page;
     const pid_t parent = ::getpid();
     const pid_t pid = ::fork();
     if (pid < 0) {
@@ -157,7 +161,6 @@ std::string runIsolated(const std::function<std::string()>& work, const Isolatio
 
     using Clock = std::chrono::steady_clock;
     const auto deadline = Clock::now() + std::chrono::duration<double>(limits.wallSeconds);
-    const std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
     std::string overrun;  // why we killed it
     std::string message;
     bool eof = false;
@@ -182,7 +185,7 @@ std::string runIsolated(const std::function<std::string()>& work, const Isolatio
                 break;
             }
         }
-        if (statmPages(pid, 1) * page > limits.memoryBytes) {
+        if (statmPages(pid, 1) * page > baselineRss + limits.memoryBytes) {
             overrun = fmt::format("the parser used more than {} of memory", formatBytes(limits.memoryBytes));
             break;
         }

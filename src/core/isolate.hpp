@@ -9,7 +9,8 @@
 //     shadow reserves terabytes), RLIMIT_CPU, RLIMIT_CORE = 0 (no core dumps);
 //   - PR_SET_PDEATHSIG so it dies with the caller;
 // and the parent watches it: a wall-clock deadline, a resident-memory watchdog
-// (/proc/<pid>/statm, also under ASan) and a cap on the result's size. SIGKILL
+// (/proc/<pid>/statm, also under ASan; counted above the caller's own resident
+// set at the fork, which the child starts with) and a cap on the result's size. SIGKILL
 // ends it on any overrun (Assimp 5.2.5 ignores SIGTERM in its PLY hang).
 //
 // `work` returns the result as bytes; the caller decodes and validates them

@@ -1,6 +1,8 @@
 // runIsolated: whatever the work does in the child (crash, spin, allocate
 // without bound, throw), the caller gets one Error naming the file, within the
 // limits, and an honest result arrives byte for byte.
+#include <unistd.h>
+
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
@@ -112,6 +114,23 @@ TEST(Isolate, MemoryExhaustionIsStoppedAtTheLimit) {
         limits);
     EXPECT_THAT(what, HasSubstr("InputError: mesh in hostile.ply"));
     EXPECT_THAT(what, ::testing::AnyOf(HasSubstr("memory"), HasSubstr("signal 9")));
+}
+
+// A caller with a large resident set (a simulator with its textures loaded)
+// is not mistaken for a child over its limit: the child starts with the
+// caller's pages, and only what it adds counts.
+TEST(Isolate, CallersOwnMemoryDoesNotCountAgainstTheChild) {
+    std::vector<char> held(512u << 20);
+    std::memset(held.data(), 1, held.size());
+    IsolationLimits limits;
+    limits.memoryBytes = 64ull << 20;
+    // The child lives 200 ms, so the 20 ms watchdog sees it several times.
+    const auto slowOk = [] {
+        ::usleep(200000);
+        return std::string("ok");
+    };
+    EXPECT_EQ(runIsolated(slowOk, limits, "mesh", "a.ply"), "ok");
+    EXPECT_EQ(held[12345], 1);
 }
 
 TEST(Isolate, OversizedResultIsRefused) {
