@@ -275,10 +275,11 @@ AnswerStore::Insert AnswerStore::insert(const AnswerRow& a) {
             exec("COMMIT");
             return Insert::OutOfOrder;
         }
-        Stmt ins(db_,
-                 "INSERT INTO answers(observer, trial, kind, answer, image_id, category, score, left_id, "
-                 "left_category, right_id, right_category, chosen_category, shown_at_ms, answered_at_ms, received_at, grp) "
-                 "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16)");
+        Stmt ins(
+            db_,
+            "INSERT INTO answers(observer, trial, kind, answer, image_id, category, score, left_id, "
+            "left_category, right_id, right_category, chosen_category, shown_at_ms, answered_at_ms, received_at, grp) "
+            "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16)");
         if (!ins.ok()) fail("preparing an answer");
         ins.bind(1, a.observer).bind(2, a.trial).bind(3, a.kind).bind(4, a.answer);
         ins.bindNonEmpty(5, a.imageId).bindNonZero(6, a.category).bindOpt(7, a.score);
