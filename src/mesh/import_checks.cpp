@@ -105,11 +105,7 @@ std::uint64_t count(const json& object, const char* key, const fs::path& path, c
                     std::uint64_t fallback = 0) {
     const auto it = object.find(key);
     if (it == object.end()) return fallback;
-    if (!it->is_number_integer() ||
-        (it->is_number_integer() && !it->is_number_unsigned() && it->get<std::int64_t>() < 0) ||
-        it->get<std::uint64_t>() > (1ull << 53))
-        throw InputError("glTF", path.string(), fmt::format("{}.{} is not a whole number in range", where, key));
-    return it->get<std::uint64_t>();
+    return mucosa::detail::wholeNumber<std::uint64_t>(*it, where + "." + key, path.string(), 0, 1ull << 53);
 }
 
 std::uint64_t componentBytes(std::uint64_t type) {

@@ -157,7 +157,7 @@ TEST(HostileImport, GltfSizesBeyondTheirDataAreRefusedBeforeAllocating) {
     EXPECT_NE(expectInputErrorWithin20s(dir / "c.gltf").find("accessors without data"), std::string::npos);
     // Negative and fractional counts.
     writeText(dir / "d.gltf", triangleGltf("tri.bin", 36, -3));
-    EXPECT_NE(expectInputErrorWithin20s(dir / "d.gltf").find("not a whole number"), std::string::npos);
+    EXPECT_NE(expectInputErrorWithin20s(dir / "d.gltf").find("accessors[0].count' in"), std::string::npos);
 }
 
 TEST(HostileImport, GlbChunkLongerThanTheFileIsRefused) {
