@@ -1,4 +1,4 @@
-// Noise throughput on one job, in one run, next to the peers named in issue 2:
+// Noise throughput on one job, in one run, next to the peer noise libraries:
 // a 4096 x 4096 map of fBm, 6 octaves, lacunarity 2, gain 0.5, 8 cycles
 // across the map. "samples" are map texels (each sums 6 octaves); the
 // `evals/s` counter counts single noise evaluations (texels x octaves).

@@ -24,7 +24,7 @@ MapParams make(double frequency, int octaves, double lacunarity, double gain, do
 
 const std::vector<Preset>& presets() {
     // Strengths are chosen so the mean tilt of the normals (1024^2 map) is
-    // ~6 deg (serosa), ~13 deg (bronchial, fine), ~20 deg (rough); README
+    // ~6 deg (serosa), ~13 deg (bronchial, fine), ~20 deg (rough); docs/cli.md
     // "Presets" shows each.
     static const std::vector<Preset> kPresets = {
         {"bronchial",

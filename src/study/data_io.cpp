@@ -1,4 +1,4 @@
-// Reading study data: the two CSV formats of the README and the answers
+// Reading study data: the two CSV formats of docs/cli.md ("mucosa study") and the answers
 // database of `mucosa study serve`.
 #include <mucosa/study/analysis.hpp>
 

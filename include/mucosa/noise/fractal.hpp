@@ -23,7 +23,7 @@ struct FractalParams {
     std::uint64_t seed = 0;   // permutation seed; 0 = Perlin's reference table
     // The slice z = const of 3D noise that is sampled. Not an integer: on
     // integer slices every z-gradient term vanishes and only the lattice-aligned
-    // xy parts remain, which shows as axis-aligned creases (README, "Presets").
+    // xy parts remain, which shows as axis-aligned creases (docs/cli.md, mucosa map, "Presets").
     double z = 0.5;
     bool turbulence = false;  // sum |noise| instead of noise
     bool tileable = false;    // periodic lattice: opposite edges meet seamlessly

@@ -29,7 +29,7 @@ struct Preset {
     std::string name, description;
     MapParams params;
 };
-// Documented tissue looks (README "Presets").
+// Documented tissue looks (docs/cli.md, mucosa map, "Presets").
 const std::vector<Preset>& presets();
 // Throws InputError("preset", ...) listing the known names.
 const Preset& findPreset(std::string_view name);

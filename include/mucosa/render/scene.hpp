@@ -1,5 +1,5 @@
 #pragma once
-// Scene files (README, "Scene files"): mesh, diffuse texture or colour,
+// Scene files (docs/scene-format.md): mesh, diffuse texture or colour,
 // reflectance map (a file, or map parameters generated on load), material
 // (every registry parameter), camera (a pose or a path), light, resolution.
 // Without a file: the airway phantom with the 'bronchial' preset.

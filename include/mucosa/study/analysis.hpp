@@ -91,7 +91,7 @@ Analysis analyze(const StudyData& data);
 void writeReport(const Analysis& analysis, const std::filesystem::path& dir, const std::string& source);
 std::string statsJson(const Analysis& analysis, const std::string& source);
 
-// The data in the README's CSV formats (ratings.csv, and pairs.csv when there
+// The data in the CSV formats of docs/cli.md ("mucosa study") (ratings.csv, and pairs.csv when there
 // are 2AFC answers), e.g. to take an answers database to R or SciPy.
 void writeCsv(const StudyData& data, const std::filesystem::path& dir);
 
