@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include <mucosa/fit/brdf.hpp>
+#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/mesh/centerline.hpp>

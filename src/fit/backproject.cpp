@@ -80,7 +80,7 @@ std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, cons
     return out;
 }
 
-image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const BrdfParams& brdf,
+image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const shading::BrdfParams& brdf,
                                const image::ImageF& tex, std::array<float, 2> uvMin, std::array<float, 2> uvMax,
                                std::vector<std::uint8_t>* seen, int threads) {
     const Mat4 W = invertRigid(frame.cameraToWorld);

@@ -26,7 +26,7 @@ using json = nlohmann::json;
 FittedModel readFitDirectory(const fs::path& dir) {
     FittedModel m;
     const fs::path brdfPath = dir / "brdf.json";
-    m.brdf = readBrdf(brdfPath);
+    m.brdf = shading::readBrdf(brdfPath);
     const json j = json::parse(readTextFile(brdfPath));
     for (int i = 0; i < 2; ++i) {
         if (j.contains("uv_min")) m.uvMin[static_cast<std::size_t>(i)] = j["uv_min"][i].get<float>();

@@ -83,7 +83,7 @@ void writeFitOutputs(const FitResult& r, const fs::path& dir) {
     fs::create_directories(dir, ec);
     if (ec) throw IoError("output directory", dir.string(), ec.message());
     // Stage everything, then commit, so that a failure leaves no partial set.
-    json brdf = toJson(r.brdf);
+    json brdf = shading::toJson(r.brdf);
     brdf["uv_min"] = r.uvMin;
     brdf["uv_max"] = r.uvMax;
     brdf["texture_size"] = r.texture.width();
@@ -103,7 +103,7 @@ void writeFitOutputs(const FitResult& r, const fs::path& dir) {
         cov.data()[i] = w <= 0 ? 0 : static_cast<std::uint8_t>(64 + 191 * std::min(1.0f, w / ref));
     }
 
-    const BrdfParams& b = r.brdf;
+    const shading::BrdfParams& b = r.brdf;
     const std::string rhoSvg = svgPlot(
         "rho(gamma): view-angle shading", "gamma = cos(V, N)", "rho", 0.0, 1.0, [&](double g) { return b.rho(g); },
         r.rhoBins);

@@ -84,7 +84,7 @@ struct SolveSample {
 };
 
 int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vector<std::size_t>& usable,
-                            const std::vector<std::uint32_t>& slotOf, const BrdfParams& range, const FitOptions& o,
+                            const std::vector<std::uint32_t>& slotOf, const shading::BrdfParams& range, const FitOptions& o,
                             std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo, double& finalCost) {
     using Vec6 = Eigen::Matrix<double, 6, 1>;
     using Mat6 = Eigen::Matrix<double, 6, 6>;
@@ -264,7 +264,7 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
 // The same joint problem through Ceres (DENSE_SCHUR, Cauchy loss): the
 // general-purpose reference the specialised solver is checked against.
 int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::size_t>& usable,
-                   const std::vector<std::uint32_t>& slotOf, const BrdfParams& out, const FitOptions& o,
+                   const std::vector<std::uint32_t>& slotOf, const shading::BrdfParams& out, const FitOptions& o,
                    std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo, double& finalCost) {
     ceres::Problem::Options po;
     po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -300,14 +300,14 @@ int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::si
 
 }  // namespace
 
-BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, FitResult* diag) {
+shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, FitResult* diag) {
     const auto t0 = std::chrono::steady_clock::now();
     if (samples.size() < o.minSamples)
         throw InputError("samples", "",
                          fmt::format("only {} usable samples; at least {} are needed (more frames, or frames that "
                                      "see more of the mesh)",
                                      samples.size(), o.minSamples));
-    BrdfParams out;
+    shading::BrdfParams out;
     float zmin = samples[0].z, zmax = samples[0].z;
     float umin = samples[0].u, umax = samples[0].u, vmin = samples[0].v, vmax = samples[0].v;
     for (const Sample& s : samples) {

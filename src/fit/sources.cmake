@@ -1,7 +1,6 @@
 find_package(Ceres CONFIG REQUIRED)
 find_package(Eigen3 CONFIG REQUIRED)
 target_sources(mucosa PRIVATE
-  ${CMAKE_CURRENT_LIST_DIR}/brdf.cpp
   ${CMAKE_CURRENT_LIST_DIR}/frames.cpp
   ${CMAKE_CURRENT_LIST_DIR}/raster.cpp
   ${CMAKE_CURRENT_LIST_DIR}/backproject.cpp

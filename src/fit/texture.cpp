@@ -146,7 +146,7 @@ std::vector<std::uint32_t> orderByTexel(const std::vector<std::uint32_t>& texel,
 
 }  // namespace
 
-void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, const FitOptions& o, FitResult& r) {
+void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams& brdf, const FitOptions& o, FitResult& r) {
     const int N = o.textureSize;
     const Atlas atlas{N, r.uvMin, r.uvMax};
     r.texture = image::ImageF(N, N, 3);

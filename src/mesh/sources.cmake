@@ -14,6 +14,7 @@ target_sources(mucosa PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/normals.cpp
   ${CMAKE_CURRENT_LIST_DIR}/obj_write.cpp
   ${CMAKE_CURRENT_LIST_DIR}/phantom.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/primitives.cpp
   ${CMAKE_CURRENT_LIST_DIR}/ply_write.cpp
   ${CMAKE_CURRENT_LIST_DIR}/repair.cpp
   ${CMAKE_CURRENT_LIST_DIR}/tangents.cpp

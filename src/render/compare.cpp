@@ -11,7 +11,7 @@
 
 #include <mucosa/image/png.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
-#include <mucosa/render/primitives.hpp>
+#include <mucosa/mesh/primitives.hpp>
 
 namespace mucosa::render {
 
@@ -142,7 +142,7 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
     drawText(sheet, gap, cellY(pr, 0) + th / 2 - 20, "coarse", white, 2);
     drawText(sheet, gap, cellY(pr, 0) + th / 2 + 4, "patch", white, 2);
     drawText(sheet, gap, cellY(pr, 0) + th / 2 + 28, "(16 x 40 quads)", grey, 1);
-    const mesh::Mesh tube = makeTube(7.0f, 150.0f, 16, 40);
+    const mesh::Mesh tube = mesh::makeTube(7.0f, 150.0f, 16, 40);
     session.renderer().setMesh(tube);
     const camera::Pose patchPose = camera::lookAt({0.0f, -3.0f, -30.0f}, {0.0f, 7.0f, -40.0f});
     for (int c = 0; c < cols; ++c) {

@@ -9,14 +9,15 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
-#include <mucosa/fit/brdf.hpp>
+#include <mucosa/shading/brdf.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/phantom.hpp>
 #include <mucosa/mesh/tangents.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
-#include <mucosa/render/primitives.hpp>
+#include <mucosa/mesh/primitives.hpp>
+#include <mucosa/reflectance/tissue_texture.hpp>
 #include <mucosa/render/renderer.hpp>
 
 #include "core/json_parse.hpp"
@@ -321,11 +322,11 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     // (unless "diffuse" names another); explicit "brdf" values override.
     if (j.contains("fit")) {
         const fs::path dir = P.path(j["fit"], "fit");
-        fit::BrdfParams b;
+        shading::BrdfParams b;
         json bj;  // brdf.json, read once: the BRDF and (below) the atlas rectangle
         try {
             bj = detail::parseJsonFile(readTextFile(dir / "brdf.json"), (dir / "brdf.json").string());
-            b = fit::brdfFromJson(bj, (dir / "brdf.json").string());
+            b = shading::brdfFromJson(bj, (dir / "brdf.json").string());
         } catch (const Error& e) {
             P.fail("fit", e.what());
         }
@@ -436,8 +437,8 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         a.centreline = longestPath(ph.centerline, scene.path.branch, file);
         a.notes.push_back(fmt::format("phantom: {} generations, {} triangles", pp.generations, a.mesh.triangleCount()));
     } else if (scene.mesh.kind == "tube") {
-        a.mesh = makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
-        a.centreline = tubeCenterline(kTubeLength, 64);
+        a.mesh = mesh::makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
+        a.centreline = mesh::tubeCenterline(kTubeLength, 64);
         a.notes.push_back(fmt::format("tube: radius {} mm, length {} mm, {} triangles", kTubeRadius, kTubeLength,
                                       a.mesh.triangleCount()));
     } else {
@@ -473,7 +474,7 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
     if (scene.diffuse)
         a.diffuse = image::to8(image::readPng(*scene.diffuse));
     else if (scene.generatedDiffuse)
-        a.diffuse = tissueTexture(kTissueTextureSize);
+        a.diffuse = reflectance::tissueTexture(kTissueTextureSize);
     if (scene.reflectanceMap) {
         a.reflectanceMap = image::to8(image::readPng(*scene.reflectanceMap));
         if (a.reflectanceMap.channels() < 3)

@@ -2,6 +2,7 @@
 # compiled as C++ with glm) and the parameter registry.
 find_package(glm CONFIG REQUIRED)
 target_sources(mucosa PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/brdf.cpp
   ${CMAKE_CURRENT_LIST_DIR}/params.cpp
   ${CMAKE_CURRENT_LIST_DIR}/reference.cpp)
 # glm is header-only and never in a public header: build-time only.

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/brdf.hpp>
+#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/reflectance/map.hpp>
@@ -39,7 +39,7 @@ TEST(JsonInput, OverflowingNumbersAreTypedErrorsNamingTheFile) {
         {"frames.json", R"({"units": "mm", "frames": [{"x": )" + huge + "}]}",
          [](const std::filesystem::path& p) { (void)fit::readFrames(p); }},
         {"brdf.json", R"({"c": [)" + huge + R"(, 0, 0, 0]})",
-         [](const std::filesystem::path& p) { (void)fit::readBrdf(p); }},
+         [](const std::filesystem::path& p) { (void)shading::readBrdf(p); }},
         {"map.json", R"({"params": {"size": )" + huge + "}}",
          [](const std::filesystem::path& p) { (void)reflectance::readSidecar(p); }},
     };

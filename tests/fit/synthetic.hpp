@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <vector>
 
-#include <mucosa/fit/brdf.hpp>
+#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>

@@ -11,7 +11,7 @@
 
 #include <mucosa/camera/camera.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
-#include <mucosa/render/primitives.hpp>
+#include <mucosa/mesh/primitives.hpp>
 #include <mucosa/render/renderer.hpp>
 #include <mucosa/shading/reference.hpp>
 
@@ -37,7 +37,7 @@ struct Views {
 
 Views renderQuad(bool mirrored, shading::Mode mode, float lightX) {
     test::glContext();
-    const mesh::Mesh quad = render::makeQuad(60.0f, 4, mirrored);
+    const mesh::Mesh quad = mesh::makeQuad(60.0f, 4, mirrored);
     const image::Image8 map = tiltedMap();
     const camera::Pose pose = camera::lookAt({0, 0, 25}, {0, 0, 0});
     shading::FrameSetup f;

@@ -9,7 +9,7 @@
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/render/context.hpp>
-#include <mucosa/render/primitives.hpp>
+#include <mucosa/mesh/primitives.hpp>
 #include <mucosa/render/renderer.hpp>
 #include <mucosa/shading/reference.hpp>
 
@@ -107,7 +107,7 @@ void expectParity(const Parity& p, const std::string& name) {
 }
 
 TEST(RenderParity, FlatQuadWithKnownMapMatchesReferenceInEveryMode) {
-    const mesh::Mesh quad = render::makeQuad(40.0f, 8);
+    const mesh::Mesh quad = mesh::makeQuad(40.0f, 8);
     const image::Image8 map = testMap(256, "bronchial");
     const image::Image8 diffuse = testDiffuse(64);
     for (int mode = 0; mode < shading::kModeCount; ++mode) {
@@ -120,7 +120,7 @@ TEST(RenderParity, FlatQuadWithKnownMapMatchesReferenceInEveryMode) {
 }
 
 TEST(RenderParity, SphereMatchesReferenceInEveryMode) {
-    const mesh::Mesh sphere = render::makeSphere(10.0f, 96, 48);
+    const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
     const image::Image8 map = testMap(256, "serosa");
     const image::Image8 diffuse = testDiffuse(64);
     for (int mode = 0; mode < shading::kModeCount; ++mode) {
@@ -132,7 +132,7 @@ TEST(RenderParity, SphereMatchesReferenceInEveryMode) {
 }
 
 TEST(RenderParity, ProceduralNoiseMatchesReferenceInBothSpacesWithAndWithoutAntiAliasing) {
-    const mesh::Mesh sphere = render::makeSphere(10.0f, 96, 48);
+    const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
     const image::Image8 map = testMap(64, "serosa");
     const image::Image8 diffuse = testDiffuse(64);
     for (const char* preset : {"bronchial", "rough"})
@@ -159,7 +159,7 @@ TEST(RenderParity, ProceduralNormalsViewMatchesReferenceAndShowsTheBump) {
     // UVs): parity with the reference; flat (strength 0) it shows the
     // geometric normal, as the map's normals view does with a flat map; with
     // the bump it differs from that on most of the sphere.
-    const mesh::Mesh sphere = render::makeSphere(10.0f, 96, 48);
+    const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
     image::Image8 flat(4, 4, 3);
     for (int y = 0; y < 4; ++y)
         for (int x = 0; x < 4; ++x) flat.at(x, y, 0) = 128, flat.at(x, y, 1) = 128, flat.at(x, y, 2) = 255;
@@ -200,7 +200,7 @@ TEST(RenderParity, HeadlightProgramsMatchReference) {
     // A tip light with no offset (the default scene's) puts the light exactly
     // at the eye, and the renderer switches the per-pixel modes to programs
     // that read V for L (MUCOSA_HEADLIGHT): the same pixels as the reference.
-    const mesh::Mesh sphere = render::makeSphere(10.0f, 96, 48);
+    const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
     const image::Image8 map = testMap(256, "serosa");
     const image::Image8 diffuse = testDiffuse(64);
     for (const Mode mode : {Mode::Noise, Mode::BrdfNoise, Mode::Procedural, Mode::VertexPhong})

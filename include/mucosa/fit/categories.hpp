@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include <mucosa/fit/brdf.hpp>
+#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
@@ -21,7 +21,7 @@ namespace mucosa::fit {
 
 // What `mucosa fit` wrote, read back: brdf.json + texture.png.
 struct FittedModel {
-    BrdfParams brdf;
+    shading::BrdfParams brdf;
     image::ImageF texture;  // linear albedo, 3 channels
     std::array<float, 2> uvMin{0, 0}, uvMax{1, 1};
 };

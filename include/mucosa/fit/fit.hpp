@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include <mucosa/fit/brdf.hpp>
+#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
@@ -65,7 +65,7 @@ struct HoldoutResult {
 };
 
 struct FitResult {
-    BrdfParams brdf;
+    shading::BrdfParams brdf;
     image::ImageF texture;                          // 3 channels, linear albedo; first row = top (v = 1)
     image::ImageF coverage;                         // 1 channel, blend weight per texel (0 = filled by inpainting)
     std::array<float, 2> uvMin{0, 0}, uvMax{1, 1};  // the atlas spans this UV rectangle
@@ -94,10 +94,10 @@ image::ImageF loadFrameImage(const Frame& frame, double gamma, image::Image8* sa
                              double saturation = 0.99);
 
 // The joint robust solve on samples (zmin/zmax from the data).
-BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& options, FitResult* diagnostics = nullptr);
+shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& options, FitResult* diagnostics = nullptr);
 
 // Albedo atlas from samples and fitted shading; push-pull fills the rest.
-void buildTexture(const std::vector<Sample>& samples, const BrdfParams& brdf, const FitOptions& options,
+void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams& brdf, const FitOptions& options,
                   FitResult& result);
 
 // Push-pull inpainting (Gortler et al. 1996, "The Lumigraph", pull-push):
@@ -113,7 +113,7 @@ void writeFitOutputs(const FitResult& result, const std::filesystem::path& dir);
 
 // Renders what the fitted model predicts for a frame (texture x rho x delta),
 // linear, 3 channels; pixels that see nothing are 0 and flagged in `seen`.
-image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const BrdfParams& brdf,
+image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const shading::BrdfParams& brdf,
                                const image::ImageF& texture, std::array<float, 2> uvMin, std::array<float, 2> uvMax,
                                std::vector<std::uint8_t>* seen = nullptr, int threads = 0);
 

@@ -1,4 +1,4 @@
-#include <mucosa/fit/brdf.hpp>
+#include <mucosa/shading/brdf.hpp>
 
 #include <cmath>
 
@@ -9,7 +9,7 @@
 
 #include "core/json_parse.hpp"
 
-namespace mucosa::fit {
+namespace mucosa::shading {
 
 using json = nlohmann::json;
 
@@ -49,4 +49,4 @@ BrdfParams readBrdf(const std::filesystem::path& path) {
     return brdfFromJson(detail::parseJsonFile(readTextFile(path), path.string()), path.string());
 }
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::shading

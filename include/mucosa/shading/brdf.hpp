@@ -13,7 +13,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::shading {
 
 struct BrdfParams {
     std::array<double, 4> c{1.0, 0.0, 0.0, 0.0};
@@ -33,4 +33,4 @@ nlohmann::json toJson(const BrdfParams& p);
 BrdfParams brdfFromJson(const nlohmann::json& j, const std::string& file);
 BrdfParams readBrdf(const std::filesystem::path& path);
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::shading
