@@ -10,7 +10,7 @@
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/reflectance/map.hpp>
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 #include <mucosa/study/analysis.hpp>
 #include <mucosa/study/plan.hpp>
 

@@ -24,7 +24,7 @@ struct CompareArgs {
 };
 
 void run(const CompareArgs& a, const Global& g) {
-    const render::Scene scene = resolveScene(a.scene);
+    const scene::Scene scene = resolveScene(a.scene);
     if (std::filesystem::path(a.output).extension() != ".png")
         throw InputError("--output", a.output, "must end in .png");
     requireWritable(a.output);
@@ -33,7 +33,7 @@ void run(const CompareArgs& a, const Global& g) {
     o.views = a.views;
     const bool tty = isatty(2) && !g.quiet;
     if (tty) o.progress = [](int done, int total) { std::fprintf(stderr, "\rtile %d/%d\x1b[K", done, total); };
-    const render::SceneAssets assets = render::loadAssets(scene, g.threads);
+    const scene::SceneAssets assets = scene::loadAssets(scene, g.threads);
     for (const std::string& n : assets.notes) info(g, n);
     const image::Image8 sheet = render::compareSheet(scene, assets, o);
     if (tty) std::fprintf(stderr, "\n");

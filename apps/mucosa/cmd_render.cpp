@@ -37,7 +37,7 @@ std::string formatDuration(double seconds) {
 
 void run(const RenderArgs& a, const Global& g) {
     namespace fs = std::filesystem;
-    render::Scene scene = resolveScene(a.scene);
+    scene::Scene scene = resolveScene(a.scene);
     const int frames = a.frames > 0 ? a.frames : scene.frames;
     const fs::path out = a.output;
     if (out.extension() != ".png") throw InputError("--output", out.string(), "must end in .png");
@@ -56,16 +56,16 @@ void run(const RenderArgs& a, const Global& g) {
     }
     // One mode per run: a mode that reads no map (procedural, the baselines)
     // does not generate one.
-    const render::SceneAssets assets =
-        render::loadAssets(scene, g.threads, render::modeReadsReflectanceMap(scene.mode));
+    const scene::SceneAssets assets =
+        scene::loadAssets(scene, g.threads, scene::modeReadsReflectanceMap(scene.mode));
     for (const std::string& n : assets.notes) info(g, n);
-    const std::vector<camera::Pose> poses = render::cameraPoses(scene, assets, frames);
+    const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, frames);
     std::unique_ptr<render::OffscreenSession> session;
     if (!a.reference) {
         session = std::make_unique<render::OffscreenSession>(scene, assets, scene.width, scene.height);
         info(g, "GL_RENDERER: " + session->glRendererName());
     }
-    const shading::Textures refTextures = render::referenceTextures(scene, assets);
+    const shading::Textures refTextures = scene::referenceTextures(scene, assets);
     const bool tty = isatty(2) && !g.quiet;
     const auto t0 = std::chrono::steady_clock::now();
     int written = 0, skipped = 0;
@@ -78,7 +78,7 @@ void run(const RenderArgs& a, const Global& g) {
         const image::Image8 img =
             a.reference ? shading::renderReference(
                               assets.mesh,
-                              render::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height),
+                              scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height),
                               refTextures)
                         : session->render(poses[static_cast<std::size_t>(i)]);
         const std::vector<std::byte> png = image::encodePng(img);

@@ -18,14 +18,14 @@ struct ViewArgs {
 };
 
 void run(const ViewArgs& a, const Global& g) {
-    render::Scene scene = resolveScene(a.scene);
+    scene::Scene scene = resolveScene(a.scene);
     render::ViewerOptions o;
     std::tie(o.width, o.height) = parseSize(a.window);
     o.maxFrames = a.frames;
     o.autoplay = !a.noAutoplay;
     if (!a.screenshot.empty()) o.screenshot = a.screenshot;
     if (a.frames > 0) o.vsync = false;
-    render::SceneAssets assets = render::loadAssets(scene, g.threads);
+    scene::SceneAssets assets = scene::loadAssets(scene, g.threads);
     for (const std::string& n : assets.notes) info(g, n);
     const render::ViewerReport r = render::runViewer(std::move(scene), std::move(assets), o);
     info(g, fmt::format("{} frames, {:.1f} fps on average ({})", r.frames, r.meanFps, r.glRenderer));

@@ -41,8 +41,8 @@ std::pair<int, int> parseSize(const std::string& text) {
     return {w, h};
 }
 
-render::Scene resolveScene(const SceneOptions& o) {
-    render::Scene s = o.sceneFile.empty() ? render::defaultScene() : render::loadScene(o.sceneFile);
+scene::Scene resolveScene(const SceneOptions& o) {
+    scene::Scene s = o.sceneFile.empty() ? scene::defaultScene() : scene::loadScene(o.sceneFile);
     if (!o.mode.empty()) s.mode = shading::parseMode(o.mode, "--mode");
     if (!o.size.empty()) std::tie(s.width, s.height) = parseSize(o.size);
     if (!o.noiseSpace.empty()) {
@@ -63,7 +63,7 @@ render::Scene resolveScene(const SceneOptions& o) {
         const auto dot = key.find('.');
         const std::string name = dot == std::string::npos ? key : key.substr(dot + 1);
         if (dot != std::string::npos && key.substr(0, dot) == "reflectance_map") {
-            render::setMapParameter(s, name, value);
+            scene::setMapParameter(s, name, value);
             continue;
         }
         const shading::ParamInfo* pi = shading::findParam(name);

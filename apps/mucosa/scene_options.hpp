@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 #include "commands.hpp"
 
@@ -26,7 +26,7 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize = true);
 
 // Loads the scene (or the default one) and applies the overrides; InputError
 // names the option on bad values.
-render::Scene resolveScene(const SceneOptions& o);
+scene::Scene resolveScene(const SceneOptions& o);
 
 // "640x480" -> (640, 480); InputError("--size", ...) otherwise.
 std::pair<int, int> parseSize(const std::string& text);

@@ -19,7 +19,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/render/offscreen.hpp>
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 using namespace mucosa;
 
@@ -77,14 +77,14 @@ int main(int argc, char** argv) try {
         } else
             sceneFile = a;
     }
-    render::Scene scene = sceneFile.empty() ? render::defaultScene() : render::loadScene(sceneFile);
+    scene::Scene scene = sceneFile.empty() ? scene::defaultScene() : scene::loadScene(sceneFile);
     if (!lightOffset.empty()) {
         if (lightOffset.size() != 3) throw InputError("--light-offset", "", "needs X,Y,Z in mm");
         for (std::size_t k = 0; k < 3; ++k) scene.light.offset[k] = std::stof(lightOffset[k]);
     }
-    const render::SceneAssets assets = render::loadAssets(scene);
+    const scene::SceneAssets assets = scene::loadAssets(scene);
     for (const auto& n : assets.notes) std::printf("%s\n", n.c_str());
-    const std::vector<camera::Pose> poses = render::cameraPoses(scene, assets, frames);
+    const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, frames);
     std::map<std::string, std::map<std::string, double>> fps;
     std::map<int, double> octaveFps;  // procedural, first size
     // Frame times per round: ratios are taken round by round (both modes
@@ -128,7 +128,7 @@ int main(int argc, char** argv) try {
                     // 0: the map path (noise mode), in the same rounds as the octave counts.
                     const int octaves = std::atoi(k.c_str());
                     auto frame = [&](std::size_t i) {
-                        shading::FrameSetup f = render::frameSetup(scene, poses[i % poses.size()], w, h);
+                        shading::FrameSetup f = scene::frameSetup(scene, poses[i % poses.size()], w, h);
                         f.mode = octaves == 0 ? shading::Mode::Noise : shading::Mode::Procedural;
                         if (octaves > 0) f.procedural.noise.octaves = octaves;
                         return f;

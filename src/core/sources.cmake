@@ -1,4 +1,4 @@
-target_sources(mucosa PRIVATE
+target_sources(mucosa_core PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/error.cpp
   ${CMAKE_CURRENT_LIST_DIR}/file.cpp
   ${CMAKE_CURRENT_LIST_DIR}/isolate.cpp

@@ -1,6 +1,6 @@
 find_package(Ceres CONFIG REQUIRED)
 find_package(Eigen3 CONFIG REQUIRED)
-target_sources(mucosa PRIVATE
+target_sources(mucosa_fit PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/frames.cpp
   ${CMAKE_CURRENT_LIST_DIR}/raster.cpp
   ${CMAKE_CURRENT_LIST_DIR}/backproject.cpp
@@ -9,4 +9,4 @@ target_sources(mucosa PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/fit.cpp
   ${CMAKE_CURRENT_LIST_DIR}/report.cpp
   ${CMAKE_CURRENT_LIST_DIR}/categories.cpp)
-target_link_libraries(mucosa PRIVATE Ceres::ceres Eigen3::Eigen)
+target_link_libraries(mucosa_fit PRIVATE Ceres::ceres Eigen3::Eigen)

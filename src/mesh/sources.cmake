@@ -1,7 +1,7 @@
 # Mesh module: import (Assimp), repair, tangent frames, UVs, glTF/PLY/OBJ
 # output, the airway phantom.
 find_package(assimp CONFIG REQUIRED)
-target_sources(mucosa PRIVATE
+target_sources(mucosa_core PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/adjacency.cpp
   ${CMAKE_CURRENT_LIST_DIR}/analysis.cpp
   ${CMAKE_CURRENT_LIST_DIR}/centerline.cpp
@@ -19,4 +19,4 @@ target_sources(mucosa PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/repair.cpp
   ${CMAKE_CURRENT_LIST_DIR}/tangents.cpp
   ${CMAKE_CURRENT_LIST_DIR}/uv_stretch.cpp)
-target_link_libraries(mucosa PRIVATE assimp::assimp)
+target_link_libraries(mucosa_core PRIVATE assimp::assimp)

@@ -1,4 +1,4 @@
-target_sources(mucosa PRIVATE
+target_sources(mucosa_core PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/normal_map.cpp
   ${CMAKE_CURRENT_LIST_DIR}/presets.cpp
   ${CMAKE_CURRENT_LIST_DIR}/specular_mips.cpp

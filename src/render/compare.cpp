@@ -56,7 +56,7 @@ void drawText(image::Image8& img, int x, int y, const std::string& text, std::ar
     }
 }
 
-image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const CompareOptions& o) {
+image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& assets, const CompareOptions& o) {
     const int tw = o.tileWidth, th = o.tileHeight;
     const int cols = 5;
     const int labelW = 190, headerH = 64, colHeadH = 30, gap = 6;
@@ -89,7 +89,7 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
 
     OffscreenSession session(scene, assets, tw, th);
     // Views spread along the camera path (the middle part, away from the ends).
-    const std::vector<camera::Pose> path = cameraPoses(scene, assets, 9);
+    const std::vector<camera::Pose> path = scene::cameraPoses(scene, assets, 9);
     std::vector<camera::Pose> viewPoses;
     for (int v = 0; v < views; ++v) {
         const int idx = views == 1 ? 2 : 1 + v * 5 / std::max(1, views - 1);
@@ -129,7 +129,7 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
     drawText(sheet, gap, cellY(ar, 0) + th / 2 + 4, "anti-aliasing", white, 2);
     drawText(sheet, gap, cellY(ar, 0) + th / 2 + 28, "(view 1)", grey, 1);
     for (int c = 0; c < 4; ++c) {
-        shading::FrameSetup f = frameSetup(scene, viewPoses[0], tw, th);
+        shading::FrameSetup f = scene::frameSetup(scene, viewPoses[0], tw, th);
         f.mode = c < 2 ? shading::Mode::Noise : shading::Mode::Procedural;
         f.specularAA = c % 2 == 1;
         blit(sheet, session.renderFrame(f), cellX(c), cellY(ar, 0));
@@ -159,8 +159,8 @@ image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const 
 }
 
 void writeDefaultCompareSheet(const std::filesystem::path& png, int threads) {
-    const Scene scene = defaultScene();
-    const SceneAssets assets = loadAssets(scene, threads);
+    const scene::Scene scene = scene::defaultScene();
+    const scene::SceneAssets assets = scene::loadAssets(scene, threads);
     image::writePng(png, compareSheet(scene, assets));
 }
 

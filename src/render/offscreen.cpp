@@ -6,7 +6,7 @@
 
 namespace mucosa::render {
 
-OffscreenSession::OffscreenSession(const Scene& scene, const SceneAssets& assets, int width, int height)
+OffscreenSession::OffscreenSession(const scene::Scene& scene, const scene::SceneAssets& assets, int width, int height)
     : scene_(scene), width_(width), height_(height) {
     context_ = std::make_unique<HeadlessContext>();
     renderer_ = std::make_unique<Renderer>();
@@ -30,7 +30,7 @@ void OffscreenSession::setReflectanceMap(const image::Image8& map) {
 }
 
 void OffscreenSession::draw(const camera::Pose& pose, shading::Mode mode) {
-    shading::FrameSetup f = frameSetup(scene_, pose, width_, height_);
+    shading::FrameSetup f = scene::frameSetup(scene_, pose, width_, height_);
     f.mode = mode;
     framebuffer_->bind();
     renderer_->draw(f);
@@ -47,7 +47,7 @@ void OffscreenSession::finish() {
 
 image::Image8 OffscreenSession::render(const camera::Pose& pose, std::optional<shading::Mode> mode,
                                        const shading::ParamSet* params) {
-    shading::FrameSetup f = frameSetup(scene_, pose, width_, height_);
+    shading::FrameSetup f = scene::frameSetup(scene_, pose, width_, height_);
     if (mode) f.mode = *mode;
     if (params) f.params = *params;
     framebuffer_->bind();

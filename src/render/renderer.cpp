@@ -431,7 +431,7 @@ void Renderer::draw(const shading::FrameSetup& frame) {
 
     Texture& hl = impl_->textures[static_cast<std::size_t>(TextureSlot::Highlight)];
     if (frame.mode == shading::Mode::Multitexture && !hl.user && impl_->highlightShininess != m.shininess) {
-        upload(hl, shading::highlightSphereMap(kHighlightTextureSize, m.shininess), shading::Filter::Linear,
+        upload(hl, shading::highlightSphereMap(shading::kHighlightTextureSize, m.shininess), shading::Filter::Linear,
                shading::Wrap::Clamp);
         impl_->highlightShininess = m.shininess;
     }

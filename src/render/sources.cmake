@@ -17,8 +17,8 @@ add_custom_command(
   VERBATIM)
 
 file(GLOB mucosa_render_sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_LIST_DIR}/*.cpp)
-target_sources(mucosa PRIVATE ${mucosa_render_sources} ${mucosa_embedded_shaders})
-target_link_libraries(mucosa PRIVATE OpenGL::OpenGL OpenGL::EGL)
+target_sources(mucosa_render PRIVATE ${mucosa_render_sources} ${mucosa_embedded_shaders})
+target_link_libraries(mucosa_render PRIVATE OpenGL::OpenGL OpenGL::EGL)
 
 # The viewer: GLFW (window, X11) and Dear ImGui. Debian's libimgui-dev ships
 # a static libimgui.a (position-independent) with the GLFW and OpenGL 3
@@ -29,6 +29,6 @@ find_path(MUCOSA_IMGUI_INCLUDE_DIR imgui.h PATH_SUFFIXES imgui REQUIRED)
 # Debian builds imgui against the stb package (imgui.pc: Requires: stb) for
 # its font rasteriser.
 find_library(MUCOSA_STB_LIBRARY stb REQUIRED)
-target_include_directories(mucosa PRIVATE ${MUCOSA_IMGUI_INCLUDE_DIR})
-target_link_libraries(mucosa PRIVATE glfw $<BUILD_INTERFACE:${MUCOSA_IMGUI_LIBRARY}> ${MUCOSA_STB_LIBRARY}
+target_include_directories(mucosa_render PRIVATE ${MUCOSA_IMGUI_INCLUDE_DIR})
+target_link_libraries(mucosa_render PRIVATE glfw $<BUILD_INTERFACE:${MUCOSA_IMGUI_LIBRARY}> ${MUCOSA_STB_LIBRARY}
   ${CMAKE_DL_LIBS})

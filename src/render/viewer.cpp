@@ -66,7 +66,7 @@ std::string viewerControls() {
            "Esc: quit";
 }
 
-ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) {
+ViewerReport runViewer(scene::Scene scene, scene::SceneAssets assets, const ViewerOptions& o) {
     GlfwSession glfw;
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
@@ -95,7 +95,7 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
 
         std::vector<camera::Pose> path;
         try {
-            path = cameraPoses(scene, assets, std::max(2, o.pathFrames));
+            path = scene::cameraPoses(scene, assets, std::max(2, o.pathFrames));
         } catch (const InputError&) {
             path.assign(1, scene.pose.value_or(camera::Pose{}));
         }
@@ -156,7 +156,7 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
                     glfwGetFramebufferSize(window, &w, &h);
                     Framebuffer fb(w, h);
                     fb.bind();
-                    shading::FrameSetup fs = frameSetup(scene, pose, w, h);
+                    shading::FrameSetup fs = scene::frameSetup(scene, pose, w, h);
                     fs.mode = static_cast<shading::Mode>(mode);
                     renderer.draw(fs);
                     image::writePng(fmt::format("mucosa_view_{:04d}.png", shots++), fb.readRgb());
@@ -280,7 +280,7 @@ ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& o) 
             if (w > 0 && h > 0) {
                 scene.mapParams.noise = mapParams.noise;  // the procedural mode's parameters, live
                 scene.mapParams.strength = mapParams.strength;
-                shading::FrameSetup fs = frameSetup(scene, pose, w, h);
+                shading::FrameSetup fs = scene::frameSetup(scene, pose, w, h);
                 fs.mode = static_cast<shading::Mode>(mode);
                 renderer.draw(fs);
             }

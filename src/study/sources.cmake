@@ -20,7 +20,7 @@ add_custom_command(OUTPUT ${mucosa_study_web_cpp}
 set_source_files_properties(${mucosa_study_web_cpp} PROPERTIES
   INCLUDE_DIRECTORIES ${CMAKE_CURRENT_LIST_DIR})
 
-target_sources(mucosa PRIVATE
+target_sources(mucosa_study PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/plan.cpp
   ${CMAKE_CURRENT_LIST_DIR}/ranks.cpp
   ${CMAKE_CURRENT_LIST_DIR}/friedman.cpp
@@ -36,4 +36,4 @@ target_sources(mucosa PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/http_handler.cpp
   ${CMAKE_CURRENT_LIST_DIR}/server.cpp
   ${mucosa_study_web_cpp})
-target_link_libraries(mucosa PRIVATE SQLite::SQLite3 Boost::headers Threads::Threads)
+target_link_libraries(mucosa_study PRIVATE SQLite::SQLite3 Boost::headers Threads::Threads)

@@ -14,7 +14,7 @@
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/reflectance/map.hpp>
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 #include "test_support.hpp"
 
@@ -35,7 +35,7 @@ TEST(JsonInput, OverflowingNumbersAreTypedErrorsNamingTheFile) {
     };
     const Case cases[] = {
         {"scene.json", R"({"mesh": "tube", "width": )" + huge + "}",
-         [](const std::filesystem::path& p) { (void)render::loadScene(p); }},
+         [](const std::filesystem::path& p) { (void)scene::loadScene(p); }},
         {"frames.json", R"({"units": "mm", "frames": [{"x": )" + huge + "}]}",
          [](const std::filesystem::path& p) { (void)fit::readFrames(p); }},
         {"brdf.json", R"({"c": [)" + huge + R"(, 0, 0, 0]})",
@@ -79,7 +79,7 @@ TEST(JsonInput, IntegersOutOfRangeAreRefusedNotTruncated) {
         std::function<void(const std::filesystem::path&)> read;
         const char* field;
     };
-    const auto scene = [](const std::filesystem::path& p) { (void)render::loadScene(p); };
+    const auto scene = [](const std::filesystem::path& p) { (void)scene::loadScene(p); };
     const auto sidecar = [](const std::filesystem::path& p) { (void)reflectance::readSidecar(p); };
     const auto centerline = [](const std::filesystem::path& p) { (void)mesh::readCenterlineJson(p); };
     const std::string branch = R"("points": [[0, 0, 0]], "radii": [1])";

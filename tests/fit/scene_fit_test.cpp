@@ -8,7 +8,7 @@
 #include <mucosa/fit/fit.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 #include <mucosa/shading/params.hpp>
 
 #include "synthetic.hpp"
@@ -26,7 +26,7 @@ TEST(SceneFit, FitFolderSetsTheBrdfParametersAndTheTexture) {
     r.texture = image::ImageF(16, 16, 3);
     r.coverage = image::ImageF(16, 16, 1);
     fit::writeFitOutputs(r, dir / "fit");
-    const render::Scene s = render::parseScene(
+    const scene::Scene s = scene::parseScene(
         R"({"mesh": "tube", "fit": "fit", "mode": "brdf-noise", "brdf": {"d3": -0.04}})", dir / "scene.json");
     using shading::Param;
     EXPECT_EQ(s.mode, shading::Mode::BrdfNoise);
@@ -40,7 +40,7 @@ TEST(SceneFit, FitFolderSetsTheBrdfParametersAndTheTexture) {
     EXPECT_EQ(*s.diffuse, dir / "fit" / "texture.png");
     EXPECT_EQ(shading::parseMode("brdf"), shading::Mode::Brdf);
     try {
-        render::parseScene(R"({"mesh": "tube", "fit": "nowhere"})", dir / "scene.json");
+        scene::parseScene(R"({"mesh": "tube", "fit": "nowhere"})", dir / "scene.json");
         FAIL();
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("fit"), std::string::npos) << e.what();

@@ -19,18 +19,18 @@ struct Case {
 };
 
 TEST(SpecularAntiAliasing, FlickerDropsAndStillFramesConvergeTowardsSupersampling) {
-    render::Scene scene = render::defaultScene();
-    const render::SceneAssets assets = render::loadAssets(scene);
+    scene::Scene scene = scene::defaultScene();
+    const scene::SceneAssets assets = scene::loadAssets(scene);
     const int w = 320, h = 240;
     render::OffscreenSession session(scene, assets, w, h);
     // A view down the airway: walls from near to far (poses as in mucosa compare).
-    const camera::Pose pose = render::cameraPoses(scene, assets, 9)[2];
+    const camera::Pose pose = scene::cameraPoses(scene, assets, 9)[2];
     const Case cases[] = {{"map (noise mode)", shading::Mode::Noise, shading::NoiseSpace::Uv},
                           {"procedural, texture space", shading::Mode::Procedural, shading::NoiseSpace::Uv},
                           {"procedural, object space", shading::Mode::Procedural, shading::NoiseSpace::Object}};
     for (const Case& c : cases) {
         scene.noiseSpace = c.space;
-        shading::FrameSetup f = render::frameSetup(scene, pose, w, h);
+        shading::FrameSetup f = scene::frameSetup(scene, pose, w, h);
         f.mode = c.mode;
         const render::AliasingReport r = render::measureSpecularAliasing(session, f);
         const double drop = 1.0 - r.flicker[1] / r.flicker[0];

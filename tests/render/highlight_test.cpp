@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <mucosa/render/offscreen.hpp>
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 #include "render_test_support.hpp"
 
@@ -22,7 +22,7 @@ render::HighlightStats statsFor(render::OffscreenSession& s, const camera::Pose&
     return st;
 }
 
-void expectIrregularOrdering(const render::Scene& scene, const render::SceneAssets& assets, const camera::Pose& pose,
+void expectIrregularOrdering(const scene::Scene& scene, const scene::SceneAssets& assets, const camera::Pose& pose,
                              const std::string& label) {
     render::OffscreenSession s(scene, assets, 640, 480);
     const auto noise = statsFor(s, pose, shading::Mode::Noise, label + "_noise");
@@ -39,9 +39,9 @@ void expectIrregularOrdering(const render::Scene& scene, const render::SceneAsse
 
 TEST(RenderHighlights, MethodHighlightsAreIrregularWhereBaselinesAreNotOnACoarseTube) {
     test::glContext();
-    render::Scene scene = render::defaultScene();
+    scene::Scene scene = scene::defaultScene();
     scene.mesh.kind = "tube";
-    const render::SceneAssets assets = render::loadAssets(scene);
+    const scene::SceneAssets assets = scene::loadAssets(scene);
     expectIrregularOrdering(scene, assets, camera::lookAt({0.0f, -3.0f, -30.0f}, {0.0f, 7.0f, -40.0f}), "tube");
 }
 
@@ -53,12 +53,12 @@ TEST(RenderHighlights, MethodHighlightsAreIrregularWhereBaselinesAreNotOnACoarse
 // SpecularAntiAliasing test checks against supersampled references.
 TEST(RenderHighlights, ProceduralTextureSpaceNoiseLooksLikeTheMap) {
     test::glContext();
-    render::Scene scene = render::defaultScene();
+    scene::Scene scene = scene::defaultScene();
     scene.noiseSpace = shading::NoiseSpace::Uv;
     scene.specularAA = false;
-    const render::SceneAssets assets = render::loadAssets(scene);
+    const scene::SceneAssets assets = scene::loadAssets(scene);
     render::OffscreenSession s(scene, assets, 640, 480);
-    const std::vector<camera::Pose> poses = render::cameraPoses(scene, assets, 9);
+    const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, 9);
     double area[2] = {0, 0}, components[2] = {0, 0};
     for (std::size_t v = 1; v + 1 < poses.size(); ++v) {
         const std::string view = "view" + std::to_string(v);

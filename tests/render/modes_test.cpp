@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <mucosa/render/offscreen.hpp>
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 #include "render_test_support.hpp"
 #include "test_support.hpp"
@@ -13,13 +13,13 @@ namespace mucosa {
 namespace {
 
 struct Fixture {
-    render::Scene scene = render::defaultScene();
-    render::SceneAssets assets;
+    scene::Scene scene = scene::defaultScene();
+    scene::SceneAssets assets;
     camera::Pose pose;
     Fixture() {
         scene.filter = shading::Filter::Nearest;  // the reference samples exactly as GL
-        assets = render::loadAssets(scene);
-        pose = render::cameraPoses(scene, assets, 5)[2];
+        assets = scene::loadAssets(scene);
+        pose = scene::cameraPoses(scene, assets, 5)[2];
     }
 };
 
@@ -31,7 +31,7 @@ const Fixture& fixture() {
 TEST(RenderModes, EveryModeRendersThePhantomWithoutBlackFramesOrNaN) {
     const Fixture& fx = fixture();
     render::OffscreenSession session(fx.scene, fx.assets, 320, 240);
-    const shading::Textures textures = render::referenceTextures(fx.scene, fx.assets);
+    const shading::Textures textures = scene::referenceTextures(fx.scene, fx.assets);
     for (int m = 0; m < shading::kModeCount; ++m) {
         const auto mode = static_cast<shading::Mode>(m);
         const std::string name(shading::modeName(mode));
@@ -49,7 +49,7 @@ TEST(RenderModes, EveryModeRendersThePhantomWithoutBlackFramesOrNaN) {
         std::printf("%-13s mean %.1f/255, %.2f%% black pixels\n", name.c_str(), mean, 100 * blackFraction);
         EXPECT_GT(mean, 20.0) << name;
         EXPECT_LT(blackFraction, 0.05) << name;
-        shading::FrameSetup f = render::frameSetup(fx.scene, fx.pose, 320, 240);
+        shading::FrameSetup f = scene::frameSetup(fx.scene, fx.pose, 320, 240);
         f.mode = mode;
         const image::Image8 ref = shading::renderReference(fx.assets.mesh, f, textures);
         const test::DiffStats d = test::diff(gl, ref, 2);
@@ -81,8 +81,8 @@ TEST(RenderModes, FramesAreIdenticalRunToRun) {
 
 TEST(RenderModes, CullingBackFacesOfTheClosedPhantomChangesNoPixel) {
     const Fixture& fx = fixture();
-    ASSERT_TRUE(render::frameSetup(fx.scene, fx.pose, 320, 240).cullBackFaces);
-    render::Scene open = fx.scene;
+    ASSERT_TRUE(scene::frameSetup(fx.scene, fx.pose, 320, 240).cullBackFaces);
+    scene::Scene open = fx.scene;
     open.closed = false;
     render::OffscreenSession culled(fx.scene, fx.assets, 320, 240);
     const image::Image8 a = culled.render(fx.pose, shading::Mode::Noise);

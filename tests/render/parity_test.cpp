@@ -76,7 +76,7 @@ Parity renderBoth(const mesh::Mesh& m, const shading::FrameSetup& f, const image
     r.setTexture(render::TextureSlot::Diffuse, diffuse, Filter::Nearest, Wrap::Repeat);
     r.setTexture(render::TextureSlot::Reflectance, map, Filter::Nearest, Wrap::Repeat);
     const image::Image8 hl =
-        shading::highlightSphereMap(render::kHighlightTextureSize, f.params[shading::Param::Shininess]);
+        shading::highlightSphereMap(shading::kHighlightTextureSize, f.params[shading::Param::Shininess]);
     r.setTexture(render::TextureSlot::Highlight, hl, Filter::Nearest, Wrap::Clamp);
     render::Framebuffer fb(f.width, f.height);
     fb.bind();

@@ -4,7 +4,7 @@
 #include <fstream>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 #include "test_support.hpp"
 
@@ -13,7 +13,7 @@ namespace {
 
 std::string subjectOf(const std::string& json) {
     try {
-        render::parseScene(json, "scene.json");
+        scene::parseScene(json, "scene.json");
     } catch (const InputError& e) {
         EXPECT_EQ(e.file(), "scene.json");
         return e.subject();
@@ -22,7 +22,7 @@ std::string subjectOf(const std::string& json) {
 }
 
 TEST(RenderScene, FullSceneParses) {
-    const render::Scene s = render::parseScene(R"({
+    const scene::Scene s = scene::parseScene(R"({
       "mesh": "tube", "lit_side": "front", "filter": "linear", "mode": "vertex-phong",
       "reflectance_map": {"preset": "fine", "frequency": 32, "size": 256},
       "material": {"shininess": 80, "base_color": [0.7, 0.4, 0.4], "mucus_opacity": 0.3},
@@ -50,8 +50,8 @@ TEST(RenderScene, FullSceneParses) {
 }
 
 TEST(RenderScene, MapFileIsResolvedAgainstTheSceneFolder) {
-    const render::Scene s =
-        render::parseScene(R"({"mesh": "airway.glb", "reflectance_map": "maps/m.png"})", "/data/scenes/a.json");
+    const scene::Scene s =
+        scene::parseScene(R"({"mesh": "airway.glb", "reflectance_map": "maps/m.png"})", "/data/scenes/a.json");
     EXPECT_EQ(s.mesh.kind, "file");
     EXPECT_EQ(s.mesh.file, std::filesystem::path("/data/scenes/airway.glb"));
     EXPECT_EQ(*s.reflectanceMap, std::filesystem::path("/data/scenes/maps/m.png"));
@@ -111,19 +111,19 @@ TEST(RenderScene, CliReportsOneErrorLineNamingTheField) {
 }
 
 TEST(RenderScene, SetOverridesTheMapParametersTheProceduralModeReads) {
-    render::Scene s = render::parseScene(R"({"mesh": "tube", "reflectance_map": "maps/m.png"})", "/d/scene.json");
+    scene::Scene s = scene::parseScene(R"({"mesh": "tube", "reflectance_map": "maps/m.png"})", "/d/scene.json");
     ASSERT_TRUE(s.reflectanceMap.has_value());
-    render::setMapParameter(s, "frequency", "32");
-    render::setMapParameter(s, "turbulence", "true");
-    render::setMapParameter(s, "octaves", "3");
+    scene::setMapParameter(s, "frequency", "32");
+    scene::setMapParameter(s, "turbulence", "true");
+    scene::setMapParameter(s, "octaves", "3");
     EXPECT_EQ(s.mapParams.noise.frequency, 32.0);
     EXPECT_TRUE(s.mapParams.noise.turbulence);
     EXPECT_EQ(s.mapParams.noise.octaves, 3);
     EXPECT_FALSE(s.reflectanceMap.has_value());  // generated from the parameters now
-    const shading::FrameSetup f = render::frameSetup(s, camera::lookAt({0, 0, 0}, {0, 0, -1}), 64, 48);
+    const shading::FrameSetup f = scene::frameSetup(s, camera::lookAt({0, 0, 0}, {0, 0, -1}), 64, 48);
     EXPECT_EQ(f.procedural.noise.frequency, 32.0);
     EXPECT_EQ(f.procedural.noise.octaves, 3);
-    render::setMapParameter(s, "preset", "serosa");
+    scene::setMapParameter(s, "preset", "serosa");
     EXPECT_EQ(s.mapParams.noise.frequency, reflectance::findPreset("serosa").params.noise.frequency);
     for (const auto& [key, value, field] :
          std::vector<std::array<std::string, 3>>{{"octaves", "99", "--set reflectance_map.octaves"},
@@ -132,7 +132,7 @@ TEST(RenderScene, SetOverridesTheMapParametersTheProceduralModeReads) {
                                                  {"colour", "1", "--set reflectance_map.colour"},
                                                  {"preset", "velvet", "--set reflectance_map.preset"}}) {
         try {
-            render::setMapParameter(s, key, value);
+            scene::setMapParameter(s, key, value);
             ADD_FAILURE() << key << "=" << value << " was accepted";
         } catch (const InputError& e) {
             EXPECT_EQ(e.subject(), field) << e.what();

@@ -11,7 +11,7 @@
 #include <mucosa/image/image.hpp>
 #include <mucosa/render/context.hpp>
 #include <mucosa/render/renderer.hpp>
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 namespace mucosa::render {
 
@@ -19,7 +19,7 @@ class OffscreenSession {
 public:
     // Creates a HeadlessContext (throws GraphicsError without EGL), compiles
     // the shaders, uploads the mesh and textures.
-    OffscreenSession(const Scene& scene, const SceneAssets& assets, int width, int height);
+    OffscreenSession(const scene::Scene& scene, const scene::SceneAssets& assets, int width, int height);
     ~OffscreenSession();
 
     // One frame; `mode`/`params` default to the scene's.
@@ -40,7 +40,7 @@ public:
     int height() const noexcept { return height_; }
 
 private:
-    const Scene& scene_;
+    const scene::Scene& scene_;
     int width_, height_;
     std::unique_ptr<HeadlessContext> context_;
     std::unique_ptr<Renderer> renderer_;
@@ -62,7 +62,7 @@ struct CompareOptions {
     int views = 2;  // views along the camera path
     std::function<void(int done, int total)> progress;
 };
-image::Image8 compareSheet(const Scene& scene, const SceneAssets& assets, const CompareOptions& options = {});
+image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& assets, const CompareOptions& options = {});
 
 // The comparison sheet of the built-in default scene (the phantom, 'bronchial'
 // preset), written atomically to `png`: what `mucosa demo` adds to ./out/.

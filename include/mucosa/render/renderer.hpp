@@ -13,9 +13,6 @@ namespace mucosa::render {
 
 enum class TextureSlot { Diffuse, Reflectance, Highlight };
 
-// Size of the automatically generated multitexture highlight texture.
-inline constexpr int kHighlightTextureSize = 256;
-
 class Renderer {
 public:
     Renderer();  // needs a current context; throws GraphicsError if a shader fails
@@ -28,7 +25,7 @@ public:
     void setMesh(const mesh::Mesh& mesh);
     // Uploads an image (rows in file order: first row at v = 1). Without a
     // Highlight texture the renderer makes one from the current shininess
-    // (shading::highlightSphereMap(kHighlightTextureSize, shininess)).
+    // (shading::highlightSphereMap(shading::kHighlightTextureSize, shininess)).
     void setTexture(TextureSlot slot, const image::Image8& img, shading::Filter filter, shading::Wrap wrap);
     void clearTexture(TextureSlot slot);  // back to the default (white / flat / generated)
 

@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 namespace mucosa::render {
 
@@ -28,7 +28,7 @@ struct ViewerReport {
 
 // Runs until the window is closed (or maxFrames). Throws GraphicsError if no
 // window can be opened (no DISPLAY, no OpenGL 3.3).
-ViewerReport runViewer(Scene scene, SceneAssets assets, const ViewerOptions& options);
+ViewerReport runViewer(scene::Scene scene, scene::SceneAssets assets, const ViewerOptions& options);
 
 // Key and mouse bindings, for --help.
 std::string viewerControls();

@@ -92,6 +92,9 @@ struct Textures {
 // (Nearest/Linear), in [0, 1].
 std::array<float, 3> sampleTexture(const TextureView& t, float u, float v, std::array<float, 3> fallback) noexcept;
 
+// Size of the automatically generated multitexture highlight texture.
+inline constexpr int kHighlightTextureSize = 256;
+
 // The multitexture baseline's highlight texture: a sphere-map image (1
 // channel) of the Phong lobe (R . V)^n around the pole V (see highlightCoord
 // in shaders/common_shading.glsl). Row order as files (first row = t = 1).

@@ -14,7 +14,7 @@
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/shading/reference.hpp>
 
-namespace mucosa::render {
+namespace mucosa::scene {
 
 struct MeshSpec {
     // "phantom" (built in), "tube" (a curved analytic tube), or "file".
@@ -38,7 +38,7 @@ struct Scene {
     std::filesystem::path file;  // the scene file, or empty for the default scene
     MeshSpec mesh;
     std::optional<std::filesystem::path> diffuse;         // subject texture file
-    bool generatedDiffuse = false;                        // "diffuse": "generated" (render::tissueTexture)
+    bool generatedDiffuse = false;                        // "diffuse": "generated" (reflectance::tissueTexture)
     std::optional<std::filesystem::path> reflectanceMap;  // a map PNG; else generated from mapParams
     reflectance::MapParams mapParams;
     shading::Filter filter = shading::Filter::Mipmap;
@@ -111,4 +111,4 @@ shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int
 // Texture bindings for the C++ reference (views into `assets`).
 shading::Textures referenceTextures(const Scene& scene, const SceneAssets& assets);
 
-}  // namespace mucosa::render
+}  // namespace mucosa::scene

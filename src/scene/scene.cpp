@@ -1,4 +1,4 @@
-#include <mucosa/render/scene.hpp>
+#include <mucosa/scene/scene.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -18,11 +18,10 @@
 #include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/mesh/primitives.hpp>
 #include <mucosa/reflectance/tissue_texture.hpp>
-#include <mucosa/render/renderer.hpp>
 
 #include "core/json_parse.hpp"
 
-namespace mucosa::render {
+namespace mucosa::scene {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -489,7 +488,7 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
                                       scene.mapParams.preset.empty() ? "custom" : scene.mapParams.preset,
                                       scene.mapParams.noise.frequency, scene.mapParams.size, scene.mapParams.size));
     }
-    a.highlight = shading::highlightSphereMap(kHighlightTextureSize, scene.params[shading::Param::Shininess]);
+    a.highlight = shading::highlightSphereMap(shading::kHighlightTextureSize, scene.params[shading::Param::Shininess]);
     return a;
 }
 
@@ -539,4 +538,4 @@ shading::Textures referenceTextures(const Scene& scene, const SceneAssets& asset
     return t;
 }
 
-}  // namespace mucosa::render
+}  // namespace mucosa::scene
