@@ -9,7 +9,7 @@
 // and .x/.y/.z), no in/out/inout parameters, no overloading on qualifiers.
 // Notation follows docs/theory.md, "Shading model".
 
-// Shading modes (render::Mode, the --mode names, in this order).
+// Shading modes (shading::Mode, the --mode names, in this order).
 const int kModeNoise = 0;          // the paper's method: per-pixel specular from the reflectance map
 const int kModeVertexPhong = 1;    // baseline 1: per-vertex Phong, Gouraud-interpolated
 const int kModeMultitexture = 2;   // baseline 2: per-vertex light x texture + sphere-mapped highlight texture
@@ -22,6 +22,32 @@ const int kModeBrdf = 8;           // patient-specific: texture x rho(gamma) del
 const int kModeBrdfNoise = 9;      // kModeBrdf plus the method's noise-based specular (Category 4)
 const int kModeProcedural = 10;    // the method with run-time noise (procedural_noise.glsl), no map
 const int kModeProceduralNormals = 11;  // debug: kModeProcedural's perturbed normal in world space, 0.5 N + 0.5
+const int kModeCount = 12;
+
+// What each mode reads, asked by the fragment shader and by the C++ reference
+// alike. shading::ModeInfo (src/shading/params.cpp) is the same table for the
+// rest of the C++; static_asserts there check that the two agree, mode by mode.
+// MUCOSA_CONSTEXPR is constexpr in C++ (src/shading/glsl.hpp) and nothing in GLSL.
+#ifndef MUCOSA_CONSTEXPR
+#define MUCOSA_CONSTEXPR
+#endif
+// The subject (diffuse) texture: every mode but the debug views.
+MUCOSA_CONSTEXPR bool modeReadsDiffuse(int mode) {
+    return mode != kModeNormals && mode != kModeTangents && mode != kModeUv && mode != kModeDepth &&
+           mode != kModeProceduralNormals;
+}
+// The reflectance map (the method's specular, and its normals view).
+MUCOSA_CONSTEXPR bool modeReadsReflectanceMap(int mode) {
+    return mode == kModeNoise || mode == kModeNormals || mode == kModeBrdfNoise;
+}
+// The sphere-mapped highlight texture (baseline 2).
+MUCOSA_CONSTEXPR bool modeReadsHighlight(int mode) {
+    return mode == kModeMultitexture;
+}
+// Noise evaluated per pixel (procedural_noise.glsl) instead of the map.
+MUCOSA_CONSTEXPR bool modeIsProcedural(int mode) {
+    return mode == kModeProcedural || mode == kModeProceduralNormals;
+}
 
 // Below this, a decoded map normal's z is clamped: a map texel with blue <= 0.5
 // (a back-facing normal, impossible in a valid map) must not give NaN.

@@ -1,6 +1,7 @@
 // surface_tissue.frag: every shading mode's fragment stage. Samples the
-// textures (the only part the C++ reference does differently: it has its own
-// sampler, src/shading/sampler.cpp) and calls tissueFragment().
+// textures the mode reads (the only part the C++ reference does differently:
+// it has its own sampler, shading::sampleTexture in src/shading/reference.cpp)
+// and calls tissueFragment().
 // Textures are uploaded with the file's first row at v = 1 (render/renderer.cpp).
 // The procedural mode reads no texture besides the diffuse one: its noise
 // needs only the permutation (uPerm, see the renderer's prelude).
@@ -39,10 +40,9 @@ void main() {
     vec3 albedoTex = vec3(1.0f);
     vec4 mapSample = vec4(0.5f, 0.5f, 1.0f, 0.0f);
     float highlight = 0.0f;
-    if (MUCOSA_MODE != kModeNormals && MUCOSA_MODE != kModeTangents && MUCOSA_MODE != kModeUv &&
-        MUCOSA_MODE != kModeDepth && MUCOSA_MODE != kModeProceduralNormals)
+    if (modeReadsDiffuse(MUCOSA_MODE))
         albedoTex = texture(uDiffuse, diffuseCoord(vUv, uFrame)).rgb;
-    if (MUCOSA_MODE == kModeNoise || MUCOSA_MODE == kModeNormals || MUCOSA_MODE == kModeBrdfNoise) {
+    if (modeReadsReflectanceMap(MUCOSA_MODE)) {
         // Anti-aliased: the filtered mip chain and its slope variance
         // (Toksvig); otherwise the full-resolution map, as the paper sampled
         // it (the renderer then sets the texture's minification filter to
@@ -51,11 +51,11 @@ void main() {
         mapSample = texture(uReflectance, mc);
     }
     float footprint = 0.0f;
-    if (MUCOSA_MODE == kModeProcedural || MUCOSA_MODE == kModeProceduralNormals) {
+    if (modeIsProcedural(MUCOSA_MODE)) {
         vec3 q = proceduralCoord(v, uMaterial, uProcedural);
         footprint = noiseFootprint(dFdx(q), dFdy(q));
     }
-    if (MUCOSA_MODE == kModeMultitexture)
+    if (modeReadsHighlight(MUCOSA_MODE))
         highlight = texture(uHighlight, vSphereUv).r;
     vec3 color =
         tissueFragment(v, albedoTex, mapSample, highlight, footprint, uMaterial, uProcedural, uFrame, MUCOSA_MODE);

@@ -301,8 +301,9 @@ struct Renderer::Impl {
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
     for (int m = 0; m < shading::kModeCount; ++m) impl_->programs[static_cast<std::size_t>(m)] = link(m);
-    for (const shading::Mode m : {shading::Mode::Noise, shading::Mode::BrdfNoise})
-        impl_->headlight[static_cast<std::size_t>(m)] = link(static_cast<int>(m), "#define MUCOSA_HEADLIGHT 1\n");
+    for (const shading::ModeInfo& m : shading::modes())
+        if (m.headlight && !m.procedural)
+            impl_->headlight[static_cast<std::size_t>(m.id)] = link(static_cast<int>(m.id), "#define MUCOSA_HEADLIGHT 1\n");
     glGenVertexArrays(1, &impl_->vao);
     glGenBuffers(1, &impl_->vbo);
     glGenBuffers(1, &impl_->ibo);
@@ -397,12 +398,12 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     Program* program = &impl_->programs[static_cast<std::size_t>(mode)];
     // The light exactly at the eye: the modes that light per pixel read V for
     // L (the same values, fewer varyings; common_shading.glsl).
-    const bool headlight =
-        frame.light == frame.eye && (frame.mode == shading::Mode::Noise || frame.mode == shading::Mode::BrdfNoise ||
-                                     frame.mode == shading::Mode::Procedural);
+    const shading::ModeInfo& info = shading::info(frame.mode);
+    const bool headlight = frame.light == frame.eye && info.headlight;
     const char* headlightDefine = headlight ? "#define MUCOSA_HEADLIGHT 1\n" : "";
-    if (headlight && frame.mode != shading::Mode::Procedural)
-        program = &impl_->headlight[static_cast<std::size_t>(mode)];
+    if (headlight && !info.procedural) program = &impl_->headlight[static_cast<std::size_t>(mode)];
+    // The procedural mode, specialised for speed (its debug view, procedural-normals,
+    // uses the general program).
     if (frame.mode == shading::Mode::Procedural) {
         const noise::FractalParams& n = frame.procedural.noise;
         const std::array<int, 5> key = {n.octaves, frame.procedural.space == shading::NoiseSpace::Object ? 1 : 0,
@@ -430,7 +431,7 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     const Frame f = packFrame(frame);
 
     Texture& hl = impl_->textures[static_cast<std::size_t>(TextureSlot::Highlight)];
-    if (frame.mode == shading::Mode::Multitexture && !hl.user && impl_->highlightShininess != m.shininess) {
+    if (info.readsHighlight && !hl.user && impl_->highlightShininess != m.shininess) {
         upload(hl, shading::highlightSphereMap(shading::kHighlightTextureSize, m.shininess), shading::Filter::Linear,
                shading::Wrap::Clamp);
         impl_->highlightShininess = m.shininess;
@@ -476,7 +477,7 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     glUniform4f(p.loc[kDiffuseUvTransform], f.diffuseUvTransform.x, f.diffuseUvTransform.y, f.diffuseUvTransform.z,
                 f.diffuseUvTransform.w);
     p.procedural.set(frame);
-    if (frame.mode == shading::Mode::Procedural || frame.mode == shading::Mode::ProceduralNormals) {
+    if (info.procedural) {
         const noise::FractalParams& n = frame.procedural.noise;
         const int z0 = permutationSliceZ0(n.z);
         if (impl_->permutationVersion == 0 || impl_->permutation.seed != n.seed || impl_->permutation.sliceZ0 != z0) {

@@ -419,10 +419,6 @@ Scene loadScene(const fs::path& path) {
     return parseScene(readTextFile(path), path);
 }
 
-bool modeReadsReflectanceMap(shading::Mode mode) noexcept {
-    return mode == shading::Mode::Noise || mode == shading::Mode::Normals || mode == shading::Mode::BrdfNoise;
-}
-
 SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
     SceneAssets a;
     const std::string file = scene.file.string();

@@ -32,6 +32,9 @@ inline int permPairAt(int i) {
 inline int permSlicePairAt(int j, int Z0) {
     return permPairAt(permAt(j) + Z0);
 }
+// The mode predicates are constant expressions in C++ (checked against the
+// mode table at compile time, src/shading/params.cpp).
+#define MUCOSA_CONSTEXPR constexpr
 // procedural_noise.glsl first: common_shading.glsl uses its Procedural struct.
 #include "../../shaders/procedural_noise.glsl"
 // (A separate block, so include sorting keeps the order.)

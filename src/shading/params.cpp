@@ -6,28 +6,69 @@
 
 #include <mucosa/core/error.hpp>
 
+#include "shading/glsl.hpp"
+
 namespace mucosa::shading {
 
 namespace {
 
-constexpr std::array<std::string_view, kModeCount> kModeNames = {
-    "noise", "vertex-phong", "multitexture", "diffuse",    "normals",    "tangents",
-    "uv",    "depth",        "brdf",         "brdf-noise", "procedural", "procedural-normals"};
+using U = UvNeed;
+// name, description, uvs, reads diffuse / map / highlight, procedural, headlight
+constexpr std::array<ModeInfo, kModeCount> kModes = {{
+    {Mode::Noise, "noise", "the paper's method: per-pixel specular from the reflectance map over the diffuse texture",
+     U::Always, true, true, false, false, true},
+    {Mode::VertexPhong, "vertex-phong", "baseline 1: per-vertex Phong lighting, Gouraud-interpolated", U::Never, true,
+     false, false, false, false},
+    {Mode::Multitexture, "multitexture",
+     "baseline 2: per-vertex lighting x texture plus a sphere-mapped highlight texture (fixed-function look)",
+     U::Never, true, false, true, false, false},
+    {Mode::Diffuse, "diffuse", "no specular (the paper's Category 3)", U::Never, true, false, false, false, false},
+    {Mode::Normals, "normals", "debug: the map's perturbed normal in world space as 0.5 N + 0.5", U::Always, false,
+     true, false, false, false},
+    {Mode::Tangents, "tangents", "debug: tangent T in world space as 0.5 T + 0.5", U::Always, false, false, false,
+     false, false},
+    {Mode::Uv, "uv", "debug: fract(u), fract(v) in red, green", U::Always, false, false, false, false, false},
+    {Mode::Depth, "depth", "debug: 1 - r, the depth ratio of eq. 10", U::Never, false, false, false, false, false},
+    {Mode::Brdf, "brdf",
+     "patient-specific: texture x rho(gamma) delta(r) from mucosa fit, no ambient, tint or fall-off (Category 3)",
+     U::Always, true, false, false, false, false},
+    {Mode::BrdfNoise, "brdf-noise", "patient-specific plus the method's noise-based specular (Category 4)", U::Always,
+     true, true, false, false, true},
+    {Mode::Procedural, "procedural",
+     "the method with run-time noise: the map's fractal sum evaluated per pixel in texture or object space, no map",
+     U::InTextureSpace, true, false, false, true, true},
+    {Mode::ProceduralNormals, "procedural-normals",
+     "debug: the procedural mode's perturbed normal in world space as 0.5 N + 0.5 (texture or object space)",
+     U::InTextureSpace, false, false, false, true, false},
+}};
 
-constexpr std::array<std::string_view, kModeCount> kModeDescriptions = {
-    "the paper's method: per-pixel specular from the reflectance map over the diffuse texture",
-    "baseline 1: per-vertex Phong lighting, Gouraud-interpolated",
-    "baseline 2: per-vertex lighting x texture plus a sphere-mapped highlight texture (fixed-function look)",
-    "no specular (the paper's Category 3)",
-    "debug: the map's perturbed normal in world space as 0.5 N + 0.5",
-    "debug: tangent T in world space as 0.5 T + 0.5",
-    "debug: fract(u), fract(v) in red, green",
-    "debug: 1 - r, the depth ratio of eq. 10",
-    "patient-specific: texture x rho(gamma) delta(r) from mucosa fit, no ambient, tint or fall-off (Category 3)",
-    "patient-specific plus the method's noise-based specular (Category 4)",
-    "the method with run-time noise: the map's fractal sum evaluated per pixel in texture or object space, no map",
-    "debug: the procedural mode's perturbed normal in world space as 0.5 N + 0.5 (texture or object space)",
-};
+// The C++ table and the GLSL agree: the same values, in Mode order, and the
+// same answers from the predicates the shader and the reference use.
+static_assert(glsl::kModeCount == kModeCount);
+static_assert(glsl::kModeNoise == static_cast<int>(Mode::Noise));
+static_assert(glsl::kModeVertexPhong == static_cast<int>(Mode::VertexPhong));
+static_assert(glsl::kModeMultitexture == static_cast<int>(Mode::Multitexture));
+static_assert(glsl::kModeDiffuse == static_cast<int>(Mode::Diffuse));
+static_assert(glsl::kModeNormals == static_cast<int>(Mode::Normals));
+static_assert(glsl::kModeTangents == static_cast<int>(Mode::Tangents));
+static_assert(glsl::kModeUv == static_cast<int>(Mode::Uv));
+static_assert(glsl::kModeDepth == static_cast<int>(Mode::Depth));
+static_assert(glsl::kModeBrdf == static_cast<int>(Mode::Brdf));
+static_assert(glsl::kModeBrdfNoise == static_cast<int>(Mode::BrdfNoise));
+static_assert(glsl::kModeProcedural == static_cast<int>(Mode::Procedural));
+static_assert(glsl::kModeProceduralNormals == static_cast<int>(Mode::ProceduralNormals));
+constexpr bool tablesAgree() {
+    for (std::size_t i = 0; i < kModes.size(); ++i) {
+        const ModeInfo& m = kModes[i];
+        const int k = static_cast<int>(m.id);
+        if (k != static_cast<int>(i) || glsl::modeReadsDiffuse(k) != m.readsDiffuse ||
+            glsl::modeReadsReflectanceMap(k) != m.readsMap || glsl::modeReadsHighlight(k) != m.readsHighlight ||
+            glsl::modeIsProcedural(k) != m.procedural)
+            return false;
+    }
+    return true;
+}
+static_assert(tablesAgree(), "shading::ModeInfo disagrees with the modeReads* predicates of common_shading.glsl");
 
 using P = Param;
 // Defaults give a bronchoscope-like look on the phantom with the 'bronchial'
@@ -191,22 +232,28 @@ void checkValue(const ParamInfo& pi, float v, const std::string& file, const std
 
 }  // namespace
 
+std::span<const ModeInfo> modes() noexcept {
+    return kModes;
+}
+const ModeInfo& info(Mode m) noexcept {
+    return kModes[static_cast<std::size_t>(m)];
+}
 std::string_view modeName(Mode m) noexcept {
-    return kModeNames[static_cast<std::size_t>(m)];
+    return info(m).name;
 }
 std::string_view modeDescription(Mode m) noexcept {
-    return kModeDescriptions[static_cast<std::size_t>(m)];
+    return info(m).description;
 }
 
 std::string modeList() {
     std::string s;
-    for (std::string_view n : kModeNames) s += (s.empty() ? "" : ", ") + std::string(n);
+    for (const ModeInfo& m : kModes) s += (s.empty() ? "" : ", ") + std::string(m.name);
     return s;
 }
 
 Mode parseMode(std::string_view name, const std::string& field, const std::string& file) {
-    for (int i = 0; i < kModeCount; ++i)
-        if (kModeNames[static_cast<std::size_t>(i)] == name) return static_cast<Mode>(i);
+    for (const ModeInfo& m : kModes)
+        if (m.name == name) return m.id;
     throw InputError(field, file, fmt::format("unknown mode '{}' (known: {})", name, modeList()));
 }
 

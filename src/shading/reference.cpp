@@ -205,20 +205,15 @@ image::Image8 highlightSphereMap(int size, float shininess) {
 }
 
 bool modeNeedsUvs(const FrameSetup& f) noexcept {
-    switch (f.mode) {
-        case Mode::Noise:
-        case Mode::Normals:
-        case Mode::Tangents:
-        case Mode::Uv:
-        case Mode::Brdf:
-        case Mode::BrdfNoise:
+    switch (info(f.mode).uvs) {
+        case UvNeed::Always:
             return true;
-        case Mode::Procedural:
-        case Mode::ProceduralNormals:
+        case UvNeed::InTextureSpace:
             return f.procedural.space == NoiseSpace::Uv;
-        default:
+        case UvNeed::Never:
             return false;
     }
+    return true;
 }
 
 image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures) {
@@ -234,7 +229,7 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
     const glsl::PermutationScope permScope(perm.table().data());
     const int mode = static_cast<int>(frame.mode);
     const bool derivatives =
-        (mode == glsl::kModeProcedural || mode == glsl::kModeProceduralNormals) && frame.specularAA;
+        glsl::modeIsProcedural(mode) && frame.specularAA;
 
     std::vector<ClipVertex> verts(mesh.vertexCount());
     for (std::size_t i = 0; i < verts.size(); ++i) {
@@ -269,17 +264,15 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         }
         std::array<float, 3> albedo{1, 1, 1}, map{0.5f, 0.5f, 1.0f};
         float highlight = 0.0f;
-        const bool debug = mode == glsl::kModeNormals || mode == glsl::kModeTangents || mode == glsl::kModeUv ||
-                           mode == glsl::kModeDepth || mode == glsl::kModeProceduralNormals;
-        if (!debug) {
+        if (glsl::modeReadsDiffuse(mode)) {
             const glm::vec2 dc = glsl::diffuseCoord(v.uv, f);
             albedo = sampleTexture(textures.diffuse, dc.x, dc.y, {1, 1, 1});
         }
-        if (mode == glsl::kModeNoise || mode == glsl::kModeNormals || mode == glsl::kModeBrdfNoise) {
+        if (glsl::modeReadsReflectanceMap(mode)) {
             const glm::vec2 mc = glsl::reflectanceMapCoord(v.uv, m);
             map = sampleTexture(textures.reflectance, mc.x, mc.y, {0.5f, 0.5f, 1.0f});
         }
-        if (mode == glsl::kModeMultitexture)
+        if (glsl::modeReadsHighlight(mode))
             highlight = sampleTexture(textures.highlight, v.sphereUv.x, v.sphereUv.y, {0, 0, 0})[0];
         // Level 0 only: its slope deviation (alpha) is 0 (reflectance::specularMipChain).
         const glm::vec3 c =

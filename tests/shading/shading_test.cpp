@@ -5,7 +5,10 @@
 #include <cmath>
 #include <set>
 
+#include <mucosa/camera/camera.hpp>
 #include <mucosa/core/error.hpp>
+#include <mucosa/mesh/primitives.hpp>
+#include <mucosa/reflectance/map.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/shading/params.hpp>
 #include <mucosa/shading/reference.hpp>
@@ -93,6 +96,60 @@ TEST(ParameterRegistry, OutOfRangeValuesNameTheField) {
     EXPECT_THROW(p.setColor(shading::Param::BaseColor, {0.5f, 2.0f, 0.5f}), InputError);
     EXPECT_THROW(shading::parseMode("glossy"), InputError);
     EXPECT_EQ(shading::parseMode("multitexture"), shading::Mode::Multitexture);
+}
+
+TEST(ModeTable, RowsAreInModeOrderWithUniqueNamesThatParseBack) {
+    std::set<std::string_view> names;
+    ASSERT_EQ(shading::modes().size(), static_cast<std::size_t>(shading::kModeCount));
+    for (std::size_t i = 0; i < shading::modes().size(); ++i) {
+        const shading::ModeInfo& m = shading::modes()[i];
+        EXPECT_EQ(static_cast<std::size_t>(m.id), i);
+        EXPECT_TRUE(names.insert(m.name).second) << m.name;
+        EXPECT_EQ(shading::parseMode(m.name), m.id);
+        EXPECT_FALSE(m.description.empty());
+        // Anything that samples the map by UV needs UVs; procedural modes need them only in texture space.
+        if (m.readsMap) EXPECT_EQ(m.uvs, shading::UvNeed::Always) << m.name;
+        if (m.procedural) EXPECT_EQ(m.uvs, shading::UvNeed::InTextureSpace) << m.name;
+    }
+    EXPECT_NE(shading::modeList().find("procedural-normals"), std::string::npos);
+}
+
+// The table is what each mode does: swapping the reflectance map (flat for a
+// bumpy one) or the subject texture (white for red) changes the reference's
+// frame exactly in the modes whose row says they read it.
+TEST(ModeTable, EachModeReadsExactlyTheTexturesItsRowNames) {
+    const mesh::Mesh sphere = mesh::makeSphere(10.0f, 64, 32);
+    reflectance::MapParams mp = reflectance::findPreset("bronchial").params;
+    mp.size = 128;
+    const image::Image8 bumpy =
+        reflectance::encodeNormals8(reflectance::heightField(mp), mp.strength * 4, reflectance::Edges::Wrap);
+    // Mid grey under the light so that nothing clips; the alternative is red.
+    image::Image8 grey(8, 8, 3), red(8, 8, 3);
+    for (int y = 0; y < 8; ++y)
+        for (int x = 0; x < 8; ++x) {
+            for (int c = 0; c < 3; ++c) grey.at(x, y, c) = 100;
+            red.at(x, y, 0) = 200;
+        }
+    const camera::Pose pose = camera::lookAt({0, 0, 40}, {0, 0, 0});
+    for (const shading::ModeInfo& m : shading::modes()) {
+        if (m.readsHighlight) continue;  // the generated highlight texture: see HighlightTextureIsThePhongLobe...
+        shading::FrameSetup f;
+        f.width = f.height = 64;
+        f.view = camera::viewMatrix(pose);
+        f.projection = camera::projectionMatrix(camera::Lens{}, f.width, f.height);
+        f.eye = f.light = {0, 0, 40};
+        f.mode = m.id;
+        shading::Textures plain;
+        plain.diffuse = {&grey, shading::Filter::Linear, shading::Wrap::Repeat};
+        shading::Textures withMap = plain, withDiffuse = plain;
+        withMap.reflectance = {&bumpy, shading::Filter::Linear, shading::Wrap::Repeat};
+        withDiffuse.diffuse = {&red, shading::Filter::Linear, shading::Wrap::Repeat};
+        const image::Image8 a = shading::renderReference(sphere, f, plain);
+        const bool mapChanges = !(shading::renderReference(sphere, f, withMap) == a);
+        const bool diffuseChanges = !(shading::renderReference(sphere, f, withDiffuse) == a);
+        EXPECT_EQ(mapChanges, m.readsMap) << m.name;
+        EXPECT_EQ(diffuseChanges, m.readsDiffuse) << m.name;
+    }
 }
 
 }  // namespace

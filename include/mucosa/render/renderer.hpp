@@ -1,7 +1,9 @@
 #pragma once
-// The real-time renderer: one GLSL program per shading mode (all compiled up
-// front, so switching modes costs nothing), the mesh in one vertex buffer,
-// textures uploaded once. Works in any current OpenGL 3.3 core context
+// The real-time renderer: one GLSL program per shading mode, compiled when the
+// renderer is made (so switching modes costs nothing), and for the procedural
+// mode one program per specialisation (octaves, noise space, tileable,
+// turbulence, headlight), compiled the first time a frame asks for it; the
+// mesh in one vertex buffer, textures uploaded once. Works in any current OpenGL 3.3 core context
 // (HeadlessContext or a GLFW window).
 #include <memory>
 
@@ -20,8 +22,10 @@ public:
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
-    // Uploads positions, normals, tangents, uvs (all required: throws
-    // InputError("mesh", ...) naming what is missing).
+    // Uploads positions and normals (required: throws InputError("mesh", ...)),
+    // and tangents and uvs when the mesh has both. Without them only the modes
+    // that need no texture coordinates render (shading::ModeInfo::uvs); draw()
+    // refuses the others.
     void setMesh(const mesh::Mesh& mesh);
     // Uploads an image (rows in file order: first row at v = 1). Without a
     // Highlight texture the renderer makes one from the current shininess

@@ -95,11 +95,10 @@ struct SceneAssets {
 
 // `reflectanceMap`: false leaves SceneAssets::reflectanceMap empty when the
 // scene names no map file (a procedural render needs none: no time or memory
-// spent generating it); the renderer then keeps its flat default map.
+// spent generating it; shading::info(mode).readsMap tells which modes read
+// one); the renderer then keeps its flat default map.
 SceneAssets loadAssets(const Scene& scene, int threads = 0, bool reflectanceMap = true);
 
-// Whether a shading mode reads the reflectance map (noise, normals, brdf-noise).
-bool modeReadsReflectanceMap(shading::Mode mode) noexcept;
 
 // Camera poses for `frames` frames (scene.pose alone when frames == 1 and a
 // pose is given; else along the path).

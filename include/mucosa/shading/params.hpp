@@ -12,8 +12,8 @@
 
 namespace mucosa::shading {
 
-// Shading modes, selectable at run time (same order as kMode* in
-// shaders/common_shading.glsl).
+// Shading modes, selectable at run time. The values are the kMode*
+// constants of shaders/common_shading.glsl (checked at compile time).
 enum class Mode : int {
     Noise = 0,         // the paper's method
     VertexPhong = 1,   // baseline 1
@@ -30,7 +30,34 @@ enum class Mode : int {
 };
 inline constexpr int kModeCount = 12;
 
-std::string_view modeName(Mode m) noexcept;  // "noise", "vertex-phong", ...
+// When a mode needs texture coordinates and tangents on the mesh.
+enum class UvNeed {
+    Never,
+    Always,
+    InTextureSpace,  // only with the noise in texture space (NoiseSpace::Uv)
+};
+
+// The mode table: everything the renderer, the reference, scenes, the CLI and
+// the viewer need to know about a mode, in one row. What a mode samples is
+// also asked in GLSL (modeReads* in common_shading.glsl, the same predicates
+// the fragment shader and the C++ reference use); a static_assert in
+// src/shading/params.cpp checks the two tables row by row.
+struct ModeInfo {
+    Mode id;
+    std::string_view name;  // --mode and scene "mode" value
+    std::string_view description;
+    UvNeed uvs;
+    bool readsDiffuse;      // samples the subject texture
+    bool readsMap;          // samples the reflectance map (so a scene must load or generate one)
+    bool readsHighlight;    // samples the sphere-mapped highlight texture
+    bool procedural;        // evaluates the noise per pixel (procedural_noise.glsl)
+    bool headlight;         // lights per pixel and has a variant for a light exactly at the eye (Lt = Vt)
+};
+
+// The table, in Mode order.
+std::span<const ModeInfo> modes() noexcept;
+const ModeInfo& info(Mode m) noexcept;
+std::string_view modeName(Mode m) noexcept;  // info(m).name: "noise", "vertex-phong", ...
 std::string_view modeDescription(Mode m) noexcept;
 // Throws InputError(field, file, ...) listing the known names.
 Mode parseMode(std::string_view name, const std::string& field = "mode", const std::string& file = "");
