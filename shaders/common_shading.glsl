@@ -107,7 +107,8 @@ struct Frame {
 
 // Everything the vertex stage hands the fragment stage (all interpolated
 // perspective-correctly). Only floats: the C++ rasteriser interpolates it as an
-// array.
+// array. The renderer declares one interface variable per member (v<Name>,
+// src/render/uniforms.cpp) and copies through them.
 struct Varyings {
     vec3 Lt;             // surface -> light, tangent space (unnormalised)
     vec3 Vt;             // surface -> eye, tangent space (unnormalised)

@@ -4,7 +4,8 @@
 // and calls tissueFragment().
 // Textures are uploaded with the file's first row at v = 1 (render/renderer.cpp).
 // The procedural mode reads no texture besides the diffuse one: its noise
-// needs only the permutation (uPerm, see the renderer's prelude).
+// needs only the permutation (uPerm, see the renderer's prelude). The renderer
+// prepends the varyings (an "in" per member of Varyings, and readVaryings()).
 uniform Material uMaterial;
 uniform Frame uFrame;
 uniform Procedural uProcedural;
@@ -12,42 +13,21 @@ uniform sampler2D uDiffuse;      // subject texture (RGB)
 uniform sampler2D uReflectance;  // reflectance map, rgb = 0.5 N + 0.5, a = slope deviation (mips)
 uniform sampler2D uHighlight;    // multitexture: sphere-mapped highlight (R)
 
-in vec3 vLt;
-in vec3 vVt;
-in vec2 vUv;
-in vec3 vT;
-in vec3 vB;
-in vec3 vN;
-in float vDiffuseLight;
-in float vSpecular;
-in vec2 vSphereUv;
-in vec3 vP;
-
 out vec4 fragColor;
 
 void main() {
-    Varyings v;
-    v.Lt = vLt;
-    v.Vt = vVt;
-    v.uv = vUv;
-    v.T = vT;
-    v.B = vB;
-    v.N = vN;
-    v.diffuseLight = vDiffuseLight;
-    v.specular = vSpecular;
-    v.sphereUv = vSphereUv;
-    v.P = vP;
+    Varyings v = readVaryings();
     vec3 albedoTex = vec3(1.0f);
     vec4 mapSample = vec4(0.5f, 0.5f, 1.0f, 0.0f);
     float highlight = 0.0f;
     if (modeReadsDiffuse(MUCOSA_MODE))
-        albedoTex = texture(uDiffuse, diffuseCoord(vUv, uFrame)).rgb;
+        albedoTex = texture(uDiffuse, diffuseCoord(v.uv, uFrame)).rgb;
     if (modeReadsReflectanceMap(MUCOSA_MODE)) {
         // Anti-aliased: the filtered mip chain and its slope variance
         // (Toksvig); otherwise the full-resolution map, as the paper sampled
         // it (the renderer then sets the texture's minification filter to
         // level 0 only, so one lookup serves both).
-        vec2 mc = reflectanceMapCoord(vUv, uMaterial);
+        vec2 mc = reflectanceMapCoord(v.uv, uMaterial);
         mapSample = texture(uReflectance, mc);
     }
     float footprint = 0.0f;
@@ -56,7 +36,7 @@ void main() {
         footprint = noiseFootprint(dFdx(q), dFdy(q));
     }
     if (modeReadsHighlight(MUCOSA_MODE))
-        highlight = texture(uHighlight, vSphereUv).r;
+        highlight = texture(uHighlight, v.sphereUv).r;
     vec3 color =
         tissueFragment(v, albedoTex, mapSample, highlight, footprint, uMaterial, uProcedural, uFrame, MUCOSA_MODE);
     fragColor = vec4(clamp(color, 0.0f, 1.0f), 1.0f);

@@ -9,6 +9,7 @@
 #include "render/embedded_shaders.hpp"
 #include "render/gl.hpp"
 #include "render/procedural_uniforms.hpp"
+#include "render/uniforms.hpp"
 #include "render/shader.hpp"
 
 namespace mucosa::render {
@@ -107,6 +108,7 @@ std::vector<std::array<float, 4>> evaluateNoiseOnGpu(const GpuNoiseRequest& requ
         frame.procedural.space =
             request.function == GpuNoiseFunction::FractalSolid ? shading::NoiseSpace::Object : shading::NoiseSpace::Uv;
         frame.specularAA = false;
+        checkActiveUniforms(program, "gpu noise");
         const ProceduralUniforms uniforms(program);
         uniforms.set(frame);
         uniforms.setPermutation(permutationUniforms(request.params.seed, request.params.z));

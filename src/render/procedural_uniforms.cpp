@@ -8,15 +8,6 @@
 
 namespace mucosa::render {
 
-namespace {
-
-constexpr std::array<const char*, 12> kNames = {
-    "uProcedural.frequency", "uProcedural.octaves",    "uProcedural.lacunarity", "uProcedural.gain",
-    "uProcedural.z",         "uProcedural.turbulence", "uProcedural.tileable",   "uProcedural.strength",
-    "uProcedural.space",     "uProcedural.scaleMm",    "uProcedural.antialias",  "uProcedural.texels"};
-
-}  // namespace
-
 // A scalar array, not ivec4[64] with a component select: llvmpipe gathers a
 // scalar array element in one load, which halves the cost of an octave
 // (bench_render: 15.2 -> 7.3 ms per octave at 640x480, before the
@@ -56,26 +47,14 @@ PermutationTables permutationUniforms(std::uint64_t seed, double z) {
     return t;
 }
 
-ProceduralUniforms::ProceduralUniforms(GLuint program) {
-    for (std::size_t i = 0; i < kNames.size(); ++i) loc_[i] = glGetUniformLocation(program, kNames[i]);
+ProceduralUniforms::ProceduralUniforms(GLuint program) : fields_(program, proceduralUniforms()) {
     perm_ = glGetUniformLocation(program, "uPerm");
     slice_ = glGetUniformLocation(program, "uPermSlice");
 }
 
 void ProceduralUniforms::set(const shading::FrameSetup& frame) const {
     const shading::glsl::Procedural p = shading::glsl::packProcedural(frame);
-    glUniform1f(loc_[0], p.frequency);
-    glUniform1i(loc_[1], p.octaves);
-    glUniform1f(loc_[2], p.lacunarity);
-    glUniform1f(loc_[3], p.gain);
-    glUniform1f(loc_[4], p.z);
-    glUniform1i(loc_[5], p.turbulence);
-    glUniform1i(loc_[6], p.tileable);
-    glUniform1f(loc_[7], p.strength);
-    glUniform1i(loc_[8], p.space);
-    glUniform1f(loc_[9], p.scaleMm);
-    glUniform1i(loc_[10], p.antialias);
-    glUniform1f(loc_[11], p.texels);
+    fields_.upload(&p);
 }
 
 void ProceduralUniforms::setPermutation(const PermutationTables& tables) const {

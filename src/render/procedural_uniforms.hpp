@@ -9,6 +9,7 @@
 #include <mucosa/shading/reference.hpp>
 
 #include "render/gl.hpp"
+#include "render/uniforms.hpp"
 
 namespace mucosa::render {
 
@@ -41,7 +42,7 @@ public:
     void setPermutation(const PermutationTables& tables) const;
 
 private:
-    std::array<GLint, 12> loc_{};
+    UniformBlock fields_;
     GLint perm_ = -1, slice_ = -1;
 };
 

@@ -18,6 +18,7 @@
 #include "render/gl.hpp"
 #include "render/procedural_uniforms.hpp"
 #include "render/shader.hpp"
+#include "render/uniforms.hpp"
 #include "shading/glsl.hpp"
 
 namespace mucosa::render {
@@ -26,64 +27,13 @@ namespace {
 
 struct Program {
     GLuint id = 0;
-    // Uniform locations, in the order of kUniformNames.
-    std::vector<GLint> loc;
+    UniformBlock frame, material;  // uFrame, uMaterial (render/uniforms.hpp)
     ProceduralUniforms procedural;
     std::uint64_t permutationVersion = 0;  // Impl's version of the tables in uPerm, uPermSlice; 0: none yet
 };
 
-constexpr std::array<const char*, 25> kUniformNames = {"uFrame.viewProj",
-                                                       "uFrame.view",
-                                                       "uFrame.eye",
-                                                       "uFrame.light",
-                                                       "uFrame.normalSign",
-                                                       "uMaterial.baseColor",
-                                                       "uMaterial.mucusColor",
-                                                       "uMaterial.mucusOpacity",
-                                                       "uMaterial.specularStrength",
-                                                       "uMaterial.shininess",
-                                                       "uMaterial.bumpScale",
-                                                       "uMaterial.mapTiling",
-                                                       "uMaterial.ambient",
-                                                       "uMaterial.c",
-                                                       "uMaterial.d",
-                                                       "uMaterial.depthMin",
-                                                       "uMaterial.depthMax",
-                                                       "uMaterial.lightIntensity",
-                                                       "uMaterial.lightRange",
-                                                       "uDiffuse",
-                                                       "uReflectance",
-                                                       "uHighlight",
-                                                       "uFrame.specularAA",
-                                                       "uFrame.diffuseUvTransform",
-                                                       ""};
-
-enum U {
-    kViewProj,
-    kView,
-    kEye,
-    kLight,
-    kNormalSign,
-    kBaseColor,
-    kMucusColor,
-    kMucusOpacity,
-    kSpecularStrength,
-    kShininess,
-    kBumpScale,
-    kMapTiling,
-    kAmbient,
-    kC,
-    kD,
-    kDepthMin,
-    kDepthMax,
-    kLightIntensity,
-    kLightRange,
-    kDiffuseSampler,
-    kReflectanceSampler,
-    kHighlightSampler,
-    kSpecularAA,
-    kDiffuseUvTransform
-};
+// Texture units of the samplers.
+constexpr std::array<const char*, 3> kSamplers = {"uDiffuse", "uReflectance", "uHighlight"};  // TextureSlot order
 
 // `defines`: extra preprocessor lines (the procedural mode's specialisation).
 Program link(int mode, const std::string& defines = "") {
@@ -93,9 +43,12 @@ Program link(int mode, const std::string& defines = "") {
     const std::string name =
         fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
     GLuint vs =
-        compileShader(GL_VERTEX_SHADER, header + common + std::string(shaderSource("surface_tissue.vert")), name);
+        compileShader(GL_VERTEX_SHADER,
+                      header + common + varyingDeclarations(true) + std::string(shaderSource("surface_tissue.vert")), name);
     GLuint fs =
-        compileShader(GL_FRAGMENT_SHADER, header + common + std::string(shaderSource("surface_tissue.frag")), name);
+        compileShader(GL_FRAGMENT_SHADER,
+                      header + common + varyingDeclarations(false) + std::string(shaderSource("surface_tissue.frag")),
+                      name);
     Program p;
     p.id = glCreateProgram();
     glAttachShader(p.id, vs);
@@ -113,12 +66,13 @@ Program link(int mode, const std::string& defines = "") {
         glDeleteProgram(p.id);
         throw GraphicsError("shader " + name, "", "does not link: " + log);
     }
-    for (const char* u : kUniformNames) p.loc.push_back(*u ? glGetUniformLocation(p.id, u) : -1);
+    checkActiveUniforms(p.id, name);
+    p.frame = UniformBlock(p.id, frameUniforms());
+    p.material = UniformBlock(p.id, materialUniforms());
     p.procedural = ProceduralUniforms(p.id);
     glUseProgram(p.id);
-    glUniform1i(p.loc[kDiffuseSampler], 0);
-    glUniform1i(p.loc[kReflectanceSampler], 1);
-    glUniform1i(p.loc[kHighlightSampler], 2);
+    for (std::size_t unit = 0; unit < kSamplers.size(); ++unit)
+        glUniform1i(glGetUniformLocation(p.id, kSamplers[unit]), static_cast<GLint>(unit));
     return p;
 }
 
@@ -454,28 +408,8 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     }
     glDisable(GL_BLEND);
     glUseProgram(p.id);
-    glUniformMatrix4fv(p.loc[kViewProj], 1, GL_FALSE, &f.viewProj[0][0]);
-    glUniformMatrix4fv(p.loc[kView], 1, GL_FALSE, &f.view[0][0]);
-    glUniform3f(p.loc[kEye], f.eye.x, f.eye.y, f.eye.z);
-    glUniform3f(p.loc[kLight], f.light.x, f.light.y, f.light.z);
-    glUniform1f(p.loc[kNormalSign], f.normalSign);
-    glUniform3f(p.loc[kBaseColor], m.baseColor.x, m.baseColor.y, m.baseColor.z);
-    glUniform3f(p.loc[kMucusColor], m.mucusColor.x, m.mucusColor.y, m.mucusColor.z);
-    glUniform1f(p.loc[kMucusOpacity], m.mucusOpacity);
-    glUniform1f(p.loc[kSpecularStrength], m.specularStrength);
-    glUniform1f(p.loc[kShininess], m.shininess);
-    glUniform1f(p.loc[kBumpScale], m.bumpScale);
-    glUniform1f(p.loc[kMapTiling], m.mapTiling);
-    glUniform1f(p.loc[kAmbient], m.ambient);
-    glUniform4f(p.loc[kC], m.c.x, m.c.y, m.c.z, m.c.w);
-    glUniform3f(p.loc[kD], m.d.x, m.d.y, m.d.z);
-    glUniform1f(p.loc[kDepthMin], m.depthMin);
-    glUniform1f(p.loc[kDepthMax], m.depthMax);
-    glUniform1f(p.loc[kLightIntensity], m.lightIntensity);
-    glUniform1f(p.loc[kLightRange], m.lightRange);
-    glUniform1i(p.loc[kSpecularAA], f.specularAA);
-    glUniform4f(p.loc[kDiffuseUvTransform], f.diffuseUvTransform.x, f.diffuseUvTransform.y, f.diffuseUvTransform.z,
-                f.diffuseUvTransform.w);
+    p.frame.upload(&f);
+    p.material.upload(&m);
     p.procedural.set(frame);
     if (info.procedural) {
         const noise::FractalParams& n = frame.procedural.noise;
