@@ -1,4 +1,7 @@
 // mucosa map: the paper's pre-processing stage (noise -> reflectance map).
+#include <array>
+#include <cctype>
+
 #include <fmt/format.h>
 
 #include <mucosa/core/error.hpp>
@@ -12,10 +15,12 @@ namespace {
 
 struct MapArgs {
     std::string output, heightOut, preset, from;
-    reflectance::MapParams p;
+    // One option per map parameter (reflectance::mapRegistry()), as text: the
+    // registry parses and range-checks it (no wrap: --seed -1 is refused).
+    std::array<std::string, reflectance::kMapParamCount> values;
+    std::array<CLI::Option*, reflectance::kMapParamCount> options{};
     bool timings = false;
-    CLI::Option *size, *frequency, *octaves, *lacunarity, *gain, *seed, *strength, *turbulence, *tileable, *bits, *z,
-        *out, *height;
+    CLI::Option *out, *height;
 };
 
 std::string presetHelp() {
@@ -37,17 +42,10 @@ void run(MapArgs& a, const Global& g) {
     }
     if (!a.preset.empty() && !a.from.empty()) p = reflectance::findPreset(a.preset).params;
     // Explicit options override the preset or sidecar.
-    if (a.size->count()) p.size = a.p.size;
-    if (a.frequency->count()) p.noise.frequency = a.p.noise.frequency;
-    if (a.octaves->count()) p.noise.octaves = a.p.noise.octaves;
-    if (a.lacunarity->count()) p.noise.lacunarity = a.p.noise.lacunarity;
-    if (a.gain->count()) p.noise.gain = a.p.noise.gain;
-    if (a.seed->count()) p.noise.seed = a.p.noise.seed;
-    if (a.z->count()) p.noise.z = a.p.noise.z;
-    if (a.strength->count()) p.strength = a.p.strength;
-    if (a.turbulence->count()) p.noise.turbulence = a.p.noise.turbulence;
-    if (a.tileable->count()) p.noise.tileable = a.p.noise.tileable;
-    if (a.bits->count()) p.bits = a.p.bits;
+    for (const reflectance::MapParamInfo& i : reflectance::mapRegistry()) {
+        const auto k = static_cast<std::size_t>(i.id);
+        if (a.options[k]->count()) reflectance::setFromText(p, i.id, a.values[k], "--" + std::string(i.name));
+    }
     if (a.out->count()) out.map = a.output;
     if (a.height->count()) out.height = a.heightOut;
     if (out.map.empty()) throw InputError("output", "", "give -o FILE.png (or --from a sidecar)");
@@ -73,24 +71,21 @@ void addMapCommand(CLI::App& app, Global& g) {
     const reflectance::MapParams d;
     a->out =
         c->add_option("-o,--output", a->output, "Output reflectance map (.png); a .json sidecar is written next to it");
-    a->size = c->add_option("--size", a->p.size, fmt::format("Map size in texels (square) [{}]", d.size));
-    a->frequency = c->add_option("--frequency", a->p.noise.frequency,
-                                 fmt::format("Base frequency: noise cycles across the map [{}]", d.noise.frequency));
-    a->octaves = c->add_option("--octaves", a->p.noise.octaves, fmt::format("Octaves summed [{}]", d.noise.octaves));
-    a->lacunarity = c->add_option("--lacunarity", a->p.noise.lacunarity,
-                                  fmt::format("Frequency ratio between octaves [{}]", d.noise.lacunarity));
-    a->gain =
-        c->add_option("--gain", a->p.noise.gain, fmt::format("Amplitude ratio between octaves [{}]", d.noise.gain));
-    a->seed = c->add_option("--seed", a->p.noise.seed, "Permutation seed; 0 = Perlin's reference table [0]");
-    a->z = c->add_option("--z", a->p.noise.z,
-                         "Slice z of 3D noise that is sampled (avoid integers: lattice creases) [0.5]");
-    a->strength = c->add_option("--strength", a->p.strength,
-                                fmt::format("Bump strength B: height amplitude in map widths [{}]", d.strength));
-    a->turbulence = c->add_flag("--turbulence{true}", a->p.noise.turbulence, "Sum |noise| (ridged) instead of noise");
-    a->tileable =
-        c->add_flag("--tileable{true}", a->p.noise.tileable,
-                    "Periodic noise: the map tiles without a seam (needs whole-number frequency and lacunarity)");
-    a->bits = c->add_option("--bits", a->p.bits, "Bits per channel, 8 or 16 [8]");
+    for (const reflectance::MapParamInfo& i : reflectance::mapRegistry()) {
+        const auto k = static_cast<std::size_t>(i.id);
+        const std::string name = "--" + std::string(i.name);
+        const double v = reflectance::get(d, i.id);
+        const bool flag = i.kind == reflectance::MapParamKind::Boolean;
+        const std::string help = fmt::format("{}{} [{}]", static_cast<char>(std::toupper(i.description[0])),
+                                             i.description.substr(1), flag ? (v != 0 ? "on" : "off") : fmt::format("{}", v));
+        // Booleans are flags (--tileable, or --tileable=false); the rest take a value of the registry's kind.
+        if (flag) {
+            a->options[k] = c->add_flag(name + "{true}", a->values[k], help);
+        } else {
+            a->options[k] = c->add_option(name, a->values[k], help);
+            a->options[k]->type_name(i.kind == reflectance::MapParamKind::Real ? "NUMBER" : "INT");
+        }
+    }
     a->height = c->add_option("--height-out", a->heightOut, "Also write the height field (.png 16-bit or .exr float)");
     c->add_option("--preset", a->preset, presetHelp());
     c->add_option("--from", a->from, "Regenerate from a sidecar .json (other options override it)");

@@ -1,6 +1,7 @@
 #include <mucosa/reflectance/map.hpp>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -27,6 +28,23 @@ namespace {
 
 constexpr int kMaxSize = 1 << 20;
 
+using K = MapParamKind;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// name, kind, min, max, min exclusive, unit, description, viewer slider
+constexpr std::array<MapParamInfo, kMapParamCount> kMapRegistry = {{
+    {MapParam::Size, "size", K::Integer, 1, kMaxSize, false, "texels", "map size (square)", 0, 0},
+    {MapParam::Frequency, "frequency", K::Real, 0, kInf, true, "cycles per map", "base frequency: noise cycles across the map", 1, 128},
+    {MapParam::Octaves, "octaves", K::Integer, 1, 32, false, "", "octaves summed", 1, 12},
+    {MapParam::Lacunarity, "lacunarity", K::Real, 0, kInf, true, "", "frequency ratio between octaves", 0, 0},
+    {MapParam::Gain, "gain", K::Real, 0, kInf, false, "", "amplitude ratio between octaves", 0, 0},
+    {MapParam::Seed, "seed", K::Seed, 0, 18446744073709551615.0, false, "", "permutation seed; 0 = Perlin's reference table", 0, 0},
+    {MapParam::Z, "z", K::Real, -kInf, kInf, false, "", "slice z of 3D noise that is sampled (avoid integers: lattice creases)", 0, 0},
+    {MapParam::Strength, "strength", K::Real, 0, kInf, false, "map widths", "bump strength B: height amplitude in map widths", 0.0005, 0.05},
+    {MapParam::Turbulence, "turbulence", K::Boolean, 0, 1, false, "", "sum |noise| (ridged) instead of noise", 0, 0},
+    {MapParam::Tileable, "tileable", K::Boolean, 0, 1, false, "", "periodic noise: the map tiles without a seam (whole-number frequency and lacunarity)", 0, 0},
+    {MapParam::Bits, "bits", K::Integer, 8, 16, false, "", "bits per channel, 8 or 16", 0, 0},
+}};
+
 double seconds(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -38,12 +56,158 @@ std::string lower(std::string s) {
 
 }  // namespace
 
+std::span<const MapParamInfo> mapRegistry() noexcept {
+    return kMapRegistry;
+}
+
+const MapParamInfo& info(MapParam p) noexcept {
+    return kMapRegistry[static_cast<std::size_t>(p)];
+}
+
+const MapParamInfo* findMapParam(std::string_view name) noexcept {
+    for (const MapParamInfo& i : kMapRegistry)
+        if (i.name == name) return &i;
+    return nullptr;
+}
+
+double get(const MapParams& p, MapParam id) noexcept {
+    switch (id) {
+        case MapParam::Size: return p.size;
+        case MapParam::Frequency: return p.noise.frequency;
+        case MapParam::Octaves: return p.noise.octaves;
+        case MapParam::Lacunarity: return p.noise.lacunarity;
+        case MapParam::Gain: return p.noise.gain;
+        case MapParam::Seed: return static_cast<double>(p.noise.seed);
+        case MapParam::Z: return p.noise.z;
+        case MapParam::Strength: return p.strength;
+        case MapParam::Turbulence: return p.noise.turbulence ? 1 : 0;
+        case MapParam::Tileable: return p.noise.tileable ? 1 : 0;
+        case MapParam::Bits: return p.bits;
+    }
+    return 0;
+}
+
+namespace {
+
+// Why `v` is out of `i`'s range, in the words of the old checks.
+std::string outOfRange(const MapParamInfo& i, const std::string& v) {
+    if (i.kind == K::Seed) return fmt::format("must be a whole number in 0..2^64-1, got {}", v);
+    if (i.kind == K::Integer) return fmt::format("must be in {}..{}, got {}", i.min, i.max, v);
+    if (i.max == kInf && i.min == 0)
+        return i.minExclusive ? fmt::format("must be a positive number, got {}", v)
+                              : fmt::format("must be a number >= 0, got {}", v);
+    return fmt::format("must be in [{}, {}], got {}", i.min, i.max, v);
+}
+
+// The range as help text: "1..32", "> 0", ">= 0", "any".
+std::string rangeText(const MapParamInfo& i) {
+    if (i.kind == K::Seed) return "0..2^64-1";
+    if (i.max == kInf) return i.min == -kInf ? "any" : fmt::format("{} {}", i.minExclusive ? ">" : ">=", i.min);
+    return fmt::format("{}..{}", i.min, i.max);
+}
+
+}  // namespace
+
+void set(MapParams& p, MapParam id, const json& v, const std::string& subject, const std::string& file) {
+    const MapParamInfo& i = info(id);
+    auto fail = [&](const std::string& why) { throw InputError(subject, file, why); };
+    switch (i.kind) {
+        case K::Boolean: {
+            if (!v.is_boolean()) fail(std::string("must be true or false, not ") + v.type_name());
+            const bool b = v.get<bool>();
+            (id == MapParam::Turbulence ? p.noise.turbulence : p.noise.tileable) = b;
+            return;
+        }
+        case K::Seed:
+        case K::Integer: {
+            if (!v.is_number()) fail(std::string("must be a whole number, not ") + v.type_name());
+            std::uint64_t u = 0;
+            std::int64_t n = 0;
+            if (v.is_number_float()) {
+                const double d = v.get<double>();
+                if (!std::isfinite(d) || d != std::floor(d)) fail(fmt::format("must be a whole number, not {}", d));
+                if (d < i.min || d > i.max) fail(outOfRange(i, fmt::format("{}", d)));
+                u = static_cast<std::uint64_t>(std::max(d, 0.0));
+                n = d < 9.2e18 ? static_cast<std::int64_t>(d) : 0;
+            } else if (v.is_number_unsigned()) {
+                u = v.get<std::uint64_t>();
+                if (i.kind == K::Integer && u > static_cast<std::uint64_t>(i.max))
+                    fail(outOfRange(i, std::to_string(u)));
+                n = static_cast<std::int64_t>(std::min<std::uint64_t>(u, 1ull << 62));
+            } else {
+                n = v.get<std::int64_t>();
+                if (n < i.min || static_cast<double>(n) > i.max)
+                    fail(outOfRange(i, std::to_string(n)));
+                u = static_cast<std::uint64_t>(n);
+            }
+            switch (id) {
+                case MapParam::Size: p.size = static_cast<int>(n); break;
+                case MapParam::Octaves: p.noise.octaves = static_cast<int>(n); break;
+                case MapParam::Bits: p.bits = static_cast<int>(n); break;
+                case MapParam::Seed: p.noise.seed = u; break;
+                default: MUCOSA_CHECK(false, "a whole-number map parameter without a field");
+            }
+            return;
+        }
+        case K::Real: {
+            if (!v.is_number()) fail(std::string("must be a number, not ") + v.type_name());
+            const double d = v.get<double>();
+            if (!std::isfinite(d)) fail("must be finite");
+            if (d < i.min || d > i.max || (i.minExclusive && d == i.min))
+                fail(outOfRange(i, fmt::format("{}", d)));
+            switch (id) {
+                case MapParam::Frequency: p.noise.frequency = d; break;
+                case MapParam::Lacunarity: p.noise.lacunarity = d; break;
+                case MapParam::Gain: p.noise.gain = d; break;
+                case MapParam::Z: p.noise.z = d; break;
+                case MapParam::Strength: p.strength = d; break;
+                default: MUCOSA_CHECK(false, "a real map parameter without a field");
+            }
+            return;
+        }
+    }
+}
+
+void setFromText(MapParams& p, MapParam id, std::string_view text, const std::string& subject,
+                 const std::string& file) {
+    json v;
+    if (text == "true" || text == "false") {
+        v = text == "true";
+    } else {
+        try {
+            v = json::parse(text);
+        } catch (const json::exception&) {
+            v = std::string(text);  // not a number: refused below with its type
+        }
+        if (v.is_number_float() && !std::isfinite(v.get<double>())) v = std::string(text);
+    }
+    if (v.is_string()) throw InputError(subject, file, fmt::format("'{}' is not a {}", text,
+                                                                    info(id).kind == K::Boolean ? "true or false"
+                                                                                                 : "number"));
+    set(p, id, v, subject, file);
+}
+
+std::string mapRegistryHelp() {
+    const MapParams d;
+    std::string s;
+    for (const MapParamInfo& i : kMapRegistry) {
+        std::string def = i.kind == K::Boolean ? (get(d, i.id) != 0 ? "true" : "false") : fmt::format("{}", get(d, i.id));
+        s += fmt::format("  {} ({}{}, default {}): {}\n", i.name, i.unit.empty() ? "" : std::string(i.unit) + ", ",
+                         i.kind == K::Boolean ? "true/false" : rangeText(i), def, i.description);
+    }
+    return s;
+}
+
 void validate(const MapParams& p) {
-    if (p.size < 1) throw InputError("size", "", fmt::format("must be at least 1, got {}", p.size));
-    if (p.size > kMaxSize)
-        throw InputError("size", "", fmt::format("{} exceeds the limit of {} texels", p.size, kMaxSize));
-    if (!std::isfinite(p.strength) || p.strength < 0)
-        throw InputError("strength", "", fmt::format("must be a number >= 0, got {}", p.strength));
+    // The registry's ranges, then the rules that tie parameters together.
+    for (const MapParamInfo& i : kMapRegistry) {
+        if (i.kind == K::Boolean || i.kind == K::Seed) continue;
+        const double v = get(p, i.id);
+        const std::string name(i.name);
+        if (!std::isfinite(v) && i.max != kInf) throw InputError(name, "", "must be finite");
+        if (v < i.min || v > i.max || (i.minExclusive && v == i.min))
+            throw InputError(name, "", outOfRange(i, fmt::format("{}", v)));
+    }
     if (p.bits != 8 && p.bits != 16) throw InputError("bits", "", fmt::format("must be 8 or 16, got {}", p.bits));
     noise::validate(p.noise);
 }
@@ -90,34 +254,18 @@ json toJson(const MapParams& p) {
 MapParams mapParamsFromJson(const json& j, const std::string& file) {
     if (!j.is_object()) throw InputError("params", file, "must be a JSON object");
     MapParams p;
-    auto number = [&](const char* key, double& out) {
-        if (!j.contains(key)) return;
-        if (!j[key].is_number()) throw InputError(std::string("field '") + key + "'", file, "must be a number");
-        out = j[key].get<double>();
-    };
-    auto integer = [&](const char* key, auto& out) {
-        if (!j.contains(key)) return;
-        out = detail::wholeNumber<std::remove_reference_t<decltype(out)>>(j[key], key, file);
-    };
-    auto boolean = [&](const char* key, bool& out) {
-        if (!j.contains(key)) return;
-        if (!j[key].is_boolean()) throw InputError(std::string("field '") + key + "'", file, "must be true or false");
-        out = j[key].get<bool>();
-    };
-    integer("size", p.size);
-    number("frequency", p.noise.frequency);
-    integer("octaves", p.noise.octaves);
-    number("lacunarity", p.noise.lacunarity);
-    number("gain", p.noise.gain);
-    integer("seed", p.noise.seed);
-    number("z", p.noise.z);
-    boolean("turbulence", p.noise.turbulence);
-    boolean("tileable", p.noise.tileable);
-    number("strength", p.strength);
-    integer("bits", p.bits);
-    if (j.contains("preset")) {
-        if (!j["preset"].is_string()) throw InputError("field 'preset'", file, "must be a string");
-        p.preset = j["preset"].get<std::string>();
+    for (const auto& [key, value] : j.items()) {
+        const std::string subject = "field '" + key + "'";
+        if (key == "preset") {
+            if (!value.is_string()) throw InputError(subject, file, "must be a string");
+            p.preset = value.get<std::string>();
+        } else if (const MapParamInfo* i = findMapParam(key)) {
+            set(p, i->id, value, subject, file);
+        } else {
+            std::string known = "preset";
+            for (const MapParamInfo& r : kMapRegistry) known += ", " + std::string(r.name);
+            throw InputError(subject, file, fmt::format("is not a map parameter (known: {})", known));
+        }
     }
     try {
         validate(p);

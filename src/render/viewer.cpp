@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "render/gl.hpp"
 
@@ -245,20 +246,38 @@ ViewerReport runViewer(scene::Scene scene, scene::SceneAssets assets, const View
                 }
             }
             if (ImGui::CollapsingHeader("reflectance map")) {
-                float freq = static_cast<float>(mapParams.noise.frequency);
-                float strength = static_cast<float>(mapParams.strength);
-                if (ImGui::SliderFloat("frequency", &freq, 1.0f, 128.0f, "%.0f", ImGuiSliderFlags_Logarithmic)) {
-                    mapParams.noise.frequency = std::round(freq);  // whole numbers keep the map tileable
-                    mapDirty = true;
-                }
-                if (ImGui::SliderFloat("strength", &strength, 0.0005f, 0.05f, "%.4f", ImGuiSliderFlags_Logarithmic)) {
-                    mapParams.strength = strength;
-                    mapDirty = true;
-                }
-                int octaves = mapParams.noise.octaves;
-                if (ImGui::SliderInt("octaves", &octaves, 1, 10)) {
-                    mapParams.noise.octaves = octaves;
-                    mapDirty = true;
+                // A slider for each map parameter the registry gives one, over its range.
+                for (const reflectance::MapParamInfo& i : reflectance::mapRegistry()) {
+                    if (i.sliderMax <= i.sliderMin) continue;
+                    const std::string label(i.name);
+                    const double now = reflectance::get(mapParams, i.id);
+                    nlohmann::json value;
+                    if (i.kind == reflectance::MapParamKind::Integer) {
+                        int v = static_cast<int>(now);
+                        if (ImGui::SliderInt(label.c_str(), &v, static_cast<int>(i.sliderMin),
+                                             static_cast<int>(i.sliderMax), "%d", ImGuiSliderFlags_AlwaysClamp))
+                            value = v;
+                    } else {
+                        float v = static_cast<float>(now);
+                        // Whole frequencies keep a tileable map tileable.
+                        const bool whole = i.id == reflectance::MapParam::Frequency;
+                        if (ImGui::SliderFloat(label.c_str(), &v, static_cast<float>(i.sliderMin),
+                                               static_cast<float>(i.sliderMax), whole ? "%.0f" : "%.4f",
+                                               ImGuiSliderFlags_Logarithmic | ImGuiSliderFlags_AlwaysClamp))
+                            value = whole ? std::round(v) : v;
+                    }
+                    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", std::string(i.description).c_str());
+                    if (!value.is_null()) {
+                        reflectance::MapParams next = mapParams;
+                        try {
+                            reflectance::set(next, i.id, value, label);
+                            reflectance::validate(next);
+                            mapParams = next;
+                            mapDirty = true;
+                        } catch (const InputError&) {
+                            // a value the map cannot take (e.g. octaves beyond the frequency limit): keep the last
+                        }
+                    }
                 }
                 ImGui::TextDisabled(
                     "(the map is regenerated when the slider is released;\n the procedural mode follows live)");

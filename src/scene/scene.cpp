@@ -53,6 +53,9 @@ struct Parser {
         if (!j.is_object()) fail(field, "must be an object, not " + typeName(j));
     }
     void known(const json& j, const std::string& prefix, std::initializer_list<std::string_view> keys) const {
+        known(j, prefix, std::vector<std::string_view>(keys));
+    }
+    void known(const json& j, const std::string& prefix, const std::vector<std::string_view>& keys) const {
         for (auto it = j.begin(); it != j.end(); ++it)
             if (std::find(keys.begin(), keys.end(), it.key()) == keys.end()) {
                 std::string list;
@@ -143,9 +146,10 @@ struct Parser {
     // The keys of `j` applied to `base` (a "preset" key replaces it first).
     reflectance::MapParams mapParams(const json& j, const std::string& f, const reflectance::MapParams& base) const {
         object(j, f);
-        known(j, f + ".",
-              {"preset", "size", "frequency", "octaves", "lacunarity", "gain", "seed", "z", "strength", "turbulence",
-               "tileable"});
+        std::vector<std::string_view> keys = {"preset"};
+        for (const reflectance::MapParamInfo& i : reflectance::mapRegistry())
+            if (i.id != reflectance::MapParam::Bits) keys.push_back(i.name);  // a rendered map is 8-bit
+        known(j, f + ".", keys);
         reflectance::MapParams p = base;
         if (j.contains("preset")) {
             const std::string name = string(j["preset"], f + ".preset");
@@ -155,16 +159,18 @@ struct Parser {
                 fail(f + ".preset", e.reason());
             }
         }
-        if (j.contains("size")) p.size = integer(j["size"], f + ".size", 8, 8192);
-        if (j.contains("frequency")) p.noise.frequency = number(j["frequency"], f + ".frequency");
-        if (j.contains("octaves")) p.noise.octaves = integer(j["octaves"], f + ".octaves", 1, 32);
-        if (j.contains("lacunarity")) p.noise.lacunarity = number(j["lacunarity"], f + ".lacunarity");
-        if (j.contains("gain")) p.noise.gain = number(j["gain"], f + ".gain");
-        if (j.contains("seed")) p.noise.seed = static_cast<std::uint64_t>(integer(j["seed"], f + ".seed", 0, 1 << 30));
-        if (j.contains("z")) p.noise.z = number(j["z"], f + ".z");
-        if (j.contains("strength")) p.strength = number(j["strength"], f + ".strength");
-        if (j.contains("turbulence")) p.noise.turbulence = boolean(j["turbulence"], f + ".turbulence");
-        if (j.contains("tileable")) p.noise.tileable = boolean(j["tileable"], f + ".tileable");
+        for (const reflectance::MapParamInfo& i : reflectance::mapRegistry()) {
+            const std::string key(i.name), field = f + "." + key;
+            if (i.id == reflectance::MapParam::Bits || !j.contains(key)) continue;
+            try {
+                reflectance::set(p, i.id, j[key], field, file);
+            } catch (const InputError& e) {
+                fail(field, e.reason());
+            }
+        }
+        if (p.size > reflectance::kMaxRenderedMapSize)
+            fail(f + ".size", fmt::format("{} is larger than a rendered map can be ({} texels)", p.size,
+                                          reflectance::kMaxRenderedMapSize));
         p.bits = 8;
         try {
             reflectance::validate(p);

@@ -26,6 +26,72 @@ double meanTiltDegrees(const image::Image8& m) {
         }
     return s / (static_cast<double>(m.width()) * m.height());
 }
+// The registry: every parameter is set from JSON and from text through one
+// path, and what is set is what the map, the sidecar and get() see.
+TEST(MapRegistry, EveryParameterRoundTripsThroughJsonTextAndTheSidecar) {
+    const nlohmann::json values = {{"size", 96},      {"frequency", 12.0},     {"octaves", 3},
+                                   {"lacunarity", 3.0}, {"gain", 0.25},        {"seed", 18446744073709551615ull},
+                                   {"z", 0.75},        {"strength", 0.02},     {"turbulence", true},
+                                   {"tileable", true}, {"bits", 16}};
+    ASSERT_EQ(reflectance::mapRegistry().size(), static_cast<std::size_t>(reflectance::kMapParamCount));
+    MapParams fromJson, fromText;
+    for (const reflectance::MapParamInfo& i : reflectance::mapRegistry()) {
+        EXPECT_EQ(reflectance::findMapParam(i.name), &i);
+        EXPECT_EQ(&reflectance::info(i.id), &i);
+        const nlohmann::json& v = values.at(std::string(i.name));
+        reflectance::set(fromJson, i.id, v, std::string(i.name));
+        reflectance::setFromText(fromText, i.id, v.dump(), std::string(i.name));
+    }
+    EXPECT_EQ(fromJson.noise.seed, 18446744073709551615ull);  // whole, not through a double
+    EXPECT_EQ(fromText.noise.seed, 18446744073709551615ull);
+    for (const reflectance::MapParamInfo& i : reflectance::mapRegistry()) {
+        const double want = values.at(std::string(i.name)).is_boolean()
+                                ? (values.at(std::string(i.name)).get<bool>() ? 1.0 : 0.0)
+                                : values.at(std::string(i.name)).get<double>();
+        EXPECT_EQ(reflectance::get(fromJson, i.id), want) << i.name;
+        EXPECT_EQ(reflectance::get(fromText, i.id), want) << i.name;
+    }
+    const MapParams back = mapParamsFromJson(toJson(fromJson), "x.json");
+    for (const reflectance::MapParamInfo& i : reflectance::mapRegistry())
+        EXPECT_EQ(reflectance::get(back, i.id), reflectance::get(fromJson, i.id)) << i.name;
+}
+
+// Out of range, fractional, wrapped or mistyped values are refused with the
+// subject the caller named, never truncated.
+TEST(MapRegistry, RefusesWhatDoesNotFitWithoutWrapping) {
+    auto why = [](reflectance::MapParam id, std::string_view text) {
+        MapParams p;
+        try {
+            reflectance::setFromText(p, id, text, "--x");
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.subject(), "--x");
+            return e.reason();
+        }
+        return std::string("accepted");
+    };
+    using reflectance::MapParam;
+    EXPECT_EQ(why(MapParam::Seed, "-1"), "must be a whole number in 0..2^64-1, got -1");
+    EXPECT_EQ(why(MapParam::Octaves, "33"), "must be in 1..32, got 33");
+    EXPECT_EQ(why(MapParam::Octaves, "4294967299"), "must be in 1..32, got 4294967299");
+    EXPECT_EQ(why(MapParam::Octaves, "3.5"), "must be a whole number, not 3.5");
+    EXPECT_EQ(why(MapParam::Frequency, "0"), "must be a positive number, got 0");
+    EXPECT_EQ(why(MapParam::Frequency, "1e999"), "'1e999' is not a number");
+    EXPECT_EQ(why(MapParam::Strength, "lots"), "'lots' is not a number");
+    EXPECT_EQ(why(MapParam::Tileable, "3"), "must be true or false, not number");
+    EXPECT_EQ(why(MapParam::Size, "2097152"), "must be in 1..1048576, got 2097152");
+    EXPECT_EQ(why(MapParam::Octaves, "32"), "accepted");
+}
+
+TEST(MapRegistry, ASidecarWithAnUnknownKeyIsRefusedNamingIt) {
+    try {
+        mapParamsFromJson(nlohmann::json{{"frequency", 8}, {"frequncy", 9}}, "m.json");
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.subject(), "field 'frequncy'");
+        EXPECT_NE(e.reason().find("is not a map parameter (known: preset, size, frequency"), std::string::npos);
+    }
+}
+
 }  // namespace
 
 TEST(Map, SidecarRegeneratesTheSameBytes) {

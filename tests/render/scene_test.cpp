@@ -146,5 +146,20 @@ TEST(RenderScene, SetOverridesTheMapParametersTheProceduralModeReads) {
     EXPECT_FALSE(std::filesystem::exists(dir / "o.png"));
 }
 
+// A scene's "reflectance_map" reads the map registry: the same range and the
+// same words as `mucosa map` and sidecars, under the scene's field name.
+TEST(SceneFile, MapParametersHaveTheRegistrysRanges) {
+    try {
+        scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"octaves": 33}})", "s.json");
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_STREQ(e.what(), "reflectance_map.octaves in s.json: must be in 1..32, got 33");
+    }
+    const scene::Scene s = scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"seed": 18446744073709551615}})", "s.json");
+    EXPECT_EQ(s.mapParams.noise.seed, 18446744073709551615ull);
+    EXPECT_THROW(scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"size": 16384}})", "s.json"), InputError);
+    EXPECT_THROW(scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"bits": 16}})", "s.json"), InputError);  // rendered maps are 8-bit
+}
+
 }  // namespace
 }  // namespace mucosa

@@ -3,6 +3,7 @@
 // normals -> reflectance map file, with a JSON sidecar that regenerates it.
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,6 +25,51 @@ struct MapParams {
 
 // Throws InputError naming the field.
 void validate(const MapParams& p);
+
+// The map's parameters, each declared once: the key in scene files
+// ("reflectance_map"), sidecars and `--set reflectance_map.<key>`, the option
+// of `mucosa map` (--<key>), its range, unit and description, and the viewer's
+// slider. Every surface reads this table, so a name or a range is changed in
+// one place. (The noise's cross-field rules, e.g. a tileable map's whole
+// frequencies, stay in validate().)
+enum class MapParam { Size, Frequency, Octaves, Lacunarity, Gain, Seed, Z, Strength, Turbulence, Tileable, Bits };
+enum class MapParamKind {
+    Integer,  // a whole number in [min, max]
+    Real,     // a finite number in [min, max] (above min when minExclusive)
+    Seed,     // a whole number in [0, 2^64 - 1]
+    Boolean,
+};
+struct MapParamInfo {
+    MapParam id;
+    std::string_view name;
+    MapParamKind kind;
+    double min, max;
+    bool minExclusive;
+    std::string_view unit;
+    std::string_view description;
+    double sliderMin, sliderMax;  // the viewer's slider; 0, 0: none
+};
+inline constexpr int kMapParamCount = 11;
+// The largest map a scene generates and renders (one GL texture; every desktop
+// GPU and llvmpipe take 8192).
+inline constexpr int kMaxRenderedMapSize = 8192;
+
+// The table, in MapParam order.
+std::span<const MapParamInfo> mapRegistry() noexcept;
+const MapParamInfo& info(MapParam p) noexcept;
+const MapParamInfo* findMapParam(std::string_view name) noexcept;  // nullptr if unknown
+// The value as a double (seeds above 2^53 lose precision: for display only).
+double get(const MapParams& p, MapParam id) noexcept;
+// Sets one parameter from a JSON value of its kind, checking the range.
+// Throws InputError(subject, file, why): a wrong type, a fraction where a
+// whole number is needed, out of range (no wrap, no truncation).
+void set(MapParams& p, MapParam id, const nlohmann::json& value, const std::string& subject,
+         const std::string& file = "");
+// The same from text ("32", "0.5", "true"), as options and --set give it.
+void setFromText(MapParams& p, MapParam id, std::string_view text, const std::string& subject,
+                 const std::string& file = "");
+// One line per parameter for help: "--name (unit, min..max, default d): description".
+std::string mapRegistryHelp();
 
 struct Preset {
     std::string name, description;
