@@ -251,6 +251,14 @@ struct Renderer::Impl {
     // turbulence, headlight): compiled on first use (procedural_noise.glsl).
     std::map<std::array<int, 5>, Program> procedural;
     float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
+
+    // The phases of draw(), in order.
+    Program& programFor(const shading::FrameSetup& frame, const shading::ModeInfo& info);
+    void refreshHighlight(const shading::ModeInfo& info, float shininess);
+    void uploadUniforms(Program& p, const shading::FrameSetup& frame, const shading::glsl::Frame& f,
+                        const shading::glsl::Material& m, const shading::ModeInfo& info);
+    void bindTextures(bool specularAA);
+    void drawVisibleChunks(const glm::mat4& viewProj);
 };
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
@@ -346,59 +354,120 @@ void Renderer::clearTexture(TextureSlot slot) {
     }
 }
 
-void Renderer::draw(const shading::FrameSetup& frame) {
-    using namespace shading::glsl;
+// Which program draws the frame: the mode's, its headlight variant when the
+// light is exactly at the eye (the modes that light per pixel then read V for
+// L: the same values, fewer varyings; common_shading.glsl), or a procedural
+// specialisation compiled on first use.
+Program& Renderer::Impl::programFor(const shading::FrameSetup& frame, const shading::ModeInfo& info) {
     const int mode = static_cast<int>(frame.mode);
-    Program* program = &impl_->programs[static_cast<std::size_t>(mode)];
-    // The light exactly at the eye: the modes that light per pixel read V for
-    // L (the same values, fewer varyings; common_shading.glsl).
-    const shading::ModeInfo& info = shading::info(frame.mode);
     const bool headlight = frame.light == frame.eye && info.headlight;
-    const char* headlightDefine = headlight ? "#define MUCOSA_HEADLIGHT 1\n" : "";
-    if (headlight && !info.procedural) program = &impl_->headlight[static_cast<std::size_t>(mode)];
-    // The procedural mode, specialised for speed (its debug view, procedural-normals,
-    // uses the general program).
+    // The procedural mode, specialised for speed (its debug view,
+    // procedural-normals, uses the general program).
     if (frame.mode == shading::Mode::Procedural) {
         const noise::FractalParams& n = frame.procedural.noise;
         const std::array<int, 5> key = {n.octaves, frame.procedural.space == shading::NoiseSpace::Object ? 1 : 0,
                                         n.tileable ? 1 : 0, n.turbulence ? 1 : 0, headlight ? 1 : 0};
-        auto it = impl_->procedural.find(key);
-        if (it == impl_->procedural.end())
-            it = impl_->procedural
+        auto it = procedural.find(key);
+        if (it == procedural.end())
+            it = procedural
                      .emplace(key, link(mode, fmt::format("#define MUCOSA_PROCEDURAL_OCTAVES {}\n"
                                                           "#define MUCOSA_PROCEDURAL_SPACE {}\n"
                                                           "#define MUCOSA_PROCEDURAL_TILEABLE {}\n"
-                                                          "#define MUCOSA_PROCEDURAL_TURBULENCE {}\n",
-                                                          key[0], key[1], key[2], key[3]) +
-                                                  headlightDefine))
+                                                          "#define MUCOSA_PROCEDURAL_TURBULENCE {}\n{}",
+                                                          key[0], key[1], key[2], key[3],
+                                                          headlight ? "#define MUCOSA_HEADLIGHT 1\n" : "")))
                      .first;
-        program = &it->second;
+        return it->second;
     }
-    Program& p = *program;
-    if (shading::modeNeedsUvs(frame) && !impl_->meshHasUvs)
-        throw InputError(
-            "mode", "",
-            fmt::format("'{}' needs texture coordinates and tangents, which the mesh lacks (procedural "
-                        "noise in object space needs neither; or add UVs with mucosa mesh --uv centerline)",
-                        shading::modeName(frame.mode)));
-    const Material m = packMaterial(frame.params);
-    const Frame f = packFrame(frame);
+    return headlight && !info.procedural ? this->headlight[static_cast<std::size_t>(mode)]
+                                         : programs[static_cast<std::size_t>(mode)];
+}
 
-    Texture& hl = impl_->textures[static_cast<std::size_t>(TextureSlot::Highlight)];
-    if (info.readsHighlight && !hl.user && impl_->highlightShininess != m.shininess) {
-        upload(hl, shading::highlightSphereMap(shading::kHighlightTextureSize, m.shininess), shading::Filter::Linear,
-               shading::Wrap::Clamp);
-        impl_->highlightShininess = m.shininess;
+// Multitexture's highlight texture follows the shininess unless the user gave one.
+void Renderer::Impl::refreshHighlight(const shading::ModeInfo& info, float shininess) {
+    Texture& hl = textures[static_cast<std::size_t>(TextureSlot::Highlight)];
+    if (!info.readsHighlight || hl.user || highlightShininess == shininess) return;
+    upload(hl, shading::highlightSphereMap(shading::kHighlightTextureSize, shininess), shading::Filter::Linear,
+           shading::Wrap::Clamp);
+    highlightShininess = shininess;
+}
+
+void Renderer::Impl::uploadUniforms(Program& p, const shading::FrameSetup& frame, const shading::glsl::Frame& f,
+                                    const shading::glsl::Material& m, const shading::ModeInfo& info) {
+    glUseProgram(p.id);
+    p.frame.upload(&f);
+    p.material.upload(&m);
+    p.procedural.set(frame);
+    if (!info.procedural) return;
+    const noise::FractalParams& n = frame.procedural.noise;
+    const int z0 = permutationSliceZ0(n.z);
+    if (permutationVersion == 0 || permutation.seed != n.seed || permutation.sliceZ0 != z0) {
+        permutation = permutationUniforms(n.seed, n.z);
+        ++permutationVersion;
     }
+    // Uniform values live in the program: upload when this program last saw other tables.
+    if (p.permutationVersion != permutationVersion) {
+        p.procedural.setPermutation(permutation);
+        p.permutationVersion = permutationVersion;
+    }
+}
 
+void Renderer::Impl::bindTextures(bool specularAA) {
+    for (GLuint unit = 0; unit < 3; ++unit) {
+        glActiveTexture(GL_TEXTURE0 + unit);
+        glBindTexture(GL_TEXTURE_2D, textures[unit].id);
+    }
+    // Anti-aliasing off: the map's full-resolution level only, as the paper
+    // sampled it. Set on the texture (the shader samples the map once, with
+    // texture(), either way: a select between two lookups would make a SIMD
+    // rasteriser such as llvmpipe do both).
+    Texture& rt = textures[static_cast<std::size_t>(TextureSlot::Reflectance)];
+    const bool mipFilter = rt.minFilter != GL_LINEAR && rt.minFilter != GL_NEAREST;
+    const GLint wantMin = !specularAA && mipFilter ? GL_LINEAR : rt.minFilter;
+    if (wantMin != rt.boundMin) {
+        glActiveTexture(GL_TEXTURE0 + static_cast<GLuint>(TextureSlot::Reflectance));
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, wantMin);
+        rt.boundMin = wantMin;
+    }
+}
+
+// The chunks inside the view frustum, contiguous ranges merged, in one call.
+void Renderer::Impl::drawVisibleChunks(const glm::mat4& viewProj) {
+    drawOffsets.clear();
+    drawCounts.clear();
+    std::size_t drawn = 0;
+    for (const Chunk& c : chunks) {
+        if (outsideFrustum(c, viewProj)) continue;
+        if (!drawCounts.empty() && reinterpret_cast<std::uintptr_t>(drawOffsets.back()) / sizeof(std::uint32_t) +
+                                           static_cast<std::uintptr_t>(drawCounts.back()) ==
+                                       static_cast<std::uintptr_t>(c.first))
+            drawCounts.back() += c.count;
+        else {
+            drawOffsets.push_back(
+                reinterpret_cast<const void*>(static_cast<std::uintptr_t>(c.first) * sizeof(std::uint32_t)));
+            drawCounts.push_back(c.count);
+        }
+        drawn += static_cast<std::size_t>(c.count / 3);
+    }
+    lastDrawnTriangles = drawn;
+    glBindVertexArray(vao);
+    if (!drawCounts.empty())
+        glMultiDrawElements(GL_TRIANGLES, drawCounts.data(), GL_UNSIGNED_INT, drawOffsets.data(),
+                            static_cast<GLsizei>(drawCounts.size()));
+    glBindVertexArray(0);
+}
+
+namespace {
+
+// Depth test, and back faces culled only for meshes declared closed
+// (watertight and consistently wound), where a face turned away from the eye
+// is hidden by a nearer one, so culling changes no pixel.
+void setPipelineState(const shading::FrameSetup& frame) {
     glClearColor(0, 0, 0, 1);
     glClearDepth(1.0);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
-    // Back faces: only for meshes declared closed (watertight and consistently
-    // wound), where a face turned away from the eye is hidden by a nearer one,
-    // so culling changes no pixel.
     if (frame.cullBackFaces) {
         glEnable(GL_CULL_FACE);
         glFrontFace(GL_CCW);
@@ -407,63 +476,26 @@ void Renderer::draw(const shading::FrameSetup& frame) {
         glDisable(GL_CULL_FACE);
     }
     glDisable(GL_BLEND);
-    glUseProgram(p.id);
-    p.frame.upload(&f);
-    p.material.upload(&m);
-    p.procedural.set(frame);
-    if (info.procedural) {
-        const noise::FractalParams& n = frame.procedural.noise;
-        const int z0 = permutationSliceZ0(n.z);
-        if (impl_->permutationVersion == 0 || impl_->permutation.seed != n.seed || impl_->permutation.sliceZ0 != z0) {
-            impl_->permutation = permutationUniforms(n.seed, n.z);
-            ++impl_->permutationVersion;
-        }
-        // Uniform values live in the program: upload when this program last saw other tables.
-        if (p.permutationVersion != impl_->permutationVersion) {
-            p.procedural.setPermutation(impl_->permutation);
-            p.permutationVersion = impl_->permutationVersion;
-        }
-    }
-    for (GLuint unit = 0; unit < 3; ++unit) {
-        glActiveTexture(GL_TEXTURE0 + unit);
-        glBindTexture(GL_TEXTURE_2D, impl_->textures[unit].id);
-    }
-    // Anti-aliasing off: the map's full-resolution level only, as the paper
-    // sampled it. Set on the texture (the shader samples the map once, with
-    // texture(), either way: a select between two lookups would make a SIMD
-    // rasteriser such as llvmpipe do both).
-    Texture& rt = impl_->textures[static_cast<std::size_t>(TextureSlot::Reflectance)];
-    const bool mipFilter = rt.minFilter != GL_LINEAR && rt.minFilter != GL_NEAREST;
-    const GLint wantMin = !f.specularAA && mipFilter ? GL_LINEAR : rt.minFilter;
-    if (wantMin != rt.boundMin) {
-        glActiveTexture(GL_TEXTURE0 + static_cast<GLuint>(TextureSlot::Reflectance));
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, wantMin);
-        rt.boundMin = wantMin;
-    }
-    impl_->drawOffsets.clear();
-    impl_->drawCounts.clear();
-    std::size_t drawn = 0;
-    for (const Chunk& c : impl_->chunks) {
-        if (outsideFrustum(c, f.viewProj)) continue;
-        // Merge with the previous range when contiguous.
-        if (!impl_->drawCounts.empty() &&
-            reinterpret_cast<std::uintptr_t>(impl_->drawOffsets.back()) / sizeof(std::uint32_t) +
-                    static_cast<std::uintptr_t>(impl_->drawCounts.back()) ==
-                static_cast<std::uintptr_t>(c.first))
-            impl_->drawCounts.back() += c.count;
-        else {
-            impl_->drawOffsets.push_back(
-                reinterpret_cast<const void*>(static_cast<std::uintptr_t>(c.first) * sizeof(std::uint32_t)));
-            impl_->drawCounts.push_back(c.count);
-        }
-        drawn += static_cast<std::size_t>(c.count / 3);
-    }
-    impl_->lastDrawnTriangles = drawn;
-    glBindVertexArray(impl_->vao);
-    if (!impl_->drawCounts.empty())
-        glMultiDrawElements(GL_TRIANGLES, impl_->drawCounts.data(), GL_UNSIGNED_INT, impl_->drawOffsets.data(),
-                            static_cast<GLsizei>(impl_->drawCounts.size()));
-    glBindVertexArray(0);
+}
+
+}  // namespace
+
+void Renderer::draw(const shading::FrameSetup& frame) {
+    const shading::ModeInfo& info = shading::info(frame.mode);
+    if (shading::modeNeedsUvs(frame) && !impl_->meshHasUvs)
+        throw InputError(
+            "mode", "",
+            fmt::format("'{}' needs texture coordinates and tangents, which the mesh lacks (procedural "
+                        "noise in object space needs neither; or add UVs with mucosa mesh --uv centerline)",
+                        info.name));
+    Program& program = impl_->programFor(frame, info);
+    const shading::glsl::Material m = shading::glsl::packMaterial(frame.params);
+    const shading::glsl::Frame f = shading::glsl::packFrame(frame);
+    impl_->refreshHighlight(info, m.shininess);
+    setPipelineState(frame);
+    impl_->uploadUniforms(program, frame, f, m, info);
+    impl_->bindTextures(frame.specularAA);
+    impl_->drawVisibleChunks(f.viewProj);
 }
 
 }  // namespace mucosa::render
