@@ -1,7 +1,7 @@
 // Centreline UVs for tubes and branching tubes (level-set diagram, Lazarus &
 // Verroust 1999): geodesic distance from the proximal end, rings of equal
 // distance, their centroids as the centreline, angle around it and arc length
-// along it as (u, v).
+// along it as (u, v). computeCenterlineUvs at the end reads as its phases.
 #include <mucosa/mesh/uv.hpp>
 
 #include <algorithm>
@@ -54,221 +54,251 @@ struct Branch {
     int parent = -1;
     double radius = 0;
     int wraps = 1;
+    double vRate = 0;   // texture v per mm along the branch
+    double facing = 0;  // > 0: the surface faces away from the centreline; < 0: towards it
 };
 
-}  // namespace
-
-CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& opt) {
-    validateIndices(mesh);
-    if (mesh.triangleCount() == 0) throw InputError("centreline UVs", "", "the mesh has no triangles");
-    for (const Vec3& p : mesh.positions)
-        if (!finite(p)) throw InputError("centreline UVs", "", "the mesh has non-finite positions");
-    const std::size_t nv = mesh.vertexCount();
-    requireMemory(saturatingMul(nv, 160) + saturatingMul(mesh.indices.size(), 48), "centreline UVs");
-
-    // Topology on welded positions.
-    std::vector<std::uint32_t> ids;
-    positionIds(mesh, ids);
-    const std::vector<EdgeUse> edges = edgeUses(mesh, ids);
-    std::vector<std::uint32_t> deg(nv + 1, 0);
-    for (const EdgeUse& e : edges) ++deg[e.a + 1], ++deg[e.b + 1];
-    for (std::size_t v = 0; v < nv; ++v) deg[v + 1] += deg[v];
-    std::vector<std::uint32_t> adj(deg[nv]);
-    {
-        std::vector<std::uint32_t> fill(deg.begin(), deg.end() - 1);
-        for (const EdgeUse& e : edges) adj[fill[e.a]++] = e.b, adj[fill[e.b]++] = e.a;
-    }
-    const Vec3d up = normalizeOr(toD(opt.up), Vec3d{0, 1, 0});
-    auto P = [&](std::uint32_t w) { return toD(mesh.positions[w]); };
-    double meanEdge = 0;
-    for (const EdgeUse& e : edges) meanEdge += length(P(e.a) - P(e.b));
-    meanEdge /= static_cast<double>(std::max<std::size_t>(1, edges.size()));
-    const double w = opt.sliceWidth > 0 ? opt.sliceWidth : std::max(3.0 * meanEdge, 1e-6);
-
-    // Pieces (connected through shared positions) and their seeds.
-    std::vector<std::uint32_t> uf(nv);
-    std::iota(uf.begin(), uf.end(), 0u);
-    for (const EdgeUse& e : edges) {
-        const std::uint32_t a = findRoot(uf, e.a), b = findRoot(uf, e.b);
-        if (a != b) uf[std::max(a, b)] = std::min(a, b);
-    }
-    std::vector<char> isRep(nv, 0);  // welded representative used by a triangle
-    for (std::uint32_t i : mesh.indices) isRep[ids[i]] = 1;
-    std::map<std::uint32_t, std::vector<std::uint32_t>> boundaryByPiece;
-    // Boundary loops: group boundary edges into loops per piece.
-    std::vector<std::uint32_t> buf(nv);
-    std::iota(buf.begin(), buf.end(), 0u);
-    std::vector<char> onBoundary(nv, 0);
-    for (const EdgeUse& e : edges)
-        if (e.count == 1) {
-            onBoundary[e.a] = onBoundary[e.b] = 1;
-            const std::uint32_t a = findRoot(buf, e.a), b = findRoot(buf, e.b);
-            if (a != b) buf[std::max(a, b)] = std::min(a, b);
-        }
-    std::map<std::uint32_t, std::vector<std::uint32_t>> loops;  // loop root -> vertices
-    for (std::uint32_t v = 0; v < nv; ++v)
-        if (onBoundary[v]) loops[findRoot(buf, v)].push_back(v);
-    std::map<std::uint32_t, std::uint32_t> topVertex;
-    for (std::uint32_t v = 0; v < nv; ++v) {
-        if (!isRep[v]) continue;
-        const std::uint32_t piece = findRoot(uf, v);
-        auto it = topVertex.find(piece);
-        if (it == topVertex.end() || dot(P(v), up) > dot(P(it->second), up)) topVertex[piece] = v;
-    }
-
-    // Geodesic distance (Dijkstra on edges) from each piece's proximal end:
-    // its highest vertex along `up`, or the whole boundary loop through it.
-    std::vector<double> dist(nv, INFINITY);
-    std::vector<std::uint32_t> pred(nv, UINT32_MAX);
-    using Item = std::pair<double, std::uint32_t>;
-    std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
-    for (const auto& [piece, top] : topVertex) {
-        if (onBoundary[top]) {
-            for (std::uint32_t v : loops[findRoot(buf, top)]) dist[v] = 0, queue.push({0.0, v});
-        } else {
-            dist[top] = 0;
-            queue.push({0.0, top});
-        }
-    }
-    while (!queue.empty()) {
-        const auto [d, v] = queue.top();
-        queue.pop();
-        if (d > dist[v]) continue;
-        for (std::uint32_t k = deg[v]; k < deg[v + 1]; ++k) {
-            const std::uint32_t u = adj[k];
-            const double nd = d + length(P(u) - P(v));
-            if (nd < dist[u]) dist[u] = nd, pred[u] = v, queue.push({nd, u});
-        }
-    }
-
-    // Rings: the contours of the distance at levels (k + 1/2) w. A contour is
-    // a set of crossed edges; two crossings of one level in one triangle
-    // belong to the same ring (union-find).
-    auto levelBelow = [&](double d) { return static_cast<int>(std::floor(d / w - 0.5)); };  // -1 before the first
-    auto levelValue = [&](int k) { return (k + 0.5) * w; };
-    auto edgeIndex = [&](std::uint32_t a, std::uint32_t b) -> std::size_t {
+// The mesh's connectivity on welded positions.
+struct Topology {
+    const Mesh& mesh;
+    std::vector<std::uint32_t> ids;  // vertex -> welded representative
+    std::vector<EdgeUse> edges;      // sorted by (a, b)
+    std::vector<std::uint32_t> deg;  // CSR offsets into adj
+    std::vector<std::uint32_t> adj;
+    std::vector<char> isRep;  // a welded representative used by a triangle
+    std::size_t vertexCount() const noexcept { return mesh.vertexCount(); }
+    Vec3d P(std::uint32_t v) const { return toD(mesh.positions[v]); }
+    std::size_t edgeIndex(std::uint32_t a, std::uint32_t b) const {
         if (a > b) std::swap(a, b);
         const auto it = std::lower_bound(edges.begin(), edges.end(), std::pair{a, b},
                                          [](const EdgeUse& e, const std::pair<std::uint32_t, std::uint32_t>& k) {
                                              return std::pair{e.a, e.b} < k;
                                          });
         return static_cast<std::size_t>(it - edges.begin());
-    };
+    }
+};
+
+// Connected pieces and where each starts: its highest vertex along `up`.
+struct Pieces {
+    std::vector<std::uint32_t> uf;      // union-find over positions: piece = findRoot(uf, v)
+    std::vector<std::uint32_t> loopUf;  // union-find over boundary edges: loop = findRoot(loopUf, v)
+    std::vector<char> onBoundary;
+    std::map<std::uint32_t, std::vector<std::uint32_t>> loops;  // loop root -> vertices
+    std::map<std::uint32_t, std::uint32_t> top;                 // piece -> proximal vertex
+};
+
+struct Geodesic {
+    std::vector<double> dist;
+    std::vector<std::uint32_t> pred;  // Dijkstra predecessor (UINT32_MAX at the sources)
+};
+
+// The level-set diagram: rings (nodes) at distances (k + 1/2) w, the ring of
+// each vertex, and the parent links.
+struct Rings {
+    double w = 1;  // slice width (mm)
+    std::vector<Node> nodes;
     std::unordered_map<std::uint64_t, std::uint32_t> crossingId;  // (edge, level) -> crossing
     std::vector<std::uint32_t> crossingEdge;
     std::vector<int> crossingLevel;
+    std::vector<int> nodeOfCrossing;
+    std::vector<int> nodeOf;  // vertex -> node (-1: none)
+    std::vector<int> order;   // nodes by slice: parents before children
+    int levelBelow(double d) const { return static_cast<int>(std::floor(d / w - 0.5)); }  // -1 before the first
+    double levelValue(int k) const { return (k + 0.5) * w; }
+    static std::uint64_t key(std::size_t edge, int level) { return (std::uint64_t(edge) << 24) | std::uint64_t(level); }
+};
+
+void unite(std::vector<std::uint32_t>& uf, std::uint32_t a, std::uint32_t b) {
+    a = findRoot(uf, a), b = findRoot(uf, b);
+    if (a != b) uf[std::max(a, b)] = std::min(a, b);
+}
+
+Topology buildTopology(const Mesh& mesh) {
+    Topology t{mesh, {}, {}, {}, {}, {}};
+    const std::size_t nv = mesh.vertexCount();
+    positionIds(mesh, t.ids);
+    t.edges = edgeUses(mesh, t.ids);
+    t.deg.assign(nv + 1, 0);
+    for (const EdgeUse& e : t.edges) ++t.deg[e.a + 1], ++t.deg[e.b + 1];
+    for (std::size_t v = 0; v < nv; ++v) t.deg[v + 1] += t.deg[v];
+    t.adj.resize(t.deg[nv]);
+    std::vector<std::uint32_t> fill(t.deg.begin(), t.deg.end() - 1);
+    for (const EdgeUse& e : t.edges) t.adj[fill[e.a]++] = e.b, t.adj[fill[e.b]++] = e.a;
+    t.isRep.assign(nv, 0);
+    for (std::uint32_t i : mesh.indices) t.isRep[t.ids[i]] = 1;
+    return t;
+}
+
+Pieces findPieces(const Topology& t, const Vec3d& up) {
+    const std::size_t nv = t.vertexCount();
+    Pieces p;
+    p.uf.resize(nv);
+    std::iota(p.uf.begin(), p.uf.end(), 0u);
+    for (const EdgeUse& e : t.edges) unite(p.uf, e.a, e.b);
+    // Boundary loops: boundary edges grouped into loops.
+    p.loopUf.resize(nv);
+    std::iota(p.loopUf.begin(), p.loopUf.end(), 0u);
+    p.onBoundary.assign(nv, 0);
+    for (const EdgeUse& e : t.edges)
+        if (e.count == 1) {
+            p.onBoundary[e.a] = p.onBoundary[e.b] = 1;
+            unite(p.loopUf, e.a, e.b);
+        }
+    for (std::uint32_t v = 0; v < nv; ++v)
+        if (p.onBoundary[v]) p.loops[findRoot(p.loopUf, v)].push_back(v);
+    for (std::uint32_t v = 0; v < nv; ++v) {
+        if (!t.isRep[v]) continue;
+        const std::uint32_t piece = findRoot(p.uf, v);
+        auto it = p.top.find(piece);
+        if (it == p.top.end() || dot(t.P(v), up) > dot(t.P(it->second), up)) p.top[piece] = v;
+    }
+    return p;
+}
+
+// Geodesic distance (Dijkstra on edges) from each piece's proximal end: its
+// highest vertex along `up`, or the whole boundary loop through it.
+Geodesic geodesicFromProximalEnds(const Topology& t, Pieces& pieces) {
+    const std::size_t nv = t.vertexCount();
+    Geodesic g{std::vector<double>(nv, INFINITY), std::vector<std::uint32_t>(nv, UINT32_MAX)};
+    using Item = std::pair<double, std::uint32_t>;
+    std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+    for (const auto& [piece, top] : pieces.top) {
+        if (pieces.onBoundary[top]) {
+            for (std::uint32_t v : pieces.loops[findRoot(pieces.loopUf, top)]) g.dist[v] = 0, queue.push({0.0, v});
+        } else {
+            g.dist[top] = 0;
+            queue.push({0.0, top});
+        }
+    }
+    while (!queue.empty()) {
+        const auto [d, v] = queue.top();
+        queue.pop();
+        if (d > g.dist[v]) continue;
+        for (std::uint32_t k = t.deg[v]; k < t.deg[v + 1]; ++k) {
+            const std::uint32_t u = t.adj[k];
+            const double nd = d + length(t.P(u) - t.P(v));
+            if (nd < g.dist[u]) g.dist[u] = nd, g.pred[u] = v, queue.push({nd, u});
+        }
+    }
+    return g;
+}
+
+// Rings: the contours of the distance at levels (k + 1/2) w. A contour is a
+// set of crossed edges; two crossings of one level in one triangle belong to
+// the same ring (union-find). A ring's centroid is the mean of its crossings.
+void traceRings(const Topology& t, Pieces& pieces, const Geodesic& g, Rings& r) {
+    const Mesh& mesh = t.mesh;
     std::vector<std::uint32_t> cuf;
     auto crossing = [&](std::size_t e, int k) {
-        const std::uint64_t key = (std::uint64_t(e) << 24) | std::uint64_t(k);
-        auto [it, inserted] = crossingId.try_emplace(key, static_cast<std::uint32_t>(crossingEdge.size()));
+        auto [it, inserted] =
+            r.crossingId.try_emplace(Rings::key(e, k), static_cast<std::uint32_t>(r.crossingEdge.size()));
         if (inserted) {
-            crossingEdge.push_back(static_cast<std::uint32_t>(e));
-            crossingLevel.push_back(k);
+            r.crossingEdge.push_back(static_cast<std::uint32_t>(e));
+            r.crossingLevel.push_back(k);
             cuf.push_back(it->second);
         }
         return it->second;
     };
-    for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-        const std::uint32_t c[3] = {ids[mesh.indices[3 * t]], ids[mesh.indices[3 * t + 1]],
-                                    ids[mesh.indices[3 * t + 2]]};
+    for (std::size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
+        const std::uint32_t c[3] = {t.ids[mesh.indices[3 * tri]], t.ids[mesh.indices[3 * tri + 1]],
+                                    t.ids[mesh.indices[3 * tri + 2]]};
         if (c[0] == c[1] || c[1] == c[2] || c[0] == c[2]) continue;
-        const double dmin = std::min({dist[c[0]], dist[c[1]], dist[c[2]]}),
-                     dmax = std::max({dist[c[0]], dist[c[1]], dist[c[2]]});
+        const double dmin = std::min({g.dist[c[0]], g.dist[c[1]], g.dist[c[2]]}),
+                     dmax = std::max({g.dist[c[0]], g.dist[c[1]], g.dist[c[2]]});
         if (!std::isfinite(dmax)) continue;
-        for (int k = levelBelow(dmin) + 1; levelValue(k) <= dmax; ++k) {
-            const double lv = levelValue(k);
+        for (int k = r.levelBelow(dmin) + 1; r.levelValue(k) <= dmax; ++k) {
+            const double lv = r.levelValue(k);
             std::uint32_t found[3];
             int nf = 0;
             for (int j = 0; j < 3; ++j) {
                 const std::uint32_t a = c[j], b = c[(j + 1) % 3];
-                if ((dist[a] < lv) != (dist[b] < lv)) found[nf++] = crossing(edgeIndex(a, b), k);
+                if ((g.dist[a] < lv) != (g.dist[b] < lv)) found[nf++] = crossing(t.edgeIndex(a, b), k);
             }
-            for (int j = 1; j < nf; ++j) {
-                const std::uint32_t a = findRoot(cuf, found[0]), b = findRoot(cuf, found[j]);
-                if (a != b) cuf[std::max(a, b)] = std::min(a, b);
-            }
+            for (int j = 1; j < nf; ++j) unite(cuf, found[0], found[j]);
         }
     }
-    std::vector<Node> nodes;
-    std::vector<int> nodeOfCrossing(crossingEdge.size(), -1);
-    for (std::uint32_t x = 0; x < crossingEdge.size(); ++x) {
-        const std::uint32_t r = findRoot(cuf, x);
-        if (nodeOfCrossing[r] < 0) {
-            nodeOfCrossing[r] = static_cast<int>(nodes.size());
-            nodes.push_back({});
-            nodes.back().slice = crossingLevel[x];
-            nodes.back().piece = findRoot(uf, edges[crossingEdge[x]].a);
+    r.nodeOfCrossing.assign(r.crossingEdge.size(), -1);
+    for (std::uint32_t x = 0; x < r.crossingEdge.size(); ++x) {
+        const std::uint32_t root = findRoot(cuf, x);
+        if (r.nodeOfCrossing[root] < 0) {
+            r.nodeOfCrossing[root] = static_cast<int>(r.nodes.size());
+            r.nodes.push_back({});
+            r.nodes.back().slice = r.crossingLevel[x];
+            r.nodes.back().piece = findRoot(pieces.uf, t.edges[r.crossingEdge[x]].a);
         }
-        nodeOfCrossing[x] = nodeOfCrossing[r];
-        const EdgeUse& e = edges[crossingEdge[x]];
-        const double lv = levelValue(crossingLevel[x]);
-        const double f = std::clamp((lv - dist[e.a]) / (dist[e.b] - dist[e.a]), 0.0, 1.0);
-        Node& n = nodes[std::size_t(nodeOfCrossing[x])];
-        n.sum += P(e.a) + (P(e.b) - P(e.a)) * f;
+        r.nodeOfCrossing[x] = r.nodeOfCrossing[root];
+        const EdgeUse& e = t.edges[r.crossingEdge[x]];
+        const double lv = r.levelValue(r.crossingLevel[x]);
+        const double f = std::clamp((lv - g.dist[e.a]) / (g.dist[e.b] - g.dist[e.a]), 0.0, 1.0);
+        Node& n = r.nodes[std::size_t(r.nodeOfCrossing[x])];
+        n.sum += t.P(e.a) + (t.P(e.b) - t.P(e.a)) * f;
         ++n.count;
     }
-    for (Node& n : nodes) n.c = n.sum * (1.0 / double(n.count));
+    for (Node& n : r.nodes) n.c = n.sum * (1.0 / double(n.count));
+}
 
-    // Each vertex belongs to the ring just below it on its shortest path:
-    // follow the Dijkstra predecessor until the path crosses that level.
+// Each vertex belongs to the ring just below it on its shortest path (follow
+// the Dijkstra predecessor until the path crosses that level); each ring's
+// parent is the ring below the lower ends of its crossed edges (majority);
+// vertices before the first ring take the nearest first ring of their piece.
+void linkRings(const Topology& t, Pieces& pieces, const Geodesic& g, Rings& r) {
+    const std::size_t nv = t.vertexCount();
     std::vector<std::uint32_t> byDistance;
     for (std::uint32_t v = 0; v < nv; ++v)
-        if (isRep[v] && std::isfinite(dist[v])) byDistance.push_back(v);
+        if (t.isRep[v] && std::isfinite(g.dist[v])) byDistance.push_back(v);
     std::sort(byDistance.begin(), byDistance.end(),
-              [&](std::uint32_t a, std::uint32_t b) { return dist[a] < dist[b]; });
-    std::vector<int> nodeOf(nv, -1);
+              [&](std::uint32_t a, std::uint32_t b) { return g.dist[a] < g.dist[b]; });
+    r.nodeOf.assign(nv, -1);
     std::vector<std::uint32_t> firstLevelVertices;
     for (std::uint32_t v : byDistance) {
-        const int k = levelBelow(dist[v]);
-        if (k < 0 || pred[v] == UINT32_MAX) {
+        const int k = r.levelBelow(g.dist[v]);
+        if (k < 0 || g.pred[v] == UINT32_MAX) {
             firstLevelVertices.push_back(v);
             continue;
         }
-        const std::uint32_t u = pred[v];
-        if (dist[u] < levelValue(k)) {
-            const auto it = crossingId.find((std::uint64_t(edgeIndex(u, v)) << 24) | std::uint64_t(k));
-            nodeOf[v] = it != crossingId.end() ? nodeOfCrossing[it->second] : nodeOf[u];
+        const std::uint32_t u = g.pred[v];
+        if (g.dist[u] < r.levelValue(k)) {
+            const auto it = r.crossingId.find(Rings::key(t.edgeIndex(u, v), k));
+            r.nodeOf[v] = it != r.crossingId.end() ? r.nodeOfCrossing[it->second] : r.nodeOf[u];
         } else {
-            nodeOf[v] = nodeOf[u];
+            r.nodeOf[v] = r.nodeOf[u];
         }
     }
-    // Parent ring: the ring below the lower end of its crossed edges (majority).
-    {
-        std::map<std::pair<int, int>, int> votes;
-        for (std::uint32_t x = 0; x < crossingEdge.size(); ++x) {
-            const EdgeUse& e = edges[crossingEdge[x]];
-            const std::uint32_t lower = dist[e.a] < dist[e.b] ? e.a : e.b;
-            const int par = nodeOf[lower];
-            if (par >= 0 && nodes[std::size_t(par)].slice < crossingLevel[x]) ++votes[{nodeOfCrossing[x], par}];
-        }
-        std::vector<int> best(nodes.size(), 0);
-        for (const auto& [key, count] : votes)
-            if (count > best[std::size_t(key.first)])
-                best[std::size_t(key.first)] = count, nodes[std::size_t(key.first)].parent = key.second;
+    std::map<std::pair<int, int>, int> votes;
+    for (std::uint32_t x = 0; x < r.crossingEdge.size(); ++x) {
+        const EdgeUse& e = t.edges[r.crossingEdge[x]];
+        const std::uint32_t lower = g.dist[e.a] < g.dist[e.b] ? e.a : e.b;
+        const int par = r.nodeOf[lower];
+        if (par >= 0 && r.nodes[std::size_t(par)].slice < r.crossingLevel[x]) ++votes[{r.nodeOfCrossing[x], par}];
     }
-    // Vertices before the first ring take the nearest first ring of their piece.
+    std::vector<int> best(r.nodes.size(), 0);
+    for (const auto& [key, count] : votes)
+        if (count > best[std::size_t(key.first)])
+            best[std::size_t(key.first)] = count, r.nodes[std::size_t(key.first)].parent = key.second;
     for (std::uint32_t v : firstLevelVertices) {
         double bestD = INFINITY;
-        for (std::size_t i = 0; i < nodes.size(); ++i)
-            if (nodes[i].slice == 0 && nodes[i].piece == findRoot(uf, v)) {
-                const double d = length(nodes[i].c - P(v));
-                if (d < bestD) bestD = d, nodeOf[v] = static_cast<int>(i);
+        for (std::size_t i = 0; i < r.nodes.size(); ++i)
+            if (r.nodes[i].slice == 0 && r.nodes[i].piece == findRoot(pieces.uf, v)) {
+                const double d = length(r.nodes[i].c - t.P(v));
+                if (d < bestD) bestD = d, r.nodeOf[v] = static_cast<int>(i);
             }
     }
-    // Visit nodes in slice order: parents before children.
-    std::vector<int> order(nodes.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(),
-                     [&](int a, int b) { return nodes[std::size_t(a)].slice < nodes[std::size_t(b)].slice; });
-    for (int i : order)
-        if (nodes[std::size_t(i)].parent >= 0) nodes[std::size_t(nodes[std::size_t(i)].parent)].children.push_back(i);
+    r.order.resize(r.nodes.size());
+    std::iota(r.order.begin(), r.order.end(), 0);
+    std::stable_sort(r.order.begin(), r.order.end(),
+                     [&](int a, int b) { return r.nodes[std::size_t(a)].slice < r.nodes[std::size_t(b)].slice; });
+    for (int i : r.order)
+        if (r.nodes[std::size_t(i)].parent >= 0)
+            r.nodes[std::size_t(r.nodes[std::size_t(i)].parent)].children.push_back(i);
+}
 
-    // Branches: a chain continues while its node has one child; several
-    // children (the ring split at a bifurcation) start new branches.
+// Branches: a chain continues while its node has one child; several children
+// (the ring split at a bifurcation) start new branches.
+std::vector<Branch> chainBranches(Rings& r) {
     std::vector<Branch> branches;
-    for (int i : order) {
-        Node& n = nodes[std::size_t(i)];
-        const Node* par = n.parent >= 0 ? &nodes[std::size_t(n.parent)] : nullptr;
+    for (int i : r.order) {
+        Node& n = r.nodes[std::size_t(i)];
+        const Node* par = n.parent >= 0 ? &r.nodes[std::size_t(n.parent)] : nullptr;
         if (par && par->children.size() == 1) {
             n.branch = par->branch;
         } else {
@@ -278,11 +308,14 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
         }
         branches[std::size_t(n.branch)].nodes.push_back(i);
     }
+    return branches;
+}
 
-    // Smooth the centroids along each branch (the rings are cut by a
-    // staircase of mesh edges), then frames by projection transport (a
-    // rotation-minimising frame to first order; Bishop 1975).
-    for (Branch& br : branches) {
+// Smooth the centroids along each branch (the rings are cut by a staircase of
+// mesh edges), then frames by projection transport (a rotation-minimising
+// frame to first order; Bishop 1975) and the arc length along the axis.
+void smoothAndFrame(std::vector<Node>& nodes, const std::vector<Branch>& branches, const Vec3d& up) {
+    for (const Branch& br : branches) {
         std::vector<Vec3d> smooth(br.nodes.size());
         for (std::size_t i = 0; i < br.nodes.size(); ++i) {
             Vec3d acc{0, 0, 0};
@@ -298,7 +331,7 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
         }
         for (std::size_t i = 0; i < br.nodes.size(); ++i) nodes[std::size_t(br.nodes[i])].c = smooth[i];
     }
-    for (Branch& br : branches) {
+    for (const Branch& br : branches) {
         for (std::size_t i = 0; i < br.nodes.size(); ++i) {
             Node& n = nodes[std::size_t(br.nodes[i])];
             const Node* par = n.parent >= 0 ? &nodes[std::size_t(n.parent)] : nullptr;
@@ -314,14 +347,18 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
             n.s = par ? par->s + std::abs(dot(n.c - par->c, n.t)) : 0.0;
         }
     }
+}
 
-    // Radii and the tile length.
+// Radii, the tile length L, and square texels: a branch wraps the texture
+// round(2 pi r / L) times (at least once) and runs along at the same rate,
+// wraps / (2 pi r) per mm; v at each ring. Returns L.
+double tileBranches(const Topology& t, Rings& r, std::vector<Branch>& branches, double tileLength) {
     std::vector<double> radiusSum(branches.size(), 0.0);
     std::vector<std::size_t> radiusCount(branches.size(), 0);
-    for (std::uint32_t v = 0; v < nv; ++v) {
-        if (nodeOf[v] < 0) continue;
-        const Node& n = nodes[std::size_t(nodeOf[v])];
-        const Vec3d d = P(v) - n.c;
+    for (std::uint32_t v = 0; v < t.vertexCount(); ++v) {
+        if (r.nodeOf[v] < 0) continue;
+        const Node& n = r.nodes[std::size_t(r.nodeOf[v])];
+        const Vec3d d = t.P(v) - n.c;
         radiusSum[std::size_t(n.branch)] += length(d - n.t * dot(d, n.t));
         ++radiusCount[std::size_t(n.branch)];
     }
@@ -331,73 +368,77 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
         // Only branches with a real ring count for the widest tube.
         if (branches[b].nodes.size() >= 3) widest = std::max(widest, branches[b].radius);
     }
-    const double L = opt.tileLength > 0 ? opt.tileLength : std::max(kTwoPi * widest, 1e-3);
-    // Square texels: a branch wraps the texture round(2 pi r / L) times (at
-    // least once) and runs along at the same rate, wraps / (2 pi r) per mm.
-    std::vector<double> vRate(branches.size());
-    for (std::size_t b = 0; b < branches.size(); ++b) {
-        Branch& br = branches[b];
+    const double L = tileLength > 0 ? tileLength : std::max(kTwoPi * widest, 1e-3);
+    for (Branch& br : branches) {
         br.wraps = std::max(1, static_cast<int>(std::lround(kTwoPi * br.radius / L)));
-        vRate[b] = br.radius > 0 ? br.wraps / (kTwoPi * br.radius) : 1.0 / L;
+        br.vRate = br.radius > 0 ? br.wraps / (kTwoPi * br.radius) : 1.0 / L;
     }
-    for (int i : order) {
-        Node& n = nodes[std::size_t(i)];
-        n.v = n.parent >= 0 ? nodes[std::size_t(n.parent)].v +
-                                  (n.s - nodes[std::size_t(n.parent)].s) * vRate[std::size_t(n.branch)]
-                            : 0.0;
+    for (int i : r.order) {
+        Node& n = r.nodes[std::size_t(i)];
+        const Node* par = n.parent >= 0 ? &r.nodes[std::size_t(n.parent)] : nullptr;
+        n.v = par ? par->v + (n.s - par->s) * branches[std::size_t(n.branch)].vRate : 0.0;
     }
+    return L;
+}
 
-    // Which way each branch's surface faces: outward (away from its
-    // centreline) or inward (a lumen seen from inside, or the inner wall of a
-    // thick tube). The angle runs the other way on inward-facing branches, so
-    // (u, v) keep the triangles' counter-clockwise orientation everywhere (no
-    // mirrored texture, tangent w = +1).
-    std::vector<double> facing(branches.size(), 0.0);
-    for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
-        const std::uint32_t c0 = ids[mesh.indices[3 * t]], c1 = ids[mesh.indices[3 * t + 1]],
-                            c2 = ids[mesh.indices[3 * t + 2]];
-        const int nd = nodeOf[c0];
+// Which way each branch's surface faces: outward (away from its centreline)
+// or inward (a lumen seen from inside, or the inner wall of a thick tube).
+// The angle runs the other way on inward-facing branches, so (u, v) keep the
+// triangles' counter-clockwise orientation everywhere (no mirrored texture,
+// tangent w = +1).
+void measureFacing(const Topology& t, const Rings& r, std::vector<Branch>& branches) {
+    const Mesh& mesh = t.mesh;
+    for (std::size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
+        const std::uint32_t c0 = t.ids[mesh.indices[3 * tri]], c1 = t.ids[mesh.indices[3 * tri + 1]],
+                            c2 = t.ids[mesh.indices[3 * tri + 2]];
+        const int nd = r.nodeOf[c0];
         if (nd < 0) continue;
-        const Node& n = nodes[std::size_t(nd)];
-        const Vec3d centre = (P(c0) + P(c1) + P(c2)) * (1.0 / 3.0);
+        const Node& n = r.nodes[std::size_t(nd)];
+        const Vec3d centre = (t.P(c0) + t.P(c1) + t.P(c2)) * (1.0 / 3.0);
         const Vec3d radial = centre - n.c - n.t * dot(centre - n.c, n.t);
-        facing[std::size_t(n.branch)] += dot(cross(P(c1) - P(c0), P(c2) - P(c0)), normalizeOr(radial, Vec3d{0, 0, 0}));
+        branches[std::size_t(n.branch)].facing +=
+            dot(cross(t.P(c1) - t.P(c0), t.P(c2) - t.P(c0)), normalizeOr(radial, Vec3d{0, 0, 0}));
     }
-    // (u, v) of a point in a node's frame: u = wraps * angle / 2 pi, v along at the branch's rate.
+}
+
+// The mesh with (u, v): u = wraps * angle / 2 pi around a ring's frame, v
+// along at the branch's rate. A vertex is split where triangles need it with
+// another (branch, seam lift): one new vertex per (vertex, branch, lifted).
+Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& branches, std::size_t& seamVertices) {
+    const Mesh& mesh = t.mesh;
     auto uvAt = [&](const Vec3d& p, const Node& n) {
+        const Branch& br = branches[std::size_t(n.branch)];
         const Vec3d d = p - n.c;
-        const double sense = facing[std::size_t(n.branch)] < 0 ? -1.0 : 1.0;
+        const double sense = br.facing < 0 ? -1.0 : 1.0;
         double theta = std::atan2(sense * dot(d, n.b), dot(d, n.n));
         if (theta < 0) theta += kTwoPi;
-        const double wraps = branches[std::size_t(n.branch)].wraps;
-        return std::array<double, 2>{wraps * theta / kTwoPi, n.v + dot(d, n.t) * vRate[std::size_t(n.branch)]};
+        return std::array<double, 2>{br.wraps * theta / kTwoPi, n.v + dot(d, n.t) * br.vRate};
     };
     auto nearestNodeOfBranch = [&](int branch, const Vec3d& p) -> const Node& {
         const Branch& br = branches[std::size_t(branch)];
         int best = br.nodes.front();
         double bestD = INFINITY;
         for (int i : br.nodes) {
-            const double d = length(nodes[std::size_t(i)].c - p);
+            const double d = length(r.nodes[std::size_t(i)].c - p);
             if (d < bestD) bestD = d, best = i;
         }
-        return nodes[std::size_t(best)];
+        return r.nodes[std::size_t(best)];
     };
-
-    // New vertices: one per (vertex, branch, wrapped) the triangles ask for.
+    const std::size_t nv = t.vertexCount();
     Mesh out;
     out.indices.resize(mesh.indices.size());
     std::unordered_map<std::uint64_t, std::uint32_t> variant;  // (vertex, branch, lifted)
     variant.reserve(nv + nv / 4);
-    std::size_t seamVertices = 0;
+    seamVertices = 0;
     const bool normals = mesh.hasNormals();
     std::vector<char> firstUse(nv, 0);
-    for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
+    for (std::size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
         std::uint32_t vi[3];
         int br[3];
         for (int k = 0; k < 3; ++k) {
-            vi[k] = mesh.indices[3 * t + k];
-            const int nd = nodeOf[ids[vi[k]]];
-            br[k] = nd >= 0 ? nodes[std::size_t(nd)].branch : 0;
+            vi[k] = mesh.indices[3 * tri + k];
+            const int nd = r.nodeOf[t.ids[vi[k]]];
+            br[k] = nd >= 0 ? r.nodes[std::size_t(nd)].branch : 0;
         }
         // The triangle's branch: the majority, else the lowest index.
         int B = std::min({br[0], br[1], br[2]});
@@ -406,11 +447,11 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
         std::array<double, 2> uv[3];
         for (int k = 0; k < 3; ++k) {
             const Vec3d p = toD(mesh.positions[vi[k]]);
-            const int nd = nodeOf[ids[vi[k]]];
+            const int nd = r.nodeOf[t.ids[vi[k]]];
             if (nd < 0)
                 uv[k] = {0, 0};
             else if (br[k] == B)
-                uv[k] = uvAt(p, nodes[std::size_t(nd)]);
+                uv[k] = uvAt(p, r.nodes[std::size_t(nd)]);
             else
                 uv[k] = uvAt(p, nearestNodeOfBranch(B, p));
         }
@@ -431,28 +472,61 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
                 if (firstUse[vi[k]]) ++seamVertices;
                 firstUse[vi[k]] = 1;
             }
-            out.indices[3 * t + k] = it->second;
+            out.indices[3 * tri + k] = it->second;
         }
     }
+    return out;
+}
 
-    CenterlineUvReport rep;
-    rep.tileLength = static_cast<float>(L);
-    rep.seamVertices = seamVertices;
-    rep.pieces = topVertex.size();
-    rep.centerline.axes = "as the mesh";
-    std::vector<int> branchIndex(branches.size(), -1);
+// The centreline the UVs follow: one branch per chain of rings.
+Centerline centerlineOf(const Rings& r, const std::vector<Branch>& branches) {
+    Centerline c;
+    c.axes = "as the mesh";
     for (std::size_t b = 0; b < branches.size(); ++b) {
         const Branch& br = branches[b];
         CenterlineBranch cb;
         cb.name = fmt::format("branch {}", b);
         cb.parent = br.parent;
         for (int i : br.nodes) {
-            cb.points.push_back(toF(nodes[std::size_t(i)].c));
+            cb.points.push_back(toF(r.nodes[std::size_t(i)].c));
             cb.radii.push_back(static_cast<float>(br.radius));
         }
-        cb.generation = br.parent >= 0 ? rep.centerline.branches[std::size_t(br.parent)].generation + 1 : 0;
-        rep.centerline.branches.push_back(std::move(cb));
+        cb.generation = br.parent >= 0 ? c.branches[std::size_t(br.parent)].generation + 1 : 0;
+        c.branches.push_back(std::move(cb));
     }
+    return c;
+}
+
+}  // namespace
+
+CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& opt) {
+    validateIndices(mesh);
+    if (mesh.triangleCount() == 0) throw InputError("centreline UVs", "", "the mesh has no triangles");
+    for (const Vec3& p : mesh.positions)
+        if (!finite(p)) throw InputError("centreline UVs", "", "the mesh has non-finite positions");
+    requireMemory(saturatingMul(mesh.vertexCount(), 160) + saturatingMul(mesh.indices.size(), 48), "centreline UVs");
+
+    const Topology topology = buildTopology(mesh);
+    const Vec3d up = normalizeOr(toD(opt.up), Vec3d{0, 1, 0});
+    Pieces pieces = findPieces(topology, up);
+    const Geodesic geodesic = geodesicFromProximalEnds(topology, pieces);
+    Rings rings;
+    double meanEdge = 0;
+    for (const EdgeUse& e : topology.edges) meanEdge += length(topology.P(e.a) - topology.P(e.b));
+    meanEdge /= static_cast<double>(std::max<std::size_t>(1, topology.edges.size()));
+    rings.w = opt.sliceWidth > 0 ? opt.sliceWidth : std::max(3.0 * meanEdge, 1e-6);
+    traceRings(topology, pieces, geodesic, rings);
+    linkRings(topology, pieces, geodesic, rings);
+    std::vector<Branch> branches = chainBranches(rings);
+    smoothAndFrame(rings.nodes, branches, up);
+    const double L = tileBranches(topology, rings, branches, opt.tileLength);
+    measureFacing(topology, rings, branches);
+
+    CenterlineUvReport rep;
+    Mesh out = assignUvs(topology, rings, branches, rep.seamVertices);
+    rep.tileLength = static_cast<float>(L);
+    rep.pieces = pieces.top.size();
+    rep.centerline = centerlineOf(rings, branches);
     mesh = std::move(out);
     return rep;
 }
