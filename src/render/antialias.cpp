@@ -29,7 +29,7 @@ Plane grey(const image::Image8& img) {
     for (int y = 0; y < img.height(); ++y)
         for (int x = 0; x < img.width(); ++x)
             p[static_cast<std::size_t>(y) * img.width() + x] =
-                (img.at(x, y, 0) + img.at(x, y, 1) + img.at(x, y, 2)) / 3.0f;
+                static_cast<float>(img.at(x, y, 0) + img.at(x, y, 1) + img.at(x, y, 2)) / 3.0f;
     return p;
 }
 
@@ -81,12 +81,14 @@ AliasingReport measureSpecularAliasing(OffscreenSession& session, const shading:
             f.specularAA = aa == 1;
             seq[static_cast<std::size_t>(aa)].push_back(specular(session.renderFrame(f), diffuse));
             const Plane& s = seq[static_cast<std::size_t>(aa)].back();
-            for (std::size_t i = 0; i < n; ++i) mean[static_cast<std::size_t>(aa)][i] += s[i] / o.jitterFrames;
+            for (std::size_t i = 0; i < n; ++i)
+                mean[static_cast<std::size_t>(aa)][i] += s[i] / static_cast<float>(o.jitterFrames);
         }
     }
     std::vector<char> mask(n, 0);
     for (std::size_t i = 0; i < n; ++i) {
-        mask[i] = mean[0][i] > o.specularThreshold || mean[1][i] > o.specularThreshold;
+        mask[i] = mean[0][i] > static_cast<float>(o.specularThreshold) ||
+                  mean[1][i] > static_cast<float>(o.specularThreshold);
         r.maskPixels += static_cast<std::size_t>(mask[i]);
     }
     if (r.maskPixels == 0) return r;
