@@ -1,4 +1,4 @@
-// Fit time against the number of back-projected samples (issue 6): the joint
+// Fit time against the number of back-projected samples: the joint
 // robust solve plus the texture atlas, on synthetic samples drawn from a known
 // rho and delta with 5 % highlight outliers. Back-projection (one depth pass
 // per frame) is not included: it scales with frames x pixels, not samples.

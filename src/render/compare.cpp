@@ -122,7 +122,7 @@ image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& 
         tick();
     }
     session.setReflectanceMap(assets.reflectanceMap);
-    // Specular anti-aliasing off / on for both paths (issue 5): the distant
+    // Specular anti-aliasing off / on for both paths: the distant
     // walls sparkle without it.
     const int ar = views + 1;
     drawText(sheet, gap, cellY(ar, 0) + th / 2 - 20, "specular", white, 2);

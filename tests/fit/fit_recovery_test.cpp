@@ -1,4 +1,4 @@
-// Parameter recovery on synthetic ground truth (issue 6, "Validation").
+// Parameter recovery on synthetic ground truth ("Validation").
 #include <cmath>
 #include <cstdlib>
 

@@ -97,7 +97,7 @@ TEST(Exr, RealB44FilesStillLoad) {
 
 }  // namespace
 
-// Issue 13: a 240-byte EXR made OpenEXR allocate 2.6 GB before exr.cpp
+// A 240-byte EXR made OpenEXR allocate 2.6 GB before exr.cpp
 // checked anything. The header is now read from the bytes first.
 TEST(Exr, HostileHeaderIsRefusedBeforeOpenExrRuns) {
     test::TempDir dir;

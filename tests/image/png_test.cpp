@@ -165,7 +165,7 @@ void appendChunk(std::vector<std::byte>& out, const char* type, const std::vecto
 
 }  // namespace
 
-// Issue 13: a 69-byte PNG claiming 30000x30000 RGBA took 4.0 GB and 6.6 s
+// A 69-byte PNG claiming 30000x30000 RGBA took 4.0 GB and 6.6 s
 // before libpng said "Not enough image data". 24 compressed bytes can inflate
 // to at most 24*1032 bytes, far from the 3.6 GB the header declares.
 TEST(Png, RefusesADeclaredSizeItsCompressedDataCannotHold) {

@@ -1,4 +1,4 @@
-// Hostile mesh files from issue 13: each is refused with a typed error naming
+// Hostile mesh files (found by fuzzing and review): each is refused with a typed error naming
 // the file, quickly, before Assimp sees it.
 #include <chrono>
 #include <fstream>

@@ -1,4 +1,4 @@
-// Specular anti-aliasing, measured (issue 5): on a still view down the
+// Specular anti-aliasing, measured: on a still view down the
 // phantom's airway with sub-pixel camera jitter, highlight flicker drops by
 // >= 30 % with anti-aliasing on, for the map and the procedural path; and a
 // one-sample frame with anti-aliasing is closer to a 16-sample supersampled

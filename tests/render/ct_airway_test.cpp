@@ -1,4 +1,4 @@
-// Issue 5: a raw CT airway surface (no UVs, no tangents) renders with the
+// A raw CT airway surface (no UVs, no tangents) renders with the
 // method's highlights directly in the procedural mode's object space; the
 // modes that need UVs refuse it with one clear line. This file's wall seen
 // from the lumen already faces the lumen (its normals and winding; lit from

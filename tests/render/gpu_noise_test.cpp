@@ -1,5 +1,5 @@
 // GLSL noise on the GPU (rendered to a 32-bit float target) against the
-// noise module at the same points: |diff| <= 1e-4 (issue 5).
+// noise module at the same points: |diff| <= 1e-4.
 #include <gtest/gtest.h>
 
 #include <array>

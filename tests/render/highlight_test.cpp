@@ -45,7 +45,7 @@ TEST(RenderHighlights, MethodHighlightsAreIrregularWhereBaselinesAreNotOnACoarse
     expectIrregularOrdering(scene, assets, camera::lookAt({0.0f, -3.0f, -30.0f}, {0.0f, 7.0f, -40.0f}), "tube");
 }
 
-// Issue 5: for equal parameters in texture space, the procedural path looks
+// For equal parameters in texture space, the procedural path looks
 // statistically like the map path: highlight coverage and glint count within
 // 10 % (summed over views along the fly-through). Compared without specular
 // anti-aliasing, i.e. the two surfaces themselves: with it, each path filters

@@ -1,6 +1,6 @@
 // GL/C++ parity: the GPU path and the C++ reference (both
 // shaders/common_shading.glsl) render analytic scenes; max abs error <= 2/255
-// per channel on >= 99.9 % of pixels (issue 4).
+// per channel on >= 99.9 % of pixels.
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>

@@ -1,5 +1,5 @@
 #pragma once
-// Registered endoscope frames (issue 6, "Input"): images with pinhole
+// Registered endoscope frames: images with pinhole
 // intrinsics (OpenCV axes: x right, y down, z forward; pixel centres at
 // integer coordinates), optional radial distortion k1, k2, and a row-major 4x4
 // camera_to_world in the mesh's units. The light is a point at `lightOffset`

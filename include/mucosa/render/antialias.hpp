@@ -1,5 +1,5 @@
 #pragma once
-// Measuring specular aliasing (issue 5): how much the highlights of a still
+// Measuring specular aliasing: how much the highlights of a still
 // view flicker under sub-pixel camera jitter, and how far a one-sample frame
 // is from a supersampled one, with specular anti-aliasing off and on.
 #include <array>

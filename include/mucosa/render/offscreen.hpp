@@ -68,7 +68,7 @@ image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& 
 // preset), written atomically to `png`: what `mucosa demo` adds to ./out/.
 void writeDefaultCompareSheet(const std::filesystem::path& png, int threads = 0);
 
-// Highlight shape statistics (issue 4, "highlights are irregular"): pixels
+// Highlight shape statistics (are the highlights irregular, as the paper says they should be?): pixels
 // whose smallest channel is >= threshold (white highlights on pink tissue),
 // 8-connected components of >= minArea pixels, each with perimeter (pixel
 // edges between inside and outside) and P^2/A (16 for a square, ~4 pi * 1.1
