@@ -136,7 +136,7 @@ void set(MapParams& p, MapParam id, const json& v, const std::string& subject, c
                 n = static_cast<std::int64_t>(std::min<std::uint64_t>(u, 1ull << 62));
             } else {
                 n = v.get<std::int64_t>();
-                if (n < i.min || static_cast<double>(n) > i.max)
+                if (static_cast<double>(n) < i.min || static_cast<double>(n) > i.max)
                     fail(outOfRange(i, std::to_string(n)));
                 u = static_cast<std::uint64_t>(n);
             }
