@@ -1,6 +1,6 @@
-// Centreline UVs for tubes and branching tubes (level-set diagram, Lazarus &
+// Centerline UVs for tubes and branching tubes (level-set diagram, Lazarus &
 // Verroust 1999): geodesic distance from the proximal end, rings of equal
-// distance, their centroids as the centreline, angle around it and arc length
+// distance, their centroids as the centerline, angle around it and arc length
 // along it as (u, v).
 #include <mucosa/mesh/uv.hpp>
 
@@ -60,11 +60,11 @@ struct Branch {
 
 CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& opt) {
     validateIndices(mesh);
-    if (mesh.triangleCount() == 0) throw InputError("centreline UVs", "", "the mesh has no triangles");
+    if (mesh.triangleCount() == 0) throw InputError("centerline UVs", "", "the mesh has no triangles");
     for (const Vec3& p : mesh.positions)
-        if (!finite(p)) throw InputError("centreline UVs", "", "the mesh has non-finite positions");
+        if (!finite(p)) throw InputError("centerline UVs", "", "the mesh has non-finite positions");
     const std::size_t nv = mesh.vertexCount();
-    requireMemory(saturatingMul(nv, 160) + saturatingMul(mesh.indices.size(), 48), "centreline UVs");
+    requireMemory(saturatingMul(nv, 160) + saturatingMul(mesh.indices.size(), 48), "centerline UVs");
 
     // Topology on welded positions.
     std::vector<std::uint32_t> ids;
@@ -348,7 +348,7 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
     }
 
     // Which way each branch's surface faces: outward (away from its
-    // centreline) or inward (a lumen seen from inside, or the inner wall of a
+    // centerline) or inward (a lumen seen from inside, or the inner wall of a
     // thick tube). The angle runs the other way on inward-facing branches, so
     // (u, v) keep the triangles' counter-clockwise orientation everywhere (no
     // mirrored texture, tangent w = +1).

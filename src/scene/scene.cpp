@@ -200,10 +200,10 @@ void setMapParameter(Scene& scene, const std::string& key, const std::string& va
 namespace {
 
 std::vector<mesh::Vec3> longestPath(const mesh::Centerline& c, int branch, const std::string& file) {
-    if (c.branches.empty()) throw InputError("camera.path.centreline", file, "the centreline has no branches");
+    if (c.branches.empty()) throw InputError("camera.path.centerline", file, "the centerline has no branches");
     if (branch >= static_cast<int>(c.branches.size()))
         throw InputError("camera.path.branch", file,
-                         fmt::format("{} is out of range (the centreline has {} branches)", branch, c.branches.size()));
+                         fmt::format("{} is out of range (the centerline has {} branches)", branch, c.branches.size()));
     if (branch >= 0) return mesh::pathToBranch(c, branch);
     std::vector<mesh::Vec3> best;
     float bestLen = -1;
@@ -221,7 +221,7 @@ Scene defaultScene() {
     Scene s;
     s.mapParams = reflectance::findPreset("bronchial").params;
     s.mapParams.bits = 8;
-    s.path.kind = "centreline";
+    s.path.kind = "centerline";
     s.path.fly.frames = 120;
     s.generatedDiffuse = true;
     // The phantom at 1 grid cell per mm (~150 k triangles): real-time on a
@@ -342,7 +342,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
             s.diffuse = dir / "texture.png";
             s.generatedDiffuse = false;
             // The atlas spans the mesh's UV rectangle (brdf.json uv_min,
-            // uv_max; [0, 1] unless the UVs leave it, as centreline UVs do).
+            // uv_max; [0, 1] unless the UVs leave it, as centerline UVs do).
             if (bj.contains("uv_min") && bj.contains("uv_max")) {
                 const auto vec2 = [&](const json& v, const char* key) {
                     if (!v.is_array() || v.size() != 2) P.fail("fit", fmt::format("brdf.json: {} must be [u, v]", key));
@@ -387,9 +387,18 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         if (c.contains("path")) {
             const json& p = c["path"];
             P.object(p, "camera.path");
-            P.known(p, "camera.path.", {"poses", "centreline", "branch", "speed_mm", "start_mm", "look_ahead_mm"});
-            if (p.contains("poses") == p.contains("centreline"))
-                P.fail("camera.path", "needs exactly one of poses and centreline");
+            P.known(p, "camera.path.",
+                    {"poses", "centerline", "centreline", "branch", "speed_mm", "start_mm", "look_ahead_mm"});
+            // "centreline": the British spelling, accepted for one release.
+            if (p.contains("centreline")) {
+                if (p.contains("centerline"))
+                    P.fail("camera.path.centreline", "give one of centerline and centreline (deprecated), not both");
+                s.warnings.push_back(
+                    describe(InputError("camera.path.centreline", P.file, "'centreline' is deprecated, use 'centerline'")));
+            }
+            const char* const centerlineKey = p.contains("centreline") ? "centreline" : "centerline";
+            if (p.contains("poses") == p.contains(centerlineKey))
+                P.fail("camera.path", "needs exactly one of poses and centerline");
             if (p.contains("poses")) {
                 const json& list = p["poses"];
                 if (!list.is_array() || list.empty()) P.fail("camera.path.poses", "must be a non-empty array of poses");
@@ -397,9 +406,10 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
                 for (std::size_t i = 0; i < list.size(); ++i)
                     s.path.poses.push_back(P.pose(list[i], fmt::format("camera.path.poses[{}]", i)));
             } else {
-                s.path.kind = "centreline";
-                const std::string v = P.string(p["centreline"], "camera.path.centreline");
-                if (v != "auto") s.path.centrelineFile = P.path(p["centreline"], "camera.path.centreline");
+                s.path.kind = "centerline";
+                const std::string field = std::string("camera.path.") + centerlineKey;
+                const std::string v = P.string(p[centerlineKey], field);
+                if (v != "auto") s.path.centerlineFile = P.path(p[centerlineKey], field);
                 if (p.contains("branch")) s.path.branch = P.integer(p["branch"], "camera.path.branch", 0, 1 << 20);
                 if (p.contains("speed_mm")) s.path.fly.speedMm = P.positive(p["speed_mm"], "camera.path.speed_mm");
                 if (p.contains("start_mm")) {
@@ -429,11 +439,11 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         pp.resolution = scene.mesh.phantomResolution;
         mesh::Phantom ph = mesh::makePhantom(pp, threads);
         a.mesh = std::move(ph.mesh);
-        a.centreline = longestPath(ph.centerline, scene.path.branch, file);
+        a.centerline = longestPath(ph.centerline, scene.path.branch, file);
         a.notes.push_back(fmt::format("phantom: {} generations, {} triangles", pp.generations, a.mesh.triangleCount()));
     } else if (scene.mesh.kind == "tube") {
         a.mesh = mesh::makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
-        a.centreline = mesh::tubeCenterline(kTubeLength, 64);
+        a.centerline = mesh::tubeCenterline(kTubeLength, 64);
         a.notes.push_back(fmt::format("tube: radius {} mm, length {} mm, {} triangles", kTubeRadius, kTubeLength,
                                       a.mesh.triangleCount()));
     } else {
@@ -462,9 +472,9 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         }
         a.notes.push_back(fmt::format("mesh: {} ({} triangles)", scene.mesh.file.string(), a.mesh.triangleCount()));
     }
-    if (scene.path.kind == "centreline" && !scene.path.centrelineFile.empty()) {
-        a.centreline = longestPath(mesh::readCenterlineJson(scene.path.centrelineFile), scene.path.branch,
-                                   scene.path.centrelineFile.string());
+    if (scene.path.kind == "centerline" && !scene.path.centerlineFile.empty()) {
+        a.centerline = longestPath(mesh::readCenterlineJson(scene.path.centerlineFile), scene.path.branch,
+                                   scene.path.centerlineFile.string());
     }
     if (scene.diffuse)
         a.diffuse = image::to8(image::readPng(*scene.diffuse));
@@ -494,12 +504,12 @@ std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& ass
         if (scene.pose) return std::vector<camera::Pose>(static_cast<std::size_t>(frames), *scene.pose);
     }
     if (scene.path.kind == "poses") return camera::interpolatePoses(scene.path.poses, frames);
-    if (assets.centreline.size() < 2)
+    if (assets.centerline.size() < 2)
         throw InputError("camera.path", scene.file.string(),
-                         "the mesh has no centreline to fly along: give camera.pose or camera.path");
+                         "the mesh has no centerline to fly along: give camera.pose or camera.path");
     camera::FlyThrough fly = scene.path.fly;
     fly.frames = frames;
-    return camera::flyThrough(assets.centreline, fly);
+    return camera::flyThrough(assets.centerline, fly);
 }
 
 shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int width, int height) {

@@ -81,6 +81,32 @@ TEST(RenderScene, BadScenesNameTheField) {
     EXPECT_EQ(subjectOf(R"({"mesh": "tube",)"), "JSON");
 }
 
+// One spelling (centerline); the British key is read for one release, with a
+// warning naming it, and giving both is an error.
+TEST(RenderScene, DeprecatedCentrelineKeyIsReadWithAWarning) {
+    const scene::Scene us =
+        scene::parseScene(R"({"mesh": "a.glb", "camera": {"path": {"centerline": "a.centerline.json"}}})", "/d/s.json");
+    EXPECT_TRUE(us.warnings.empty());
+    const scene::Scene uk =
+        scene::parseScene(R"({"mesh": "a.glb", "camera": {"path": {"centreline": "a.centerline.json"}}})", "/d/s.json");
+    EXPECT_EQ(uk.path.centerlineFile, us.path.centerlineFile);
+    ASSERT_EQ(uk.warnings.size(), 1u);
+    EXPECT_EQ(uk.warnings[0],
+              "camera.path.centreline in /d/s.json: 'centreline' is deprecated, use 'centerline'");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "camera": {"path": {"centerline": "auto", "centreline": "auto"}}})"),
+              "camera.path.centreline");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "camera": {"path": {"centreline": 3}}})"), "camera.path.centreline");
+
+    test::TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [64, 48],
+                                          "camera": {"path": {"centreline": "auto"}}})";
+    const auto r = test::runCli("render tube.json -o t.png --mode diffuse", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("warning: camera.path.centreline in tube.json: 'centreline' is deprecated, use 'centerline'"),
+              std::string::npos)
+        << r.err;
+}
+
 TEST(RenderScene, CliReportsOneErrorLineNamingTheField) {
     test::TempDir dir;
     const auto scene = dir / "bad.json";

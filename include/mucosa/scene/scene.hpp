@@ -26,11 +26,11 @@ struct MeshSpec {
 };
 
 struct PathSpec {
-    // "none" (one pose), "poses" (key poses interpolated), "centreline" (fly-through).
-    std::string kind = "centreline";
+    // "none" (one pose), "poses" (key poses interpolated), "centerline" (fly-through).
+    std::string kind = "centerline";
     std::vector<camera::Pose> poses;
-    std::filesystem::path centrelineFile;  // empty: the mesh's own (phantom/tube)
-    int branch = -1;                       // centreline branch to fly to; -1 = the longest path
+    std::filesystem::path centerlineFile;  // empty: the mesh's own (phantom/tube)
+    int branch = -1;                       // centerline branch to fly to; -1 = the longest path
     camera::FlyThrough fly;
 };
 
@@ -61,6 +61,9 @@ struct Scene {
     PathSpec path;
     int width = 640, height = 480;
     int frames = 1;
+    // What parsing accepted but warns about (a deprecated key), one line each
+    // ("<field> in <file>: <why>"), for the CLI to print.
+    std::vector<std::string> warnings;
 };
 
 // `--set reflectance_map.<key>=<value>`: one of the map parameters (the keys
@@ -72,7 +75,7 @@ struct Scene {
 void setMapParameter(Scene& scene, const std::string& key, const std::string& value);
 
 // The built-in default: the phantom, 'bronchial' map (1024 texels), flying
-// down the centreline.
+// down the centerline.
 Scene defaultScene();
 
 // Parses a scene file. Relative paths are resolved against the file's folder.
@@ -84,7 +87,7 @@ Scene parseScene(const std::string& jsonText, const std::filesystem::path& fileF
 // What a scene needs at render time, loaded/generated once.
 struct SceneAssets {
     mesh::Mesh mesh;                     // with normals, uvs and tangents
-    std::vector<mesh::Vec3> centreline;  // the fly-through polyline (mm); may be empty
+    std::vector<mesh::Vec3> centerline;  // the fly-through polyline (mm); may be empty
     image::Image8 diffuse;               // empty: none
     image::Image8 reflectanceMap;        // empty: not generated (loadAssets(..., false))
     // The multitexture baseline's highlight texture for the scene's shininess
