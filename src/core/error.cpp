@@ -12,8 +12,7 @@ std::string compose(const std::string& what, const std::string& file, const std:
     return s;
 }
 
-std::string composeAt(const std::string& what, const std::string& file, int line, int column,
-                      const std::string& why) {
+std::string composeAt(const std::string& what, const std::string& file, int line, int column, const std::string& why) {
     std::string s = (file.empty() ? "line " + std::to_string(line) + ", column " + std::to_string(column)
                                   : file + ":" + std::to_string(line) + ":" + std::to_string(column)) +
                     ": " + what;

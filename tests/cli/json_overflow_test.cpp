@@ -12,11 +12,11 @@
 #include <gtest/gtest.h>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/scene/scene.hpp>
+#include <mucosa/shading/brdf.hpp>
 #include <mucosa/study/plan.hpp>
 
 #include "test_support.hpp"

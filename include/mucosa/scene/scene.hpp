@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <mucosa/camera/camera.hpp>
@@ -16,18 +17,30 @@
 
 namespace mucosa::scene {
 
+// What the mesh is: the built-in phantom, a curved analytic tube, or a file.
+enum class MeshKind { Phantom, Tube, File };
+// How the camera moves: one pose, key poses interpolated, or a fly-through
+// along a centerline.
+enum class PathKind { None, Poses, Centerline };
+
+// The names scene files and messages use: "phantom", "tube", "file"; "none",
+// "poses", "centerline".
+std::string_view meshKindName(MeshKind kind) noexcept;
+std::string_view pathKindName(PathKind kind) noexcept;
+// The inverse; InputError(field, file, "unknown ... (known: ...)") for any other name.
+MeshKind parseMeshKind(std::string_view name, const std::string& field = "mesh", const std::string& file = "");
+PathKind parsePathKind(std::string_view name, const std::string& field = "camera.path", const std::string& file = "");
+
 struct MeshSpec {
-    // "phantom" (built in), "tube" (a curved analytic tube), or "file".
-    std::string kind = "phantom";
-    std::filesystem::path file;  // kind == "file"
+    MeshKind kind = MeshKind::Phantom;
+    std::filesystem::path file;  // kind == MeshKind::File
     int phantomGenerations = 3;
     std::uint64_t phantomSeed = 1;
     double phantomResolution = 1.0;  // grid cells per mm
 };
 
 struct PathSpec {
-    // "none" (one pose), "poses" (key poses interpolated), "centerline" (fly-through).
-    std::string kind = "centerline";
+    PathKind kind = PathKind::Centerline;
     std::vector<camera::Pose> poses;
     std::filesystem::path centerlineFile;  // empty: the mesh's own (phantom/tube)
     int branch = -1;                       // centerline branch to fly to; -1 = the longest path
