@@ -127,9 +127,9 @@ void convert(const MeshArgs& a, const Global& g) {
         info(g, "flipped: normals and winding now face the other side");
     }
     if (a.uv == "centerline") {
-        progress("centreline UVs");
+        progress("centerline UVs");
         const mesh::CenterlineUvReport r = mesh::computeCenterlineUvs(m);
-        info(g, fmt::format("centreline UVs: {} pieces, {} branches, tile {:.2f} mm, {} seam vertices", r.pieces,
+        info(g, fmt::format("centerline UVs: {} pieces, {} branches, tile {:.2f} mm, {} seam vertices", r.pieces,
                             r.centerline.branches.size(), r.tileLength, r.seamVertices));
         tangentsStale = true;
     }

@@ -1,4 +1,4 @@
-// mucosa phantom: the built-in airway phantom (mesh + centreline JSON).
+// mucosa phantom: the built-in airway phantom (mesh + centerline JSON).
 #include <chrono>
 #include <cstdio>
 
@@ -25,11 +25,11 @@ struct PhantomArgs {
 void addPhantomCommand(CLI::App& app, Global& g) {
     auto a = std::make_shared<PhantomArgs>();
     CLI::App* c =
-        app.add_subcommand("phantom", "Generate the synthetic airway phantom (bronchial tree mesh + centreline JSON)");
+        app.add_subcommand("phantom", "Generate the synthetic airway phantom (bronchial tree mesh + centerline JSON)");
     c->footer(
         "Example: mucosa phantom -o airway.glb --generations 3 --seed 1\n"
         "Millimetres; origin at the top of the trachea, +Y up (cranial), +X the patient's left, +Z anterior.\n"
-        "Normals face the lumen. The centreline tree (points, radii, parent links) goes to OUT.centerline.json.");
+        "Normals face the lumen. The centerline tree (points, radii, parent links) goes to OUT.centerline.json.");
     const mesh::PhantomParams d;
     c->add_option("-o,--output", a->output, "Output mesh (.glb, .gltf, .ply, .obj) [airway.glb]");
     c->add_option("--generations", a->p.generations,
@@ -38,7 +38,7 @@ void addPhantomCommand(CLI::App& app, Global& g) {
     c->add_option("--seed", a->p.seed, fmt::format("Seed of the branching jitter [{}]", d.seed));
     c->add_option("--resolution", a->p.resolution,
                   fmt::format("Grid cells per millimetre of the implicit surface (0.25..16) [{}]", d.resolution));
-    c->add_option("--centerline", a->centerline, "Centreline JSON path [OUT with .centerline.json]");
+    c->add_option("--centerline", a->centerline, "Centerline JSON path [OUT with .centerline.json]");
     c->add_flag("--no-rings", a->noRings, "Smooth walls without cartilage ring ridges");
     c->callback([a, &g] {
         mesh::outputFormat(a->output);

@@ -1,4 +1,4 @@
-// mucosa study: plan a perceptual realism study, run it in a browser, analyse it
+// mucosa study: plan a perceptual realism study, run it in a browser, analyze it
 // (the paper's user study, section "Visual assessment").
 #include <pthread.h>
 
@@ -106,8 +106,23 @@ void runAnalyze(const AnalyzeArgs& a, const Global& g) {
                         data.choices.empty() ? "" : ", pairs.csv"));
 }
 
+CLI::App* addAnalyzeCommand(CLI::App& study, const std::string& name, Global& g) {
+    auto an = std::make_shared<AnalyzeArgs>();
+    CLI::App* analyze = study.add_subcommand(name, "Statistics, HTML report and figures from the answers");
+    analyze->footer(
+        "Example: mucosa study analyze answers.sqlite -o report/\n"
+        "         mucosa study analyze ratings.csv --twoafc pairs.csv -o report/");
+    analyze->add_option("input", an->input, "answers.sqlite (from study serve) or ratings.csv")->required();
+    analyze->add_option("--twoafc", an->twoafc,
+                        "2AFC choices CSV (observer,group,left_category,right_category,"
+                        "chosen_category); replaces the database's 2AFC answers");
+    analyze->add_option("-o,--output", an->output, "Report folder (stats.json, report.html, SVG figures)")->required();
+    analyze->callback([an, &g] { runAnalyze(*an, g); });
+    return analyze;
+}
+
 void addStudyCommand(CLI::App& app, Global& g) {
-    CLI::App* study = app.add_subcommand("study", "Perceptual realism study: plan, serve in a browser, analyse");
+    CLI::App* study = app.add_subcommand("study", "Perceptual realism study: plan, serve in a browser, analyze");
     study->require_subcommand(1);
 
     auto p = std::make_shared<PlanArgs>();
@@ -151,18 +166,9 @@ void addStudyCommand(CLI::App& app, Global& g) {
         ->check(CLI::Range(1, 100000));
     serve->callback([sv, &g] { runServe(*sv, g); });
 
-    auto an = std::make_shared<AnalyzeArgs>();
-    CLI::App* analyze = study->add_subcommand("analyze", "Statistics, HTML report and figures from the answers");
-    analyze->alias("analyse");
-    analyze->footer(
-        "Example: mucosa study analyze answers.sqlite -o report/\n"
-        "         mucosa study analyze ratings.csv --twoafc pairs.csv -o report/");
-    analyze->add_option("input", an->input, "answers.sqlite (from study serve) or ratings.csv")->required();
-    analyze->add_option("--twoafc", an->twoafc,
-                        "2AFC choices CSV (observer,group,left_category,right_category,"
-                        "chosen_category); replaces the database's 2AFC answers");
-    analyze->add_option("-o,--output", an->output, "Report folder (stats.json, report.html, SVG figures)")->required();
-    analyze->callback([an, &g] { runAnalyze(*an, g); });
+    addAnalyzeCommand(*study, "analyze", g);
+    // The British spelling still runs, unlisted (CLI11 lists an alias in --help).
+    addAnalyzeCommand(*study, "analyse", g)->group("");
 }
 
 }  // namespace

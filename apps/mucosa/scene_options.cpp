@@ -43,6 +43,7 @@ std::pair<int, int> parseSize(const std::string& text) {
 
 scene::Scene resolveScene(const SceneOptions& o) {
     scene::Scene s = o.sceneFile.empty() ? scene::defaultScene() : scene::loadScene(o.sceneFile);
+    for (const std::string& w : s.warnings) warn(w);
     if (!o.mode.empty()) s.mode = shading::parseMode(o.mode, "--mode");
     if (!o.size.empty()) std::tie(s.width, s.height) = parseSize(o.size);
     if (!o.noiseSpace.empty()) {

@@ -24,8 +24,8 @@ struct SceneOptions {
 // Adds [scene.json], --mode, --size, --noise-space, --specular-aa, --set to `c`.
 void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize = true);
 
-// Loads the scene (or the default one) and applies the overrides; InputError
-// names the option on bad values.
+// Loads the scene (or the default one), prints its warnings (deprecated keys)
+// and applies the overrides; InputError names the option on bad values.
 scene::Scene resolveScene(const SceneOptions& o);
 
 // "640x480" -> (640, 480); InputError("--size", ...) otherwise.

@@ -121,20 +121,20 @@ float pathLength(const std::vector<Vec3>& polyline) {
     return len;
 }
 
-std::vector<Pose> flyThrough(const std::vector<Vec3>& centreline, const FlyThrough& o) {
+std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrough& o) {
     if (o.frames < 1) throw InputError("frames", "", "must be at least 1");
     // Drop repeated points; keep the cumulative arc length.
     std::vector<glm::vec3> pts;
     std::vector<float> arc;
-    for (const Vec3& p : centreline) {
+    for (const Vec3& p : centerline) {
         const glm::vec3 q = v(p);
         if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z))
-            throw InputError("camera.path", "", "centreline has a non-finite point");
+            throw InputError("camera.path", "", "centerline has a non-finite point");
         if (!pts.empty() && glm::length(q - pts.back()) < 1e-6f) continue;
         arc.push_back(pts.empty() ? 0.0f : arc.back() + glm::length(q - pts.back()));
         pts.push_back(q);
     }
-    if (pts.size() < 2) throw InputError("camera.path", "", "centreline needs at least two distinct points");
+    if (pts.size() < 2) throw InputError("camera.path", "", "centerline needs at least two distinct points");
     const float total = arc.back();
     const auto at = [&](float s) {
         s = std::clamp(s, 0.0f, total);

@@ -11,6 +11,14 @@ std::string compose(const std::string& what, const std::string& file, const std:
     if (!why.empty()) s += ": " + why;
     return s;
 }
+
+std::string composeAt(const std::string& what, const std::string& file, int line, int column, const std::string& why) {
+    std::string s = (file.empty() ? "line " + std::to_string(line) + ", column " + std::to_string(column)
+                                  : file + ":" + std::to_string(line) + ":" + std::to_string(column)) +
+                    ": " + what;
+    if (!why.empty()) s += ": " + why;
+    return s;
+}
 }  // namespace
 
 Error::Error(std::string what, std::string file, std::string why)
@@ -18,6 +26,14 @@ Error::Error(std::string what, std::string file, std::string why)
       subject_(std::move(what)),
       file_(std::move(file)),
       reason_(std::move(why)) {}
+
+Error::Error(std::string what, std::string file, int line, int column, std::string why)
+    : std::runtime_error(composeAt(what, file, line, column, why)),
+      subject_(std::move(what)),
+      file_(std::move(file)),
+      reason_(std::move(why)),
+      line_(line),
+      column_(column) {}
 
 std::string describe(const Error& e) {
     return e.what();

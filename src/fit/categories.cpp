@@ -18,6 +18,8 @@
 #include <mucosa/shading/params.hpp>
 #include <mucosa/shading/reference.hpp>
 
+#include "core/json_parse.hpp"
+
 namespace mucosa::fit {
 
 namespace fs = std::filesystem;
@@ -27,7 +29,7 @@ FittedModel readFitDirectory(const fs::path& dir) {
     FittedModel m;
     const fs::path brdfPath = dir / "brdf.json";
     m.brdf = shading::readBrdf(brdfPath);
-    const json j = json::parse(readTextFile(brdfPath));
+    const json j = detail::parseJsonFile(readTextFile(brdfPath), brdfPath.string());
     for (int i = 0; i < 2; ++i) {
         if (j.contains("uv_min")) m.uvMin[static_cast<std::size_t>(i)] = j["uv_min"][i].get<float>();
         if (j.contains("uv_max")) m.uvMax[static_cast<std::size_t>(i)] = j["uv_max"][i].get<float>();

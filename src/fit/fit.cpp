@@ -68,7 +68,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
         if (!isHeld) samples.insert(samples.end(), s.begin(), s.end());
     }
     // The atlas spans the UV rectangle of the mesh (texture coordinates outside
-    // [0, 1], as centreline UVs along a long airway, are not wrapped).
+    // [0, 1], as centerline UVs along a long airway, are not wrapped).
     float umin = mesh.uvs[0][0], umax = umin, vmin = mesh.uvs[0][1], vmax = vmin;
     for (const auto& uv : mesh.uvs) {
         umin = std::min(umin, uv[0]);

@@ -86,7 +86,7 @@ Centerline readCenterlineJson(const std::filesystem::path& path) {
 
 std::vector<Vec3> pathToBranch(const Centerline& c, int branch) {
     if (branch < 0 || branch >= static_cast<int>(c.branches.size()))
-        throw InputError("branch", "", fmt::format("{} is not a branch of the centreline", branch));
+        throw InputError("branch", "", fmt::format("{} is not a branch of the centerline", branch));
     std::vector<int> chain;
     for (int b = branch; b >= 0; b = c.branches[static_cast<std::size_t>(b)].parent) chain.push_back(b);
     std::vector<Vec3> path;

@@ -1,6 +1,6 @@
-// Centreline UVs for tubes and branching tubes (level-set diagram, Lazarus &
+// Centerline UVs for tubes and branching tubes (level-set diagram, Lazarus &
 // Verroust 1999): geodesic distance from the proximal end, rings of equal
-// distance, their centroids as the centreline, angle around it and arc length
+// distance, their centroids as the centerline, angle around it and arc length
 // along it as (u, v). computeCenterlineUvs at the end reads as its phases.
 #include <mucosa/mesh/uv.hpp>
 
@@ -55,7 +55,7 @@ struct Branch {
     double radius = 0;
     int wraps = 1;
     double vRate = 0;   // texture v per mm along the branch
-    double facing = 0;  // > 0: the surface faces away from the centreline; < 0: towards it
+    double facing = 0;  // > 0: the surface faces away from the centerline; < 0: towards it
 };
 
 // The mesh's connectivity on welded positions.
@@ -381,7 +381,7 @@ double tileBranches(const Topology& t, Rings& r, std::vector<Branch>& branches, 
     return L;
 }
 
-// Which way each branch's surface faces: outward (away from its centreline)
+// Which way each branch's surface faces: outward (away from its centerline)
 // or inward (a lumen seen from inside, or the inner wall of a thick tube).
 // The angle runs the other way on inward-facing branches, so (u, v) keep the
 // triangles' counter-clockwise orientation everywhere (no mirrored texture,
@@ -478,7 +478,7 @@ Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& bra
     return out;
 }
 
-// The centreline the UVs follow: one branch per chain of rings.
+// The centerline the UVs follow: one branch per chain of rings.
 Centerline centerlineOf(const Rings& r, const std::vector<Branch>& branches) {
     Centerline c;
     c.axes = "as the mesh";
@@ -501,10 +501,10 @@ Centerline centerlineOf(const Rings& r, const std::vector<Branch>& branches) {
 
 CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& opt) {
     validateIndices(mesh);
-    if (mesh.triangleCount() == 0) throw InputError("centreline UVs", "", "the mesh has no triangles");
+    if (mesh.triangleCount() == 0) throw InputError("centerline UVs", "", "the mesh has no triangles");
     for (const Vec3& p : mesh.positions)
-        if (!finite(p)) throw InputError("centreline UVs", "", "the mesh has non-finite positions");
-    requireMemory(saturatingMul(mesh.vertexCount(), 160) + saturatingMul(mesh.indices.size(), 48), "centreline UVs");
+        if (!finite(p)) throw InputError("centerline UVs", "", "the mesh has non-finite positions");
+    requireMemory(saturatingMul(mesh.vertexCount(), 160) + saturatingMul(mesh.indices.size(), 48), "centerline UVs");
 
     const Topology topology = buildTopology(mesh);
     const Vec3d up = normalizeOr(toD(opt.up), Vec3d{0, 1, 0});

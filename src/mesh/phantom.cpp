@@ -283,7 +283,7 @@ void checkParams(const PhantomParams& p) {
 Centerline toCenterline(const std::vector<Tube>& tubes) {
     Centerline c;
     c.axes =
-        "millimetres; origin at the top of the trachea's centreline; +Y cranial (up), +X the patient's left, "
+        "millimetres; origin at the top of the trachea's centerline; +Y cranial (up), +X the patient's left, "
         "+Z anterior; the trachea runs down -Y";
     for (const Tube& t : tubes) {
         CenterlineBranch b;
@@ -389,7 +389,7 @@ Phantom makePhantom(const PhantomParams& params, int threads, const Progress& pr
     out.centerline = toCenterline(tubes);
 
     if (params.uvs) {
-        report(0.75, "centreline UVs");
+        report(0.75, "centerline UVs");
         CenterlineUvOptions uo;
         uo.up = {0, 1, 0};
         computeCenterlineUvs(out.mesh, uo);

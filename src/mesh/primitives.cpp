@@ -22,7 +22,7 @@ void gridIndices(Mesh& m, int cols, int rows) {
         }
 }
 
-// Tube centreline: straight for the first third, then an arc bending towards +x.
+// Tube centerline: straight for the first third, then an arc bending towards +x.
 void tubeFrame(float length, float s, Vec3& c, Vec3& t) {
     const float straight = length / 3.0f, bendRadius = length;
     if (s <= straight) {

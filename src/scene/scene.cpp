@@ -205,11 +205,50 @@ void setMapParameter(Scene& scene, const std::string& key, const std::string& va
 
 namespace {
 
+// The kinds' names, in enum order (static_asserts below).
+constexpr std::array<std::string_view, 3> kMeshKindNames{"phantom", "tube", "file"};
+constexpr std::array<std::string_view, 3> kPathKindNames{"none", "poses", "centerline"};
+static_assert(static_cast<std::size_t>(MeshKind::Phantom) == 0 && static_cast<std::size_t>(MeshKind::Tube) == 1 &&
+              static_cast<std::size_t>(MeshKind::File) == 2 && kMeshKindNames.size() == 3);
+static_assert(static_cast<std::size_t>(PathKind::None) == 0 && static_cast<std::size_t>(PathKind::Poses) == 1 &&
+              static_cast<std::size_t>(PathKind::Centerline) == 2 && kPathKindNames.size() == 3);
+
+template <class Kind, std::size_t N>
+Kind parseKind(const std::array<std::string_view, N>& names, std::string_view name, const char* what,
+               const std::string& field, const std::string& file) {
+    std::string list;
+    for (std::size_t i = 0; i < N; ++i) {
+        if (names[i] == name) return static_cast<Kind>(i);
+        list += (list.empty() ? "" : ", ") + std::string(names[i]);
+    }
+    throw InputError(field, file, fmt::format("unknown {} '{}' (known: {})", what, name, list));
+}
+
+}  // namespace
+
+std::string_view meshKindName(MeshKind kind) noexcept {
+    return kMeshKindNames[static_cast<std::size_t>(kind)];
+}
+
+std::string_view pathKindName(PathKind kind) noexcept {
+    return kPathKindNames[static_cast<std::size_t>(kind)];
+}
+
+MeshKind parseMeshKind(std::string_view name, const std::string& field, const std::string& file) {
+    return parseKind<MeshKind>(kMeshKindNames, name, "mesh kind", field, file);
+}
+
+PathKind parsePathKind(std::string_view name, const std::string& field, const std::string& file) {
+    return parseKind<PathKind>(kPathKindNames, name, "camera path kind", field, file);
+}
+
+namespace {
+
 std::vector<mesh::Vec3> longestPath(const mesh::Centerline& c, int branch, const std::string& file) {
-    if (c.branches.empty()) throw InputError("camera.path.centreline", file, "the centreline has no branches");
+    if (c.branches.empty()) throw InputError("camera.path.centerline", file, "the centerline has no branches");
     if (branch >= static_cast<int>(c.branches.size()))
         throw InputError("camera.path.branch", file,
-                         fmt::format("{} is out of range (the centreline has {} branches)", branch, c.branches.size()));
+                         fmt::format("{} is out of range (the centerline has {} branches)", branch, c.branches.size()));
     if (branch >= 0) return mesh::pathToBranch(c, branch);
     std::vector<mesh::Vec3> best;
     float bestLen = -1;
@@ -221,54 +260,33 @@ std::vector<mesh::Vec3> longestPath(const mesh::Centerline& c, int branch, const
     return best;
 }
 
-}  // namespace
+// The scene's sections, one reader each, in the order parseScene runs them.
 
-Scene defaultScene() {
-    Scene s;
-    s.mapParams = reflectance::findPreset("bronchial").params;
-    s.mapParams.bits = 8;
-    s.path.kind = "centreline";
-    s.path.fly.frames = 120;
-    s.generatedDiffuse = true;
-    // The phantom at 1 grid cell per mm (~150 k triangles): real-time on a
-    // CPU rasteriser, and the light has faded to ~5 % at the far plane.
-    s.mesh.phantomResolution = 1.0;
-    s.lens.farMm = 160.0f;
-    return s;
-}
-
-Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
-    const Parser P{fileForErrors.string(), fileForErrors.parent_path()};
-    const json j = detail::parseJsonFile(text, P.file);
-    P.object(j, "scene");
-    P.known(j, "",
-            {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
-             "light", "camera", "resolution", "frames", "noise_space", "specular_aa"});
-    Scene s = defaultScene();
-    s.file = fileForErrors;
+// "mesh" (required), "lit_side", "closed": the surface and which side of it is lit.
+void readMesh(const Parser& P, const json& j, Scene& s) {
     if (!j.contains("mesh")) P.fail("mesh", "is missing (a file, \"phantom\" or \"tube\")");
     const json& m = j["mesh"];
     if (m.is_string()) {
         const std::string v = m.get<std::string>();
-        if (v == "phantom" || v == "tube") {
-            s.mesh.kind = v;
+        if (v == meshKindName(MeshKind::Phantom) || v == meshKindName(MeshKind::Tube)) {
+            s.mesh.kind = parseMeshKind(v, "mesh", P.file);
         } else {
-            s.mesh.kind = "file";
+            s.mesh.kind = MeshKind::File;
             s.mesh.file = P.path(m, "mesh");
         }
     } else if (m.is_object()) {
         P.known(m, "mesh.", {"file", "phantom", "tube"});
         if (m.size() != 1) P.fail("mesh", "needs exactly one of file, phantom, tube");
         if (m.contains("file")) {
-            s.mesh.kind = "file";
+            s.mesh.kind = MeshKind::File;
             s.mesh.file = P.path(m["file"], "mesh.file");
         } else if (m.contains("tube")) {
-            s.mesh.kind = "tube";
+            s.mesh.kind = MeshKind::Tube;
         } else {
             const json& ph = m["phantom"];
             P.object(ph, "mesh.phantom");
             P.known(ph, "mesh.phantom.", {"generations", "seed", "resolution"});
-            s.mesh.kind = "phantom";
+            s.mesh.kind = MeshKind::Phantom;
             if (ph.contains("generations"))
                 s.mesh.phantomGenerations = P.integer(ph["generations"], "mesh.phantom.generations", 0, 7);
             if (ph.contains("seed"))
@@ -285,15 +303,22 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         s.normalSign = v == "front" ? 1.0f : -1.0f;
     }
     if (j.contains("closed")) s.closed = P.boolean(j["closed"], "closed");
-    if (j.contains("diffuse")) {
-        s.generatedDiffuse = false;
-        if (j["diffuse"].is_string() && j["diffuse"].get<std::string>() == "generated")
-            s.generatedDiffuse = true;
-        else if (j["diffuse"].is_string() && j["diffuse"].get<std::string>() == "none")
-            s.diffuse.reset();
-        else
-            s.diffuse = P.path(j["diffuse"], "diffuse");
-    }
+}
+
+// "diffuse": a subject texture file, "generated" or "none".
+void readDiffuse(const Parser& P, const json& j, Scene& s) {
+    if (!j.contains("diffuse")) return;
+    s.generatedDiffuse = false;
+    if (j["diffuse"].is_string() && j["diffuse"].get<std::string>() == "generated")
+        s.generatedDiffuse = true;
+    else if (j["diffuse"].is_string() && j["diffuse"].get<std::string>() == "none")
+        s.diffuse.reset();
+    else
+        s.diffuse = P.path(j["diffuse"], "diffuse");
+}
+
+// "reflectance_map" (a file or map parameters) and "filter": the map and how it is sampled.
+void readReflectanceMap(const Parser& P, const json& j, Scene& s) {
     if (j.contains("reflectance_map")) {
         const json& r = j["reflectance_map"];
         if (r.is_string())
@@ -314,6 +339,10 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         else
             P.fail("filter", "must be nearest, linear, mipmap or trilinear, not '" + v + "'");
     }
+}
+
+// "mode", "noise_space", "specular_aa": what the shader computes.
+void readShading(const Parser& P, const json& j, Scene& s) {
     if (j.contains("mode")) s.mode = shading::parseMode(P.string(j["mode"], "mode"), "mode", P.file);
     if (j.contains("noise_space")) {
         const std::string v = P.string(j["noise_space"], "noise_space");
@@ -321,52 +350,65 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         s.noiseSpace = v == "uv" ? shading::NoiseSpace::Uv : shading::NoiseSpace::Object;
     }
     if (j.contains("specular_aa")) s.specularAA = P.boolean(j["specular_aa"], "specular_aa");
+}
+
+// "material": the registry's material group.
+void readMaterial(const Parser& P, const json& j, Scene& s) {
     if (j.contains("material")) P.registryGroup(j["material"], "material", s.params);
-    // "fit": the output folder of mucosa fit: its brdf.json sets c0..c3,
-    // d1..d3 and the depth range, its texture.png is the diffuse texture
-    // (unless "diffuse" names another); explicit "brdf" values override.
-    if (j.contains("fit")) {
-        const fs::path dir = P.path(j["fit"], "fit");
-        shading::BrdfParams b;
-        json bj;  // brdf.json, read once: the BRDF and (below) the atlas rectangle
-        try {
-            bj = detail::parseJsonFile(readTextFile(dir / "brdf.json"), (dir / "brdf.json").string());
-            b = shading::brdfFromJson(bj, (dir / "brdf.json").string());
-        } catch (const Error& e) {
-            P.fail("fit", e.what());
-        }
-        using shading::Param;
-        const Param cs[4] = {Param::C0, Param::C1, Param::C2, Param::C3};
-        const Param ds[3] = {Param::D1, Param::D2, Param::D3};
-        for (int i = 0; i < 4; ++i)
-            s.params.set(cs[i], static_cast<float>(b.c[static_cast<std::size_t>(i)]), P.file, "fit");
-        for (int i = 0; i < 3; ++i)
-            s.params.set(ds[i], static_cast<float>(b.d[static_cast<std::size_t>(i)]), P.file, "fit");
-        s.params.set(Param::DepthMin, static_cast<float>(b.zmin), P.file, "fit");
-        s.params.set(Param::DepthMax, static_cast<float>(b.zmax), P.file, "fit");
-        if (!j.contains("diffuse")) {
-            s.diffuse = dir / "texture.png";
-            s.generatedDiffuse = false;
-            // The atlas spans the mesh's UV rectangle (brdf.json uv_min,
-            // uv_max; [0, 1] unless the UVs leave it, as centreline UVs do).
-            if (bj.contains("uv_min") && bj.contains("uv_max")) {
-                const auto vec2 = [&](const json& v, const char* key) {
-                    if (!v.is_array() || v.size() != 2) P.fail("fit", fmt::format("brdf.json: {} must be [u, v]", key));
-                    return std::array<float, 2>{static_cast<float>(P.number(v[0], "fit")),
-                                                static_cast<float>(P.number(v[1], "fit"))};
-                };
-                const auto lo = vec2(bj["uv_min"], "uv_min"), hi = vec2(bj["uv_max"], "uv_max");
-                if (!(hi[0] > lo[0] && hi[1] > lo[1])) P.fail("fit", "brdf.json: uv_max must exceed uv_min");
-                s.diffuseUvTransform = {1.0f / (hi[0] - lo[0]), 1.0f / (hi[1] - lo[1]), -lo[0] / (hi[0] - lo[0]),
-                                        -lo[1] / (hi[1] - lo[1])};
-            }
-        }
+}
+
+// "fit": the output folder of mucosa fit: its brdf.json sets c0..c3, d1..d3
+// and the depth range, its texture.png is the diffuse texture (unless
+// "diffuse" names another); explicit "brdf" values (readBrdfAndLight) override.
+void readFit(const Parser& P, const json& j, Scene& s) {
+    if (!j.contains("fit")) return;
+    const fs::path dir = P.path(j["fit"], "fit");
+    shading::BrdfParams b;
+    json bj;  // brdf.json, read once: the BRDF and (below) the atlas rectangle
+    try {
+        bj = detail::parseJsonFile(readTextFile(dir / "brdf.json"), (dir / "brdf.json").string());
+        b = shading::brdfFromJson(bj, (dir / "brdf.json").string());
+    } catch (const Error& e) {
+        P.fail("fit", e.what());
     }
+    using shading::Param;
+    const Param cs[4] = {Param::C0, Param::C1, Param::C2, Param::C3};
+    const Param ds[3] = {Param::D1, Param::D2, Param::D3};
+    for (int i = 0; i < 4; ++i)
+        s.params.set(cs[i], static_cast<float>(b.c[static_cast<std::size_t>(i)]), P.file, "fit");
+    for (int i = 0; i < 3; ++i)
+        s.params.set(ds[i], static_cast<float>(b.d[static_cast<std::size_t>(i)]), P.file, "fit");
+    s.params.set(Param::DepthMin, static_cast<float>(b.zmin), P.file, "fit");
+    s.params.set(Param::DepthMax, static_cast<float>(b.zmax), P.file, "fit");
+    if (j.contains("diffuse")) return;
+    s.diffuse = dir / "texture.png";
+    s.generatedDiffuse = false;
+    // The atlas spans the mesh's UV rectangle (brdf.json uv_min, uv_max; [0,
+    // 1] unless the UVs leave it, as centerline UVs do).
+    if (bj.contains("uv_min") && bj.contains("uv_max")) {
+        const auto vec2 = [&](const json& v, const char* key) {
+            if (!v.is_array() || v.size() != 2) P.fail("fit", fmt::format("brdf.json: {} must be [u, v]", key));
+            return std::array<float, 2>{static_cast<float>(P.number(v[0], "fit")),
+                                        static_cast<float>(P.number(v[1], "fit"))};
+        };
+        const auto lo = vec2(bj["uv_min"], "uv_min"), hi = vec2(bj["uv_max"], "uv_max");
+        if (!(hi[0] > lo[0] && hi[1] > lo[1])) P.fail("fit", "brdf.json: uv_max must exceed uv_min");
+        s.diffuseUvTransform = {1.0f / (hi[0] - lo[0]), 1.0f / (hi[1] - lo[1]), -lo[0] / (hi[0] - lo[0]),
+                                -lo[1] / (hi[1] - lo[1])};
+    }
+}
+
+// "brdf" and "light": the registry's groups (light also "offset_mm").
+void readBrdfAndLight(const Parser& P, const json& j, Scene& s) {
     if (j.contains("brdf")) P.registryGroup(j["brdf"], "brdf", s.params);
     if (j.contains("light")) {
         P.registryGroup(j["light"], "light", s.params, {"offset_mm"});
         if (j["light"].contains("offset_mm")) s.light.offset = P.vec3(j["light"]["offset_mm"], "light.offset_mm");
     }
+}
+
+// "resolution", "frames": the output.
+void readOutput(const Parser& P, const json& j, Scene& s) {
     if (j.contains("resolution")) {
         const json& r = j["resolution"];
         if (!r.is_array() || r.size() != 2) P.fail("resolution", "must be [width, height]");
@@ -374,49 +416,100 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
         s.height = P.integer(r[1], "resolution[1]", 16, 8192);
     }
     if (j.contains("frames")) s.frames = P.integer(j["frames"], "frames", 1, 1000000);
-    if (j.contains("camera")) {
-        const json& c = j["camera"];
-        P.object(c, "camera");
-        P.known(c, "camera.", {"fov_deg", "near_mm", "far_mm", "pose", "path"});
-        if (c.contains("fov_deg")) s.lens.fovDeg = static_cast<float>(P.number(c["fov_deg"], "camera.fov_deg"));
-        if (c.contains("near_mm")) s.lens.nearMm = static_cast<float>(P.number(c["near_mm"], "camera.near_mm"));
-        if (c.contains("far_mm")) s.lens.farMm = static_cast<float>(P.number(c["far_mm"], "camera.far_mm"));
-        try {
-            camera::validate(s.lens);
-        } catch (const InputError& e) {
-            P.fail(e.subject(), e.reason());
-        }
-        if (c.contains("pose")) {
-            s.pose = P.pose(c["pose"], "camera.pose");
-            s.path.kind = "none";
-        }
-        if (c.contains("path")) {
-            const json& p = c["path"];
-            P.object(p, "camera.path");
-            P.known(p, "camera.path.", {"poses", "centreline", "branch", "speed_mm", "start_mm", "look_ahead_mm"});
-            if (p.contains("poses") == p.contains("centreline"))
-                P.fail("camera.path", "needs exactly one of poses and centreline");
-            if (p.contains("poses")) {
-                const json& list = p["poses"];
-                if (!list.is_array() || list.empty()) P.fail("camera.path.poses", "must be a non-empty array of poses");
-                s.path.kind = "poses";
-                for (std::size_t i = 0; i < list.size(); ++i)
-                    s.path.poses.push_back(P.pose(list[i], fmt::format("camera.path.poses[{}]", i)));
-            } else {
-                s.path.kind = "centreline";
-                const std::string v = P.string(p["centreline"], "camera.path.centreline");
-                if (v != "auto") s.path.centrelineFile = P.path(p["centreline"], "camera.path.centreline");
-                if (p.contains("branch")) s.path.branch = P.integer(p["branch"], "camera.path.branch", 0, 1 << 20);
-                if (p.contains("speed_mm")) s.path.fly.speedMm = P.positive(p["speed_mm"], "camera.path.speed_mm");
-                if (p.contains("start_mm")) {
-                    s.path.fly.startMm = static_cast<float>(P.number(p["start_mm"], "camera.path.start_mm"));
-                    if (s.path.fly.startMm < 0) P.fail("camera.path.start_mm", "must be >= 0");
-                }
-                if (p.contains("look_ahead_mm"))
-                    s.path.fly.lookAheadMm = P.positive(p["look_ahead_mm"], "camera.path.look_ahead_mm");
-            }
-        }
+}
+
+// "camera.path": key poses, or a fly-through along a centerline.
+void readPath(const Parser& P, const json& p, Scene& s) {
+    P.object(p, "camera.path");
+    P.known(p, "camera.path.",
+            {"poses", "centerline", "centreline", "branch", "speed_mm", "start_mm", "look_ahead_mm"});
+    // "centreline": the British spelling, accepted for one release.
+    if (p.contains("centreline")) {
+        if (p.contains("centerline"))
+            P.fail("camera.path.centreline", "give one of centerline and centreline (deprecated), not both");
+        s.warnings.push_back(
+            describe(InputError("camera.path.centreline", P.file, "'centreline' is deprecated, use 'centerline'")));
     }
+    const char* const centerlineKey = p.contains("centreline") ? "centreline" : "centerline";
+    if (p.contains("poses") == p.contains(centerlineKey))
+        P.fail("camera.path", "needs exactly one of poses and centerline");
+    if (p.contains("poses")) {
+        const json& list = p["poses"];
+        if (!list.is_array() || list.empty()) P.fail("camera.path.poses", "must be a non-empty array of poses");
+        s.path.kind = PathKind::Poses;
+        for (std::size_t i = 0; i < list.size(); ++i)
+            s.path.poses.push_back(P.pose(list[i], fmt::format("camera.path.poses[{}]", i)));
+        return;
+    }
+    s.path.kind = PathKind::Centerline;
+    const std::string field = std::string("camera.path.") + centerlineKey;
+    const std::string v = P.string(p[centerlineKey], field);
+    if (v != "auto") s.path.centerlineFile = P.path(p[centerlineKey], field);
+    if (p.contains("branch")) s.path.branch = P.integer(p["branch"], "camera.path.branch", 0, 1 << 20);
+    if (p.contains("speed_mm")) s.path.fly.speedMm = P.positive(p["speed_mm"], "camera.path.speed_mm");
+    if (p.contains("start_mm")) {
+        s.path.fly.startMm = static_cast<float>(P.number(p["start_mm"], "camera.path.start_mm"));
+        if (s.path.fly.startMm < 0) P.fail("camera.path.start_mm", "must be >= 0");
+    }
+    if (p.contains("look_ahead_mm"))
+        s.path.fly.lookAheadMm = P.positive(p["look_ahead_mm"], "camera.path.look_ahead_mm");
+}
+
+// "camera": the lens, a fixed pose, a path.
+void readCamera(const Parser& P, const json& j, Scene& s) {
+    if (!j.contains("camera")) return;
+    const json& c = j["camera"];
+    P.object(c, "camera");
+    P.known(c, "camera.", {"fov_deg", "near_mm", "far_mm", "pose", "path"});
+    if (c.contains("fov_deg")) s.lens.fovDeg = static_cast<float>(P.number(c["fov_deg"], "camera.fov_deg"));
+    if (c.contains("near_mm")) s.lens.nearMm = static_cast<float>(P.number(c["near_mm"], "camera.near_mm"));
+    if (c.contains("far_mm")) s.lens.farMm = static_cast<float>(P.number(c["far_mm"], "camera.far_mm"));
+    try {
+        camera::validate(s.lens);
+    } catch (const InputError& e) {
+        P.fail(e.subject(), e.reason());
+    }
+    if (c.contains("pose")) {
+        s.pose = P.pose(c["pose"], "camera.pose");
+        s.path.kind = PathKind::None;
+    }
+    if (c.contains("path")) readPath(P, c["path"], s);
+}
+
+}  // namespace
+
+Scene defaultScene() {
+    Scene s;
+    s.mapParams = reflectance::findPreset("bronchial").params;
+    s.mapParams.bits = 8;
+    s.path.kind = PathKind::Centerline;
+    s.path.fly.frames = 120;
+    s.generatedDiffuse = true;
+    // The phantom at 1 grid cell per mm (~150 k triangles): real-time on a
+    // CPU rasteriser, and the light has faded to ~5 % at the far plane.
+    s.mesh.phantomResolution = 1.0;
+    s.lens.farMm = 160.0f;
+    return s;
+}
+
+Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
+    const Parser P{fileForErrors.string(), fileForErrors.parent_path()};
+    const json j = detail::parseJsonFile(text, P.file);
+    P.object(j, "scene");
+    P.known(j, "",
+            {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
+             "light", "camera", "resolution", "frames", "noise_space", "specular_aa"});
+    Scene s = defaultScene();
+    s.file = fileForErrors;
+    readMesh(P, j, s);
+    readDiffuse(P, j, s);
+    readReflectanceMap(P, j, s);
+    readShading(P, j, s);
+    readMaterial(P, j, s);
+    readFit(P, j, s);
+    readBrdfAndLight(P, j, s);
+    readOutput(P, j, s);
+    readCamera(P, j, s);
     return s;
 }
 
@@ -428,18 +521,18 @@ Scene loadScene(const fs::path& path) {
 SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
     SceneAssets a;
     const std::string file = scene.file.string();
-    if (scene.mesh.kind == "phantom") {
+    if (scene.mesh.kind == MeshKind::Phantom) {
         mesh::PhantomParams pp;
         pp.generations = scene.mesh.phantomGenerations;
         pp.seed = scene.mesh.phantomSeed;
         pp.resolution = scene.mesh.phantomResolution;
         mesh::Phantom ph = mesh::makePhantom(pp, threads);
         a.mesh = std::move(ph.mesh);
-        a.centreline = longestPath(ph.centerline, scene.path.branch, file);
+        a.centerline = longestPath(ph.centerline, scene.path.branch, file);
         a.notes.push_back(fmt::format("phantom: {} generations, {} triangles", pp.generations, a.mesh.triangleCount()));
-    } else if (scene.mesh.kind == "tube") {
+    } else if (scene.mesh.kind == MeshKind::Tube) {
         a.mesh = mesh::makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
-        a.centreline = mesh::tubeCenterline(kTubeLength, 64);
+        a.centerline = mesh::tubeCenterline(kTubeLength, 64);
         a.notes.push_back(fmt::format("tube: radius {} mm, length {} mm, {} triangles", kTubeRadius, kTubeLength,
                                       a.mesh.triangleCount()));
     } else {
@@ -468,9 +561,9 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         }
         a.notes.push_back(fmt::format("mesh: {} ({} triangles)", scene.mesh.file.string(), a.mesh.triangleCount()));
     }
-    if (scene.path.kind == "centreline" && !scene.path.centrelineFile.empty()) {
-        a.centreline = longestPath(mesh::readCenterlineJson(scene.path.centrelineFile), scene.path.branch,
-                                   scene.path.centrelineFile.string());
+    if (scene.path.kind == PathKind::Centerline && !scene.path.centerlineFile.empty()) {
+        a.centerline = longestPath(mesh::readCenterlineJson(scene.path.centerlineFile), scene.path.branch,
+                                   scene.path.centerlineFile.string());
     }
     if (scene.diffuse)
         a.diffuse = image::to8(image::readPng(*scene.diffuse));
@@ -496,16 +589,16 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
 
 std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& assets, int frames) {
     if (frames < 1) throw InputError("frames", "", "must be at least 1");
-    if (scene.path.kind == "none" || (scene.pose && frames == 1)) {
+    if (scene.path.kind == PathKind::None || (scene.pose && frames == 1)) {
         if (scene.pose) return std::vector<camera::Pose>(static_cast<std::size_t>(frames), *scene.pose);
     }
-    if (scene.path.kind == "poses") return camera::interpolatePoses(scene.path.poses, frames);
-    if (assets.centreline.size() < 2)
+    if (scene.path.kind == PathKind::Poses) return camera::interpolatePoses(scene.path.poses, frames);
+    if (assets.centerline.size() < 2)
         throw InputError("camera.path", scene.file.string(),
-                         "the mesh has no centreline to fly along: give camera.pose or camera.path");
+                         "the mesh has no centerline to fly along: give camera.pose or camera.path");
     camera::FlyThrough fly = scene.path.fly;
     fly.frames = frames;
-    return camera::flyThrough(assets.centreline, fly);
+    return camera::flyThrough(assets.centerline, fly);
 }
 
 shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int width, int height) {
@@ -515,7 +608,7 @@ shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int
     f.eye = pose.position;
     f.light = camera::lightPosition(pose, scene.light);
     f.normalSign = scene.normalSign;
-    f.cullBackFaces = scene.closed.value_or(scene.mesh.kind == "phantom");
+    f.cullBackFaces = scene.closed.value_or(scene.mesh.kind == MeshKind::Phantom);
     f.mode = scene.mode;
     f.params = scene.params;
     f.procedural.noise = scene.mapParams.noise;

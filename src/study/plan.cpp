@@ -11,6 +11,7 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 
+#include "core/json_parse.hpp"
 #include "rng.hpp"
 
 namespace mucosa::study {
@@ -25,6 +26,17 @@ constexpr const char* kPlanFormat = "mucosa-study-plan";
 constexpr int kPlanVersion = 2;
 // The paper's 2AFC compares categories 3, 4 and 5 pairwise.
 constexpr std::pair<int, int> kComparisons[] = {{3, 4}, {3, 5}, {4, 5}};
+
+// The shared parse (a syntax error at its line and column), as a "<what>" file:
+// "not valid JSON: ..." either way.
+json parseJson(const std::string& text, const std::string& file, const std::string& what) {
+    try {
+        return mucosa::detail::parseJsonFile(text, file);
+    } catch (const InputError& e) {
+        if (e.line() > 0) throw InputError(what, file, e.line(), e.column(), "not valid JSON: " + e.reason());
+        throw InputError(what, file, "not valid JSON: " + e.reason());
+    }
+}
 
 std::string scalarText(const json& v) {
     if (v.is_string()) return v.get<std::string>();
@@ -146,12 +158,7 @@ int ObserverPlan::likertCount() const {
 
 std::vector<Image> readManifest(const fs::path& path) {
     const std::string file = path.string();
-    json j;
-    try {
-        j = json::parse(readTextFile(path));
-    } catch (const json::exception& e) {
-        throw InputError("manifest", file, std::string("not valid JSON: ") + e.what());
-    }
+    const json j = parseJson(readTextFile(path), file, "manifest");
     const json* list = &j;
     if (j.is_object()) {
         if (!j.contains("images")) throw InputError("manifest", file, "has no \"images\" list");
@@ -324,12 +331,7 @@ std::string writePlan(const Plan& plan, const fs::path& path) {
 
 Plan readPlan(const fs::path& path) {
     const std::string file = path.string();
-    json j;
-    try {
-        j = json::parse(readTextFile(path));
-    } catch (const json::exception& e) {
-        throw InputError("plan", file, std::string("not valid JSON: ") + e.what());
-    }
+    const json j = parseJson(readTextFile(path), file, "plan");
     try {
         if (!j.is_object() || j.value("format", "") != kPlanFormat)
             throw InputError("plan", file, "not a study plan (make one with `mucosa study plan`)");

@@ -1,20 +1,23 @@
 // Numbers a double cannot hold (1e999) make nlohmann throw out_of_range, not
 // parse_error: every JSON file the library reads turns that into one typed
-// InputError naming the file, and the CLI into one `error:` line.
+// InputError naming the file, and the CLI into one `error:` line. Syntax
+// errors (a trailing comma) are reported at their line and column.
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <string>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/scene/scene.hpp>
+#include <mucosa/shading/brdf.hpp>
+#include <mucosa/study/plan.hpp>
 
 #include "test_support.hpp"
 
@@ -64,6 +67,66 @@ TEST(JsonInput, CliPrintsOneErrorLineForAnOverflowingScene) {
     const auto r = test::runCli("render '" + (dir / "scene.json").string() + "' -o '" + (dir / "f.png").string() + "'");
     EXPECT_NE(r.exitCode, 0);
     EXPECT_EQ(r.err.rfind("error: JSON in " + (dir / "scene.json").string() + ": ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "f.png"));
+}
+
+// A trailing comma on line 3 of every kind of JSON file the library reads:
+// one InputError naming the file, at line 3, at the '}' that follows the comma
+// (column 1 of line 4 would be wrong: the parser stops at the '}'), and the
+// message reads "<file>:3:<column>: JSON: ...".
+TEST(JsonInput, SyntaxErrorsNameTheFileLineAndColumn) {
+    test::TempDir dir;
+    struct Case {
+        const char* name;
+        std::string text;  // a trailing comma before the '}' on line 3
+        int column;        // of that '}'
+        std::function<void(const std::filesystem::path&)> read;
+        const char* subject;
+    };
+    const Case cases[] = {
+        {"scene.json", "{\n  \"mesh\": \"tube\",\n  \"frames\": 2,}\n", 15,
+         [](const std::filesystem::path& p) { (void)scene::loadScene(p); }, "JSON"},
+        {"frames.json", "{\n  \"units\": \"mm\",\n  \"frames\": [],}\n", 16,
+         [](const std::filesystem::path& p) { (void)fit::readFrames(p); }, "JSON"},
+        {"brdf.json", "{\n  \"c\": [0, 1, 0, 0],\n  \"d\": [0, 0, 0],}\n", 18,
+         [](const std::filesystem::path& p) { (void)shading::readBrdf(p); }, "JSON"},
+        {"map.json", "{\n  \"params\":\n  {\"size\": 64},}\n", 16,
+         [](const std::filesystem::path& p) { (void)reflectance::readSidecar(p); }, "JSON"},
+        {"c.centerline.json", "{\n  \"units\": \"mm\",\n  \"branches\": [],}\n", 18,
+         [](const std::filesystem::path& p) { (void)mesh::readCenterlineJson(p); }, "JSON"},
+        {"images.json", "{\n  \"images\":\n  [],}\n", 6,
+         [](const std::filesystem::path& p) { (void)study::readManifest(p); }, "manifest"},
+        {"study.json", "{\n  \"format\":\n  \"x\",}\n", 7,
+         [](const std::filesystem::path& p) { (void)study::readPlan(p); }, "plan"},
+    };
+    for (const Case& c : cases) {
+        const auto path = dir / c.name;
+        write(path, c.text);
+        try {
+            c.read(path);
+            ADD_FAILURE() << c.name << " was accepted";
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.file(), path.string()) << c.name;
+            EXPECT_EQ(e.subject(), c.subject) << c.name;
+            EXPECT_EQ(e.line(), 3) << c.name << ": " << e.what();
+            EXPECT_EQ(e.column(), c.column) << c.name << ": " << e.what();
+            const std::string where = fmt::format("{}:3:{}: {}: ", path.string(), c.column, c.subject);
+            EXPECT_EQ(std::string(e.what()).rfind(where, 0), 0u) << c.name << ": " << e.what();
+            EXPECT_EQ(std::string(e.what()).find("[json.exception"), std::string::npos) << e.what();
+        } catch (const std::exception& e) {
+            ADD_FAILURE() << c.name << ": untyped exception " << e.what();
+        }
+    }
+}
+
+TEST(JsonInput, CliPrintsFileLineAndColumnForATrailingComma) {
+    test::TempDir dir;
+    write(dir / "scene.json", "{\n  \"mesh\": \"tube\",\n}\n");
+    const auto r = test::runCli("render '" + (dir / "scene.json").string() + "' -o '" + (dir / "f.png").string() + "'");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(r.err.rfind("error: " + (dir / "scene.json").string() + ":3:1: JSON: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find("unexpected '}'"), std::string::npos) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "f.png"));
 }

@@ -1,5 +1,6 @@
 // The one rule for "a file may only name files beside it", the disk check
-// before long runs, and whole numbers from JSON taken whole or refused.
+// before long runs, whole numbers from JSON taken whole or refused, and the
+// line and column of a JSON syntax error.
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -71,6 +72,40 @@ TEST(WholeNumber, TakenWholeOrRefused) {
         EXPECT_EQ(e.subject(), "field 'likert'");
         EXPECT_EQ(e.file(), "answers.json");
         EXPECT_EQ(e.reason(), "4294967297 is out of range [1, 5]");
+    }
+}
+
+// Lines and columns count from 1, as editors do; a column counts UTF-8
+// characters; an offset past the end is just after the last character.
+TEST(JsonParse, LineAndColumnOfAByteOffset) {
+    using detail::lineAndColumn;
+    EXPECT_EQ(lineAndColumn("{}", 0), std::make_pair(1, 1));
+    EXPECT_EQ(lineAndColumn("{}", 1), std::make_pair(1, 2));
+    EXPECT_EQ(lineAndColumn("{\n}", 2), std::make_pair(2, 1));
+    EXPECT_EQ(lineAndColumn("{\r\n  x", 5), std::make_pair(2, 3));
+    EXPECT_EQ(lineAndColumn("{\"\xc3\xa9\xc3\xa9\": x", 9), std::make_pair(1, 8));  // {"éé": x -> x is column 8
+    EXPECT_EQ(lineAndColumn("{\n\n", 99), std::make_pair(3, 1));
+    EXPECT_EQ(lineAndColumn("", 0), std::make_pair(1, 1));
+}
+
+TEST(JsonParse, SyntaxErrorIsAtTheOffendingCharacter) {
+    try {
+        (void)detail::parseJsonFile("{\n  \"a\": 1,\n}", "x.json");
+        ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.line(), 3);
+        EXPECT_EQ(e.column(), 1);
+        EXPECT_EQ(e.subject(), "JSON");
+        EXPECT_EQ(e.file(), "x.json");
+        EXPECT_EQ(std::string(e.what()).rfind("x.json:3:1: JSON: syntax error", 0), 0u) << e.what();
+    }
+    // Past the end (an unterminated object): the line after the last newline.
+    try {
+        (void)detail::parseJsonFile("{\"a\": 1\n", "y.json");
+        ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.line(), 2);
+        EXPECT_EQ(e.column(), 1);
     }
 }
 

@@ -79,7 +79,7 @@ TEST(SceneFit, RenderCommandShadesWithTheFittedModel) {
     EXPECT_GT(brighter, 10u);
 }
 
-// Centreline UVs leave [0, 1] (u wraps whole turns, v runs along the airway):
+// Centerline UVs leave [0, 1] (u wraps whole turns, v runs along the airway):
 // the fit's atlas then spans uv_min..uv_max, and the scene's "fit" key must
 // sample it there. Same frames, same geometry, UVs inside and outside [0, 1]:
 // the two renders agree.

@@ -52,7 +52,7 @@ TEST(Phantom, HasTheDocumentedDimensions) {
         }
     EXPECT_NEAR(2 * maxR, 18.0, 0.6);
     EXPECT_GT(2 * minR, 15.0);
-    // The centreline: trachea 110 mm down -Y, main bronchi about 12 mm across.
+    // The centerline: trachea 110 mm down -Y, main bronchi about 12 mm across.
     const auto& c = ph.centerline;
     ASSERT_EQ(c.branches.size(), 15u);  // 1 + 2 + 4 + 8 for 3 generations
     EXPECT_EQ(c.branches[0].name, "trachea");
@@ -73,7 +73,7 @@ TEST(Phantom, HasTheDocumentedDimensions) {
     }
 }
 
-TEST(Phantom, CentrelineUvsStayNearSquare) {
+TEST(Phantom, CenterlineUvsStayNearSquare) {
     const auto s = mesh::measureUvStretch(defaultPhantom().mesh);
     std::printf("phantom uv stretch: area ratio p5 %.2f p50 %.2f p95 %.2f; anisotropy p50 %.3f p95 %.2f; flipped %zu\n",
                 s.areaP05, s.areaP50, s.areaP95, s.anisotropyP50, s.anisotropyP95, s.flippedTriangles);
@@ -98,7 +98,7 @@ TEST(Phantom, CentrelineUvsStayNearSquare) {
     EXPECT_LT(double(mirrored), 0.03 * double(m.vertexCount())) << "UVs follow the winding: frames are right-handed";
 }
 
-TEST(Phantom, CentrelineJsonRoundTrips) {
+TEST(Phantom, CenterlineJsonRoundTrips) {
     TempDir dir;
     const auto& c = defaultPhantom().centerline;
     mesh::writeCenterlineJson(c, dir / "c.json");
@@ -169,7 +169,7 @@ TEST(Phantom, RefusesParametersOutOfRange) {
     EXPECT_THROW(mesh::makePhantom(p), InputError);
 }
 
-TEST(PhantomCli, WritesMeshAndCentrelineOrOneErrorLine) {
+TEST(PhantomCli, WritesMeshAndCenterlineOrOneErrorLine) {
     TempDir dir;
     const auto ok = runCli("-q phantom -o '" + (dir / "a.glb").string() + "' --generations 1 --resolution 1");
     ASSERT_EQ(ok.exitCode, 0) << ok.err;

@@ -78,19 +78,19 @@ TEST(RenderCli, CompareWritesTheLabelledSheet) {
 namespace mucosa {
 namespace {
 
-TEST(RenderCli, PhantomFileFlownAlongItsCentrelineJson) {
+TEST(RenderCli, PhantomFileFlownAlongItsCenterlineJson) {
     test::TempDir dir;
     auto r = test::runCli("phantom -q --generations 2 --resolution 1 -o '" + (dir / "airway.glb").string() + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     ASSERT_TRUE(std::filesystem::exists(dir / "airway.centerline.json"));
     std::ofstream(dir / "scene.json")
-        << R"({"mesh": "airway.glb", "camera": {"path": {"centreline": "airway.centerline.json", "branch": 1}},
+        << R"({"mesh": "airway.glb", "camera": {"path": {"centerline": "airway.centerline.json", "branch": 1}},
               "resolution": [96, 72]})";
     r = test::runCli("render '" + (dir / "scene.json").string() + "' --frames 2 -o '" + (dir / "f.png").string() + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(std::filesystem::exists(dir / "f_0001.png"));
     std::ofstream(dir / "bad.json")
-        << R"({"mesh": "airway.glb", "camera": {"path": {"centreline": "airway.centerline.json", "branch": 99}}})";
+        << R"({"mesh": "airway.glb", "camera": {"path": {"centerline": "airway.centerline.json", "branch": 99}}})";
     r = test::runCli("render '" + (dir / "bad.json").string() + "' -o '" + (dir / "g.png").string() + "'");
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("error: camera.path.branch"), std::string::npos) << r.err;

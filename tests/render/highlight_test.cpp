@@ -40,7 +40,7 @@ void expectIrregularOrdering(const scene::Scene& scene, const scene::SceneAssets
 TEST(RenderHighlights, MethodHighlightsAreIrregularWhereBaselinesAreNotOnACoarseTube) {
     test::glContext();
     scene::Scene scene = scene::defaultScene();
-    scene.mesh.kind = "tube";
+    scene.mesh.kind = scene::MeshKind::Tube;
     const scene::SceneAssets assets = scene::loadAssets(scene);
     expectIrregularOrdering(scene, assets, camera::lookAt({0.0f, -3.0f, -30.0f}, {0.0f, 7.0f, -40.0f}), "tube");
 }

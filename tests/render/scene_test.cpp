@@ -33,7 +33,7 @@ TEST(RenderScene, FullSceneParses) {
                                     {"position": [0, 0, -20], "forward": [0, 0, -1], "up": [0, 1, 0]}]}},
       "resolution": [320, 240], "frames": 12})",
                                                "dir/scene.json");
-    EXPECT_EQ(s.mesh.kind, "tube");
+    EXPECT_EQ(s.mesh.kind, scene::MeshKind::Tube);
     EXPECT_EQ(s.mode, shading::Mode::VertexPhong);
     EXPECT_EQ(s.filter, shading::Filter::Linear);
     EXPECT_FLOAT_EQ(s.params[shading::Param::Shininess], 80.0f);
@@ -43,16 +43,43 @@ TEST(RenderScene, FullSceneParses) {
     EXPECT_FLOAT_EQ(s.light.offset[0], 2.0f);
     EXPECT_DOUBLE_EQ(s.mapParams.noise.frequency, 32.0);
     EXPECT_EQ(s.mapParams.size, 256);
-    EXPECT_EQ(s.path.kind, "poses");
+    EXPECT_EQ(s.path.kind, scene::PathKind::Poses);
     EXPECT_EQ(s.path.poses.size(), 2u);
     EXPECT_EQ(s.width, 320);
     EXPECT_EQ(s.frames, 12);
 }
 
+// Each kind's name parses back to the kind; other names are refused naming the field.
+TEST(RenderScene, KindNamesRoundTripAndUnknownNamesAreRefused) {
+    for (scene::MeshKind k : {scene::MeshKind::Phantom, scene::MeshKind::Tube, scene::MeshKind::File})
+        EXPECT_EQ(scene::parseMeshKind(scene::meshKindName(k)), k) << scene::meshKindName(k);
+    for (scene::PathKind k : {scene::PathKind::None, scene::PathKind::Poses, scene::PathKind::Centerline})
+        EXPECT_EQ(scene::parsePathKind(scene::pathKindName(k)), k) << scene::pathKindName(k);
+    EXPECT_EQ(scene::meshKindName(scene::MeshKind::File), "file");
+    EXPECT_EQ(scene::pathKindName(scene::PathKind::Centerline), "centerline");
+    try {
+        (void)scene::parsePathKind("centreline", "camera.path", "s.json");
+        ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.subject(), "camera.path");
+        EXPECT_EQ(e.file(), "s.json");
+        EXPECT_NE(e.reason().find("known: none, poses, centerline"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW((void)scene::parseMeshKind("sphere"), InputError);
+    // The scene's keys set them.
+    EXPECT_EQ(scene::parseScene(R"({"mesh": "phantom"})", "s.json").mesh.kind, scene::MeshKind::Phantom);
+    EXPECT_EQ(scene::parseScene(R"({"mesh": {"tube": {}}})", "s.json").mesh.kind, scene::MeshKind::Tube);
+    EXPECT_EQ(scene::parseScene(R"({"mesh": "tube"})", "s.json").path.kind, scene::PathKind::Centerline);
+    EXPECT_EQ(scene::parseScene(
+                  R"({"mesh": "tube", "camera": {"pose": {"position": [0, 0, 0], "forward": [0, 0, 1]}}})", "s.json")
+                  .path.kind,
+              scene::PathKind::None);
+}
+
 TEST(RenderScene, MapFileIsResolvedAgainstTheSceneFolder) {
     const scene::Scene s =
         scene::parseScene(R"({"mesh": "airway.glb", "reflectance_map": "maps/m.png"})", "/data/scenes/a.json");
-    EXPECT_EQ(s.mesh.kind, "file");
+    EXPECT_EQ(s.mesh.kind, scene::MeshKind::File);
     EXPECT_EQ(s.mesh.file, std::filesystem::path("/data/scenes/airway.glb"));
     EXPECT_EQ(*s.reflectanceMap, std::filesystem::path("/data/scenes/maps/m.png"));
 }
@@ -79,6 +106,31 @@ TEST(RenderScene, BadScenesNameTheField) {
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "material": {"noise_scale_mm": 0}})"), "material.noise_scale_mm");
     EXPECT_EQ(subjectOf(R"({"mesh": "tube", "colour": 1})"), "colour");  // unknown key
     EXPECT_EQ(subjectOf(R"({"mesh": "tube",)"), "JSON");
+}
+
+// One spelling (centerline); the British key is read for one release, with a
+// warning naming it, and giving both is an error.
+TEST(RenderScene, DeprecatedCentrelineKeyIsReadWithAWarning) {
+    const scene::Scene us =
+        scene::parseScene(R"({"mesh": "a.glb", "camera": {"path": {"centerline": "a.centerline.json"}}})", "/d/s.json");
+    EXPECT_TRUE(us.warnings.empty());
+    const scene::Scene uk =
+        scene::parseScene(R"({"mesh": "a.glb", "camera": {"path": {"centreline": "a.centerline.json"}}})", "/d/s.json");
+    EXPECT_EQ(uk.path.centerlineFile, us.path.centerlineFile);
+    ASSERT_EQ(uk.warnings.size(), 1u);
+    EXPECT_EQ(uk.warnings[0], "camera.path.centreline in /d/s.json: 'centreline' is deprecated, use 'centerline'");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "camera": {"path": {"centerline": "auto", "centreline": "auto"}}})"),
+              "camera.path.centreline");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "camera": {"path": {"centreline": 3}}})"), "camera.path.centreline");
+
+    test::TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [64, 48],
+                                          "camera": {"path": {"centreline": "auto"}}})";
+    const auto r = test::runCli("render tube.json -o t.png --mode diffuse", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("warning: camera.path.centreline in tube.json: 'centreline' is deprecated, use 'centerline'"),
+              std::string::npos)
+        << r.err;
 }
 
 TEST(RenderScene, CliReportsOneErrorLineNamingTheField) {

@@ -107,6 +107,19 @@ TEST(studyCli, AnalyzeWritesTheReport) {
     EXPECT_NEAR(s["all"]["friedman"]["chi2"].get<double>(), 88.14814814814815, 1e-9);
 }
 
+// One spelling in the help (analyze); the British one still runs, unlisted.
+TEST(studyCli, AnalyseIsAHiddenAliasOfAnalyze) {
+    const auto help = runCli("study --help");
+    ASSERT_EQ(help.exitCode, 0) << help.err;
+    EXPECT_NE(help.out.find("analyze"), std::string::npos) << help.out;
+    EXPECT_EQ(help.out.find("analyse"), std::string::npos) << help.out;
+    TempDir dir;
+    const auto r = runCli("study analyse '" + testdata("study/ratings_A_main.csv").string() + "' -o '" +
+                          (dir / "report").string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(dir / "report" / "stats.json"));
+}
+
 struct BadCase {
     const char* name;
     const char* csv;

@@ -2,7 +2,7 @@
 // The endoscope: a perspective camera with the bronchoscope's wide field of
 // view (the paper's Olympus BF: 120 degrees) and one point light at its tip
 // (DESIGN.md, "Endoscope"), plus camera paths: a list of poses, or a
-// fly-through along a centreline with smooth orientation.
+// fly-through along a centerline with smooth orientation.
 #include <array>
 #include <vector>
 
@@ -49,14 +49,14 @@ struct FlyThrough {
     // mm between consecutive frames; 0 = spread the frames over the whole path.
     float speedMm = 0.0f;
     float startMm = 0.0f;      // arc length where the flight starts
-    float lookAheadMm = 8.0f;  // the camera looks at the centreline this far ahead (smooth turns)
+    float lookAheadMm = 8.0f;  // the camera looks at the centerline this far ahead (smooth turns)
     Vec3 up{0, 1, 0};          // initial up; then transported without twist
 };
 
-// Poses along a polyline (a centreline, mm): position on the line, looking
+// Poses along a polyline (a centerline, mm): position on the line, looking
 // ahead along it, up vector parallel-transported (rotation-minimising: no
 // sudden rolls). Throws InputError if the path has fewer than two distinct points.
-std::vector<Pose> flyThrough(const std::vector<Vec3>& centreline, const FlyThrough& options);
+std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrough& options);
 
 // Length of a polyline (mm).
 float pathLength(const std::vector<Vec3>& polyline);

@@ -15,13 +15,20 @@ public:
     // what: the thing that is wrong ("size", "frequency", "PNG header");
     // file: the file it concerns (may be empty); why: the reason.
     Error(std::string what, std::string file, std::string why);
+    // At a place in a text file (1-based line and column, as editors count):
+    // "<file>:<line>:<column>: <what>: <why>", the form compilers print
+    // ("line <line>, column <column>: ..." without a file).
+    Error(std::string what, std::string file, int line, int column, std::string why);
 
     const std::string& subject() const noexcept { return subject_; }
     const std::string& file() const noexcept { return file_; }
     const std::string& reason() const noexcept { return reason_; }
+    int line() const noexcept { return line_; }  // 0: no position
+    int column() const noexcept { return column_; }
 
 private:
     std::string subject_, file_, reason_;
+    int line_ = 0, column_ = 0;
 };
 
 // Input that cannot be used: a parameter out of range, a malformed file.
@@ -48,7 +55,8 @@ public:
 };
 
 // Formats the one-line message apps print: "<what> in <file>: <why>", or
-// "<what>: <why>" when no file is involved.
+// "<what>: <why>" when no file is involved, or "<file>:<line>:<column>: <what>:
+// <why>" at a place in a file.
 std::string describe(const Error& e);
 
 namespace detail {

@@ -1,6 +1,6 @@
 #pragma once
-// A tree of tube centrelines (points, radii, parent links): what the phantom is
-// built from, what the centreline UVs follow, and what fly-through camera paths
+// A tree of tube centerlines (points, radii, parent links): what the phantom is
+// built from, what the centerline UVs follow, and what fly-through camera paths
 // run along.
 #include <filesystem>
 #include <string>

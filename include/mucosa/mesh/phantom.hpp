@@ -1,6 +1,6 @@
 #pragma once
 // The built-in airway phantom: a synthetic bronchial tree, watertight, with
-// normals facing the lumen, centreline UVs and tangents (docs/theory.md,
+// normals facing the lumen, centerline UVs and tangents (docs/theory.md,
 // "Airway phantom").
 #include <cstdint>
 #include <functional>
@@ -12,7 +12,7 @@
 namespace mucosa::mesh {
 
 // Axes of the phantom (millimetres): origin at the top (cranial end) of the
-// trachea's centreline, +Y cranial (up), +X the patient's left, +Z anterior;
+// trachea's centerline, +Y cranial (up), +X the patient's left, +Z anterior;
 // the trachea runs down -Y to the carina.
 struct PhantomParams {
     int generations = 3;          // 1 main bronchi, 2 lobar, 3 segmental, ... (0..7)
@@ -21,7 +21,7 @@ struct PhantomParams {
     double tracheaDiameter = 18;  // mm
     double tracheaLength = 110;   // mm
     bool cartilageRings = true;   // C-shaped ring ridges on the trachea and main bronchi
-    bool uvs = true;              // centreline UVs and tangents
+    bool uvs = true;              // centerline UVs and tangents
 };
 
 struct Phantom {
@@ -36,7 +36,7 @@ using Progress = std::function<void(double fraction, std::string_view stage)>;
 // grid would not fit in memory (checked before allocating).
 Phantom makePhantom(const PhantomParams& params, int threads = 0, const Progress& progress = {});
 
-// Only the centreline tree (cheap; the same tree makePhantom builds).
+// Only the centerline tree (cheap; the same tree makePhantom builds).
 Centerline phantomCenterline(const PhantomParams& params);
 
 }  // namespace mucosa::mesh

@@ -17,13 +17,13 @@ Mesh makeQuad(float size, int n, bool mirrorU = false);
 // (longitude), v from the south pole (0) to the north pole (1).
 Mesh makeSphere(float radius, int slices, int stacks);
 
-// A gently curved tube (bronchus-like) viewed from inside: centreline from the
+// A gently curved tube (bronchus-like) viewed from inside: centerline from the
 // origin along -z curving towards +x, radius r mm, length mm; normals face the
 // lumen; u around, v along (1 unit per circumference). Coarse meshes show the
 // per-vertex baselines' faceting.
 Mesh makeTube(float radius, float length, int around, int along);
 
-// The tube's centreline (for fly-throughs), `samples` points from start to end.
+// The tube's centerline (for fly-throughs), `samples` points from start to end.
 std::vector<Vec3> tubeCenterline(float length, int samples);
 
 }  // namespace mucosa::mesh

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <mucosa/camera/camera.hpp>
@@ -16,21 +17,33 @@
 
 namespace mucosa::scene {
 
+// What the mesh is: the built-in phantom, a curved analytic tube, or a file.
+enum class MeshKind { Phantom, Tube, File };
+// How the camera moves: one pose, key poses interpolated, or a fly-through
+// along a centerline.
+enum class PathKind { None, Poses, Centerline };
+
+// The names scene files and messages use: "phantom", "tube", "file"; "none",
+// "poses", "centerline".
+std::string_view meshKindName(MeshKind kind) noexcept;
+std::string_view pathKindName(PathKind kind) noexcept;
+// The inverse; InputError(field, file, "unknown ... (known: ...)") for any other name.
+MeshKind parseMeshKind(std::string_view name, const std::string& field = "mesh", const std::string& file = "");
+PathKind parsePathKind(std::string_view name, const std::string& field = "camera.path", const std::string& file = "");
+
 struct MeshSpec {
-    // "phantom" (built in), "tube" (a curved analytic tube), or "file".
-    std::string kind = "phantom";
-    std::filesystem::path file;  // kind == "file"
+    MeshKind kind = MeshKind::Phantom;
+    std::filesystem::path file;  // kind == MeshKind::File
     int phantomGenerations = 3;
     std::uint64_t phantomSeed = 1;
     double phantomResolution = 1.0;  // grid cells per mm
 };
 
 struct PathSpec {
-    // "none" (one pose), "poses" (key poses interpolated), "centreline" (fly-through).
-    std::string kind = "centreline";
+    PathKind kind = PathKind::Centerline;
     std::vector<camera::Pose> poses;
-    std::filesystem::path centrelineFile;  // empty: the mesh's own (phantom/tube)
-    int branch = -1;                       // centreline branch to fly to; -1 = the longest path
+    std::filesystem::path centerlineFile;  // empty: the mesh's own (phantom/tube)
+    int branch = -1;                       // centerline branch to fly to; -1 = the longest path
     camera::FlyThrough fly;
 };
 
@@ -61,6 +74,9 @@ struct Scene {
     PathSpec path;
     int width = 640, height = 480;
     int frames = 1;
+    // What parsing accepted but warns about (a deprecated key), one line each
+    // ("<field> in <file>: <why>"), for the CLI to print.
+    std::vector<std::string> warnings;
 };
 
 // `--set reflectance_map.<key>=<value>`: one of the map parameters (the keys
@@ -72,7 +88,7 @@ struct Scene {
 void setMapParameter(Scene& scene, const std::string& key, const std::string& value);
 
 // The built-in default: the phantom, 'bronchial' map (1024 texels), flying
-// down the centreline.
+// down the centerline.
 Scene defaultScene();
 
 // Parses a scene file. Relative paths are resolved against the file's folder.
@@ -84,7 +100,7 @@ Scene parseScene(const std::string& jsonText, const std::filesystem::path& fileF
 // What a scene needs at render time, loaded/generated once.
 struct SceneAssets {
     mesh::Mesh mesh;                     // with normals, uvs and tangents
-    std::vector<mesh::Vec3> centreline;  // the fly-through polyline (mm); may be empty
+    std::vector<mesh::Vec3> centerline;  // the fly-through polyline (mm); may be empty
     image::Image8 diffuse;               // empty: none
     image::Image8 reflectanceMap;        // empty: not generated (loadAssets(..., false))
     // The multitexture baseline's highlight texture for the scene's shininess
