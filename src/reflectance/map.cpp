@@ -168,19 +168,19 @@ void set(MapParams& p, MapParam id, const json& v, const std::string& subject, c
     }
 }
 
+json parameterValue(std::string_view text) {
+    if (text == "true" || text == "false") return text == "true";
+    try {
+        json v = json::parse(text);
+        if (v.is_number() && (!v.is_number_float() || std::isfinite(v.get<double>()))) return v;
+    } catch (const json::exception&) {  // not JSON, or a number out of range
+    }
+    return std::string(text);
+}
+
 void setFromText(MapParams& p, MapParam id, std::string_view text, const std::string& subject,
                  const std::string& file) {
-    json v;
-    if (text == "true" || text == "false") {
-        v = text == "true";
-    } else {
-        try {
-            v = json::parse(text);
-        } catch (const json::exception&) {
-            v = std::string(text);  // not a number: refused below with its type
-        }
-        if (v.is_number_float() && !std::isfinite(v.get<double>())) v = std::string(text);
-    }
+    const json v = parameterValue(text);
     if (v.is_string()) throw InputError(subject, file, fmt::format("'{}' is not a {}", text,
                                                                     info(id).kind == K::Boolean ? "true or false"
                                                                                                  : "number"));

@@ -55,26 +55,7 @@ std::vector<std::array<float, 4>> evaluateNoiseOnGpu(const GpuNoiseRequest& requ
 
     const std::string common = std::string("#version 330 core\n") + std::string(permutationPrelude()) +
                                std::string(shaderSource("procedural_noise.glsl"));
-    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertex, "gpu_noise");
-    GLuint fs = 0;
-    try {
-        fs = compileShader(GL_FRAGMENT_SHADER, common + kFragment, "gpu_noise");
-    } catch (...) {
-        glDeleteShader(vs);
-        throw;
-    }
-    const GLuint program = glCreateProgram();
-    glAttachShader(program, vs);
-    glAttachShader(program, fs);
-    glLinkProgram(program);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint linked = 0;
-    glGetProgramiv(program, GL_LINK_STATUS, &linked);
-    if (!linked) {
-        glDeleteProgram(program);
-        throw GraphicsError("shader gpu_noise", "", "does not link");
-    }
+    const GLuint program = linkProgram(kVertex, common + kFragment, "gpu_noise");
 
     GLuint tex[2], fbo = 0, vao = 0;
     glGenTextures(2, tex);

@@ -42,30 +42,10 @@ Program link(int mode, const std::string& defines = "") {
                                std::string(shaderSource("common_shading.glsl"));
     const std::string name =
         fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
-    GLuint vs =
-        compileShader(GL_VERTEX_SHADER,
-                      header + common + varyingDeclarations(true) + std::string(shaderSource("surface_tissue.vert")), name);
-    GLuint fs =
-        compileShader(GL_FRAGMENT_SHADER,
-                      header + common + varyingDeclarations(false) + std::string(shaderSource("surface_tissue.frag")),
-                      name);
     Program p;
-    p.id = glCreateProgram();
-    glAttachShader(p.id, vs);
-    glAttachShader(p.id, fs);
-    glLinkProgram(p.id);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = 0;
-    glGetProgramiv(p.id, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        GLint len = 0;
-        glGetProgramiv(p.id, GL_INFO_LOG_LENGTH, &len);
-        std::string log(static_cast<std::size_t>(std::max(len, 1)), '\0');
-        glGetProgramInfoLog(p.id, len, nullptr, log.data());
-        glDeleteProgram(p.id);
-        throw GraphicsError("shader " + name, "", "does not link: " + log);
-    }
+    p.id = linkProgram(header + common + varyingDeclarations(true) + std::string(shaderSource("surface_tissue.vert")),
+                       header + common + varyingDeclarations(false) + std::string(shaderSource("surface_tissue.frag")),
+                       name);
     checkActiveUniforms(p.id, name);
     p.frame = UniformBlock(p.id, frameUniforms());
     p.material = UniformBlock(p.id, materialUniforms());

@@ -185,18 +185,7 @@ struct Parser {
 
 void setMapParameter(Scene& scene, const std::string& key, const std::string& value) {
     const Parser P{"", {}};
-    json v;
-    if (value == "true" || value == "false") {
-        v = value == "true";
-    } else {
-        // A number if it parses as one (integers stay integers), else a string (a preset name).
-        try {
-            v = json::parse(value);
-            if (!v.is_number()) v = value;
-        } catch (const json::exception&) {  // not JSON, or a number out of range: a string
-            v = value;
-        }
-    }
+    const json v = reflectance::parameterValue(value);  // a string: a preset name
     json j = json::object();
     j[key] = v;
     scene.mapParams = P.mapParams(j, "--set reflectance_map", scene.mapParams);

@@ -18,20 +18,8 @@ namespace mucosa {
 namespace {
 
 GLuint linkFragment(const std::string& fragmentBody) {
-    const std::string vs = "#version 330 core\nvoid main() { gl_Position = vec4(0.0, 0.0, 0.0, 1.0); }\n";
-    const std::string fs = "#version 330 core\nout vec4 color;\n" + fragmentBody;
-    const GLuint program = glCreateProgram();
-    const GLuint v = render::compileShader(GL_VERTEX_SHADER, vs, "test");
-    const GLuint f = render::compileShader(GL_FRAGMENT_SHADER, fs, "test");
-    glAttachShader(program, v);
-    glAttachShader(program, f);
-    glLinkProgram(program);
-    glDeleteShader(v);
-    glDeleteShader(f);
-    GLint ok = 0;
-    glGetProgramiv(program, GL_LINK_STATUS, &ok);
-    EXPECT_EQ(ok, GL_TRUE);
-    return program;
+    return render::linkProgram("#version 330 core\nvoid main() { gl_Position = vec4(0.0, 0.0, 0.0, 1.0); }\n",
+                               "#version 330 core\nout vec4 color;\n" + fragmentBody, "test");
 }
 
 std::string checkMessage(GLuint program) {

@@ -65,7 +65,11 @@ double get(const MapParams& p, MapParam id) noexcept;
 // whole number is needed, out of range (no wrap, no truncation).
 void set(MapParams& p, MapParam id, const nlohmann::json& value, const std::string& subject,
          const std::string& file = "");
-// The same from text ("32", "0.5", "true"), as options and --set give it.
+// A value as options and --set give it: "true" and "false" as booleans, a
+// finite JSON number as a number (whole numbers stay whole), anything else
+// (a preset name, "1e999") as a string.
+nlohmann::json parameterValue(std::string_view text);
+// set() from text ("32", "0.5", "true"); a string is refused.
 void setFromText(MapParams& p, MapParam id, std::string_view text, const std::string& subject,
                  const std::string& file = "");
 // One line per parameter for help: "--name (unit, min..max, default d): description".
