@@ -11,7 +11,9 @@
 namespace mucosa::cli {
 
 void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
-    c->add_option("scene", o.sceneFile, "Scene file (.json, see docs/scene-format.md); default: the airway phantom");
+    c->add_option("scene", o.sceneFile,
+                  "Scene file (.json, see docs/scene-format.md), or a mesh file (.obj, .ply, .stl, .gltf, .glb, ...: "
+                  "the default scene with that mesh, flying along its centerline); default: the airway phantom");
     c->add_option("--mode", o.mode, "Shading mode: " + shading::modeList() + " [noise]");
     if (withSize) c->add_option("--size", o.size, "Frame size WxH [640x480, or the scene's resolution]");
     c->add_option("--noise-space", o.noiseSpace,

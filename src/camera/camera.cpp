@@ -145,14 +145,15 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrou
         return glm::mix(pts[k], pts[k + 1], std::clamp(t, 0.0f, 1.0f));
     };
     const float start = std::clamp(o.startMm, 0.0f, total);
+    const float end = std::max(start, total - std::max(o.stopMm, 0.0f));
     const float step =
-        o.speedMm > 0.0f ? o.speedMm : (o.frames > 1 ? (total - start) / static_cast<float>(o.frames - 1) : 0.0f);
+        o.speedMm > 0.0f ? o.speedMm : (o.frames > 1 ? (end - start) / static_cast<float>(o.frames - 1) : 0.0f);
     const float ahead = std::max(o.lookAheadMm, 1e-3f);
     std::vector<Pose> out;
     glm::vec3 up = v(o.up);
     glm::vec3 prevForward(0.0f);
     for (int i = 0; i < o.frames; ++i) {
-        const float s = std::min(start + step * static_cast<float>(i), total);
+        const float s = std::min(start + step * static_cast<float>(i), end);
         const glm::vec3 p = at(s);
         // Look at a point ahead on the line; near the end, keep the last direction.
         glm::vec3 f = at(s + ahead) - p;

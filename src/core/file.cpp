@@ -124,6 +124,7 @@ std::uint64_t availableDiskBytes(const fs::path& path) {
     std::error_code ec;
     while (!fs::exists(probe, ec) && probe.has_parent_path() && probe.parent_path() != probe)
         probe = probe.parent_path();
+    if (!fs::exists(probe, ec)) probe = probe.is_absolute() ? probe.root_path() : fs::path(".");  // "fly.png": here
     struct statvfs st {};
     if (::statvfs(probe.c_str(), &st) != 0) throw IoError("disk", path.string(), std::strerror(errno));
     return static_cast<std::uint64_t>(st.f_bavail) * static_cast<std::uint64_t>(st.f_frsize);

@@ -272,6 +272,11 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
 
 }  // namespace
 
+bool isMeshFile(const std::filesystem::path& path) {
+    const std::string ext = lowerExtension(path);
+    return !ext.empty() && Assimp::Importer().IsExtensionSupported(ext);
+}
+
 Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInfo* infoOut) {
     namespace fs = std::filesystem;
     const std::string name = path.string();
@@ -289,7 +294,7 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     LoadInfo info;
     info.fileBytes = static_cast<std::size_t>(fileBytes);
     const std::string ext = lowerExtension(path);
-    if (ext.empty() || !Assimp::Importer().IsExtensionSupported(ext))
+    if (!isMeshFile(path))
         throw InputError("mesh", name, fmt::format("unsupported format '{}'", ext.empty() ? "(no extension)" : ext));
     checkDeclaredSizes(path, ext, fileBytes);
     if (ext == ".gltf" || ext == ".glb") checkGltf(path, ext == ".glb", fileBytes);

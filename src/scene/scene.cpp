@@ -1,7 +1,9 @@
 #include <mucosa/scene/scene.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <optional>
 #include <set>
 
 #include <fmt/format.h>
@@ -9,15 +11,16 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
-#include <mucosa/shading/brdf.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/phantom.hpp>
-#include <mucosa/mesh/tangents.hpp>
-#include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/mesh/primitives.hpp>
+#include <mucosa/mesh/tangents.hpp>
+#include <mucosa/mesh/uv.hpp>
+#include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/reflectance/tissue_texture.hpp>
+#include <mucosa/shading/brdf.hpp>
 
 #include "core/json_parse.hpp"
 
@@ -32,6 +35,9 @@ namespace {
 constexpr float kTubeRadius = 7.0f, kTubeLength = 150.0f;
 constexpr int kTubeAround = 24, kTubeAlong = 60;
 constexpr int kTissueTextureSize = 512;
+// mm the default fly-through keeps between the near plane and the wall a
+// centerline's distal end closes against (beyond the lumen's radius there).
+constexpr float kStopMarginMm = 3.0f;
 
 struct Parser {
     std::string file;
@@ -233,17 +239,29 @@ PathKind parsePathKind(std::string_view name, const std::string& field, const st
 
 namespace {
 
-std::vector<mesh::Vec3> longestPath(const mesh::Centerline& c, int branch, const std::string& file) {
+// A fly-through's polyline and the lumen radius at its distal end (where
+// the flight stops short of the wall; 0 = unknown).
+struct FlightPath {
+    std::vector<mesh::Vec3> points;
+    float endRadius = 0;
+};
+
+FlightPath pathTo(const mesh::Centerline& c, int branch) {
+    const std::vector<float>& radii = c.branches[static_cast<std::size_t>(branch)].radii;
+    return {mesh::pathToBranch(c, branch), radii.empty() ? 0.0f : radii.back()};
+}
+
+FlightPath longestPath(const mesh::Centerline& c, int branch, const std::string& file) {
     if (c.branches.empty()) throw InputError("camera.path.centerline", file, "the centerline has no branches");
     if (branch >= static_cast<int>(c.branches.size()))
         throw InputError("camera.path.branch", file,
                          fmt::format("{} is out of range (the centerline has {} branches)", branch, c.branches.size()));
-    if (branch >= 0) return mesh::pathToBranch(c, branch);
-    std::vector<mesh::Vec3> best;
+    if (branch >= 0) return pathTo(c, branch);
+    FlightPath best;
     float bestLen = -1;
     for (std::size_t b = 0; b < c.branches.size(); ++b) {
-        auto p = mesh::pathToBranch(c, static_cast<int>(b));
-        const float len = camera::pathLength(p);
+        FlightPath p = pathTo(c, static_cast<int>(b));
+        const float len = camera::pathLength(p.points);
         if (len > bestLen) bestLen = len, best = std::move(p);
     }
     return best;
@@ -411,7 +429,7 @@ void readOutput(const Parser& P, const json& j, Scene& s) {
 void readPath(const Parser& P, const json& p, Scene& s) {
     P.object(p, "camera.path");
     P.known(p, "camera.path.",
-            {"poses", "centerline", "centreline", "branch", "speed_mm", "start_mm", "look_ahead_mm"});
+            {"poses", "centerline", "centreline", "branch", "speed_mm", "start_mm", "stop_mm", "look_ahead_mm"});
     // "centreline": the British spelling, accepted for one release.
     if (p.contains("centreline")) {
         if (p.contains("centerline"))
@@ -439,6 +457,10 @@ void readPath(const Parser& P, const json& p, Scene& s) {
     if (p.contains("start_mm")) {
         s.path.fly.startMm = static_cast<float>(P.number(p["start_mm"], "camera.path.start_mm"));
         if (s.path.fly.startMm < 0) P.fail("camera.path.start_mm", "must be >= 0");
+    }
+    if (p.contains("stop_mm")) {
+        s.path.stopMm = static_cast<float>(P.number(p["stop_mm"], "camera.path.stop_mm"));
+        if (*s.path.stopMm < 0) P.fail("camera.path.stop_mm", "must be >= 0");
     }
     if (p.contains("look_ahead_mm"))
         s.path.fly.lookAheadMm = P.positive(p["look_ahead_mm"], "camera.path.look_ahead_mm");
@@ -502,10 +524,113 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     return s;
 }
 
+Scene meshScene(const fs::path& meshFile) {
+    Scene s = defaultScene();
+    s.file = meshFile;
+    s.mesh.kind = MeshKind::File;
+    s.mesh.file = meshFile;
+    return s;
+}
+
 Scene loadScene(const fs::path& path) {
     if (!fs::exists(path)) throw IoError("scene file", path.string(), "does not exist");
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".json" && mesh::isMeshFile(path)) return meshScene(path);
     return parseScene(readTextFile(path), path);
 }
+
+namespace {
+
+// A file a scene field names must exist: else one line naming the field, the
+// scene and the file (as the scene names it, relative to the scene's folder
+// when it is inside).
+void requireFile(const Scene& scene, const std::string& field, const fs::path& path) {
+    std::error_code ec;
+    if (fs::exists(path, ec)) return;
+    fs::path shown = path;
+    if (!scene.file.empty()) {
+        const fs::path rel = path.lexically_relative(scene.file.parent_path());
+        if (!rel.empty() && *rel.begin() != "..") shown = rel;
+    }
+    throw InputError(field, scene.file.string(), shown.string() + " does not exist");
+}
+
+// A centerline file beside a mesh: <stem>.centerline.json (what mucosa
+// phantom writes next to its mesh), else airway.centerline.json.
+std::optional<fs::path> centerlineBeside(const fs::path& meshFile) {
+    for (const fs::path& p : {meshFile.parent_path() / (meshFile.stem().string() + ".centerline.json"),
+                              meshFile.parent_path() / "airway.centerline.json"}) {
+        std::error_code ec;
+        if (fs::is_regular_file(p, ec)) return p;
+    }
+    return std::nullopt;
+}
+
+// A computed centerline without its stubs: leaf branches shorter than their
+// radius are level-set rings at a cap, an open end or a bifurcation's corner,
+// not tubes to fly into (the CT airway's longest path would otherwise end in
+// one, on the wall). Removed until none is left; parents keep their order.
+mesh::Centerline withoutStubs(const mesh::Centerline& c) {
+    const std::size_t n = c.branches.size();
+    std::vector<char> removed(n, 0);
+    std::size_t kept = n;
+    for (bool changed = true; changed && kept > 1;) {
+        changed = false;
+        std::vector<int> children(n, 0);
+        for (std::size_t b = 0; b < n; ++b)
+            if (!removed[b] && c.branches[b].parent >= 0) ++children[static_cast<std::size_t>(c.branches[b].parent)];
+        for (std::size_t b = 0; b < n && kept > 1; ++b) {
+            const mesh::CenterlineBranch& br = c.branches[b];
+            const float radius = br.radii.empty() ? 0.0f : br.radii.front();
+            if (!removed[b] && children[b] == 0 && camera::pathLength(br.points) < radius)
+                removed[b] = 1, --kept, changed = true;
+        }
+    }
+    mesh::Centerline out;
+    out.axes = c.axes;
+    std::vector<int> index(n, -1);
+    for (std::size_t b = 0; b < n; ++b) {
+        if (removed[b]) continue;
+        index[b] = static_cast<int>(out.branches.size());
+        out.branches.push_back(c.branches[b]);
+        const int parent = c.branches[b].parent;
+        out.branches.back().parent = parent >= 0 ? index[static_cast<std::size_t>(parent)] : -1;
+    }
+    return out;
+}
+
+// The fly-through of a mesh file with "centerline": "auto": a centerline file
+// beside it, else the one its shape gives (the level-set centerline that
+// centerline UVs follow, computed on a copy: the mesh keeps its UVs).
+FlightPath meshFileCenterline(const Scene& scene, const mesh::Mesh& shape, std::vector<std::string>& notes) {
+    if (const auto beside = centerlineBeside(scene.mesh.file)) {
+        FlightPath p = longestPath(mesh::readCenterlineJson(*beside), scene.path.branch, beside->string());
+        notes.push_back(fmt::format("centerline: {} (beside the mesh), {:.0f} mm path", beside->string(),
+                                    camera::pathLength(p.points)));
+        return p;
+    }
+    mesh::Mesh copy;
+    copy.positions = shape.positions;
+    copy.indices = shape.indices;
+    mesh::CenterlineUvReport r;
+    try {
+        r = mesh::computeCenterlineUvs(copy);
+    } catch (const InputError& e) {
+        throw InputError("camera.path.centerline", scene.file.string(),
+                         fmt::format("none beside the mesh ({}.centerline.json) and none computed from it ({}): "
+                                     "give camera.pose or camera.path",
+                                     scene.mesh.file.stem().string(), e.reason()));
+    }
+    const mesh::Centerline c = withoutStubs(r.centerline);
+    FlightPath p = longestPath(c, scene.path.branch, scene.file.string());
+    notes.push_back(fmt::format("centerline: computed from the mesh ({} branches), {:.0f} mm path", c.branches.size(),
+                                camera::pathLength(p.points)));
+    return p;
+}
+
+}  // namespace
 
 SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
     SceneAssets a;
@@ -517,14 +642,18 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         pp.resolution = scene.mesh.phantomResolution;
         mesh::Phantom ph = mesh::makePhantom(pp, threads);
         a.mesh = std::move(ph.mesh);
-        a.centerline = longestPath(ph.centerline, scene.path.branch, file);
+        const FlightPath p = longestPath(ph.centerline, scene.path.branch, file);
+        a.centerline = p.points;
+        a.centerlineEndRadius = p.endRadius;
         a.notes.push_back(fmt::format("phantom: {} generations, {} triangles", pp.generations, a.mesh.triangleCount()));
     } else if (scene.mesh.kind == MeshKind::Tube) {
         a.mesh = mesh::makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
         a.centerline = mesh::tubeCenterline(kTubeLength, 64);
+        a.centerlineEndRadius = kTubeRadius;
         a.notes.push_back(fmt::format("tube: radius {} mm, length {} mm, {} triangles", kTubeRadius, kTubeLength,
                                       a.mesh.triangleCount()));
     } else {
+        requireFile(scene, "mesh", scene.mesh.file);
         mesh::LoadInfo info;
         a.mesh = mesh::load(scene.mesh.file, {}, &info);
         for (const std::string& w : info.warnings) a.notes.push_back("mesh: " + w);
@@ -549,16 +678,27 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
                                           r.degenerateUvTriangles, r.mirroredVertices));
         }
         a.notes.push_back(fmt::format("mesh: {} ({} triangles)", scene.mesh.file.string(), a.mesh.triangleCount()));
+        if (scene.path.kind == PathKind::Centerline && scene.path.centerlineFile.empty()) {
+            const FlightPath p = meshFileCenterline(scene, a.mesh, a.notes);
+            a.centerline = p.points;
+            a.centerlineEndRadius = p.endRadius;
+        }
     }
     if (scene.path.kind == PathKind::Centerline && !scene.path.centerlineFile.empty()) {
-        a.centerline = longestPath(mesh::readCenterlineJson(scene.path.centerlineFile), scene.path.branch,
-                                   scene.path.centerlineFile.string());
+        requireFile(scene, "camera.path.centerline", scene.path.centerlineFile);
+        const FlightPath p = longestPath(mesh::readCenterlineJson(scene.path.centerlineFile), scene.path.branch,
+                                         scene.path.centerlineFile.string());
+        a.centerline = p.points;
+        a.centerlineEndRadius = p.endRadius;
     }
-    if (scene.diffuse)
+    if (scene.diffuse) {
+        requireFile(scene, "diffuse", *scene.diffuse);
         a.diffuse = image::to8(image::readPng(*scene.diffuse));
-    else if (scene.generatedDiffuse)
+    } else if (scene.generatedDiffuse) {
         a.diffuse = reflectance::tissueTexture(kTissueTextureSize);
+    }
     if (scene.reflectanceMap) {
+        requireFile(scene, "reflectance_map", *scene.reflectanceMap);
         a.reflectanceMap = image::to8(image::readPng(*scene.reflectanceMap));
         if (a.reflectanceMap.channels() < 3)
             throw InputError("reflectance_map", scene.reflectanceMap->string(), "must be an RGB image");
@@ -587,6 +727,9 @@ std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& ass
                          "the mesh has no centerline to fly along: give camera.pose or camera.path");
     camera::FlyThrough fly = scene.path.fly;
     fly.frames = frames;
+    // Stop short of the distal end, where a blind bronchus closes: the near
+    // plane, the lumen's radius there (the cap's depth) and a margin.
+    fly.stopMm = scene.path.stopMm.value_or(scene.lens.nearMm + assets.centerlineEndRadius + kStopMarginMm);
     return camera::flyThrough(assets.centerline, fly);
 }
 

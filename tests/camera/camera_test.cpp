@@ -95,6 +95,32 @@ TEST(Camera, FlyThroughStaysOnTheLineLooksAheadAndDoesNotRoll) {
     EXPECT_NEAR(norm(d), 1.0f, 0.05f);  // 1 mm per frame
 }
 
+// stopMm ends the flight that far before the path's end: frames spread up to
+// there, or (at a fixed speed) stay there, still looking ahead along the path.
+TEST(Camera, FlyThroughStopsStopMmBeforeTheEnd) {
+    const std::vector<camera::Vec3> line = {{0, 0, 0}, {0, 0, -100}};
+    camera::FlyThrough o;
+    o.frames = 11;
+    o.stopMm = 10.0f;
+    auto poses = camera::flyThrough(line, o);
+    ASSERT_EQ(poses.size(), 11u);
+    EXPECT_NEAR(poses.front().position[2], 0.0f, 1e-4f);
+    EXPECT_NEAR(poses[1].position[2], -9.0f, 1e-4f);
+    EXPECT_NEAR(poses.back().position[2], -90.0f, 1e-4f);
+    EXPECT_NEAR(poses.back().forward[2], -1.0f, 1e-4f);
+    o.speedMm = 20.0f;
+    poses = camera::flyThrough(line, o);
+    EXPECT_NEAR(poses[4].position[2], -80.0f, 1e-4f);
+    EXPECT_NEAR(poses[5].position[2], -90.0f, 1e-4f);
+    EXPECT_NEAR(poses.back().position[2], -90.0f, 1e-4f);
+    // A stop beyond the start keeps the camera at the start.
+    o.speedMm = 0.0f;
+    o.startMm = 50.0f;
+    o.stopMm = 80.0f;
+    poses = camera::flyThrough(line, o);
+    EXPECT_NEAR(poses.back().position[2], -50.0f, 1e-4f);
+}
+
 TEST(Camera, PoseListIsInterpolatedThroughTheKeys) {
     const std::vector<camera::Pose> keys = {camera::lookAt({0, 0, 0}, {0, 0, -1}),
                                             camera::lookAt({0, 0, -10}, {0, 0, -11}),

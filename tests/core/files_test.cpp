@@ -53,6 +53,20 @@ TEST(Disk, RequireDiskRefusesWhatWillNotFit) {
     }
 }
 
+// A bare file name ("fly.png", as `mucosa render -o fly.png` gives it) is in
+// the working folder: its free space is the working folder's.
+TEST(Disk, ABareFileNameIsInTheWorkingFolder) {
+    const auto here = std::filesystem::current_path();
+    TempDir dir;
+    std::filesystem::current_path(dir.path());
+    std::uint64_t bare = 0, dot = 0;
+    EXPECT_NO_THROW(bare = availableDiskBytes("fly.png"));
+    dot = availableDiskBytes(".");
+    std::filesystem::current_path(here);
+    EXPECT_GT(bare, 0u);
+    EXPECT_NEAR(static_cast<double>(bare), static_cast<double>(dot), 64.0 * 1024 * 1024);  // the same file system
+}
+
 TEST(WholeNumber, TakenWholeOrRefused) {
     using detail::wholeNumber;
     using nlohmann::json;

@@ -49,6 +49,7 @@ struct FlyThrough {
     // mm between consecutive frames; 0 = spread the frames over the whole path.
     float speedMm = 0.0f;
     float startMm = 0.0f;      // arc length where the flight starts
+    float stopMm = 0.0f;       // arc length before the end where it stops (frames spread up to there)
     float lookAheadMm = 8.0f;  // the camera looks at the centerline this far ahead (smooth turns)
     Vec3 up{0, 1, 0};          // initial up; then transported without twist
 };

@@ -60,6 +60,11 @@ struct LoadInfo {
 // that cannot be real) naming the file; refuses absurd sizes before allocating.
 Mesh load(const std::filesystem::path& path, const LoadOptions& options = {}, LoadInfo* info = nullptr);
 
+// Whether load() reads files with `path`'s extension (case-insensitive: any
+// format Assimp imports, .obj .ply .stl .gltf .glb .fbx ...). The file itself
+// is not opened.
+bool isMeshFile(const std::filesystem::path& path);
+
 enum class FileFormat { Glb, Gltf, Ply, Obj };
 // From the extension (.glb, .gltf, .ply, .obj); InputError otherwise.
 FileFormat outputFormat(const std::filesystem::path& path);

@@ -42,9 +42,16 @@ struct MeshSpec {
 struct PathSpec {
     PathKind kind = PathKind::Centerline;
     std::vector<camera::Pose> poses;
-    std::filesystem::path centerlineFile;  // empty: the mesh's own (phantom/tube)
-    int branch = -1;                       // centerline branch to fly to; -1 = the longest path
+    // Empty ("auto"): the mesh's own (phantom, tube); for a mesh file, a
+    // <stem>.centerline.json or airway.centerline.json beside it, else one
+    // computed from its shape (mesh::computeCenterlineUvs).
+    std::filesystem::path centerlineFile;
+    int branch = -1;  // centerline branch to fly to; -1 = the longest path
     camera::FlyThrough fly;
+    // mm before the path's distal end where the flight stops ("stop_mm");
+    // default: the near plane + the lumen's radius there + 3 mm, so the last
+    // frame does not press into the wall closing a blind bronchus.
+    std::optional<float> stopMm;
 };
 
 struct Scene {
@@ -91,9 +98,15 @@ void setMapParameter(Scene& scene, const std::string& key, const std::string& va
 // down the centerline.
 Scene defaultScene();
 
+// The default scene with a mesh file instead of the phantom ("mesh": file),
+// flying along its centerline ("centerline": "auto").
+Scene meshScene(const std::filesystem::path& meshFile);
+
 // Parses a scene file. Relative paths are resolved against the file's folder.
 // Throws InputError(field, file, why) naming the field ("material.shininess",
 // "camera.pose.position", "mode", ...) for anything wrong, including unknown keys.
+// A mesh file (an extension mesh::load reads: .obj, .ply, .stl, .gltf, .glb,
+// ...; not .json) is taken as meshScene(path).
 Scene loadScene(const std::filesystem::path& path);
 Scene parseScene(const std::string& jsonText, const std::filesystem::path& fileForErrors);
 
@@ -101,6 +114,7 @@ Scene parseScene(const std::string& jsonText, const std::filesystem::path& fileF
 struct SceneAssets {
     mesh::Mesh mesh;                     // with normals, uvs and tangents
     std::vector<mesh::Vec3> centerline;  // the fly-through polyline (mm); may be empty
+    float centerlineEndRadius = 0;       // lumen radius at its distal end (mm); 0 = unknown
     image::Image8 diffuse;               // empty: none
     image::Image8 reflectanceMap;        // empty: not generated (loadAssets(..., false))
     // The multitexture baseline's highlight texture for the scene's shininess
