@@ -37,6 +37,7 @@ void addFitCommand(CLI::App& app, Global& g) {
     c->callback([a, &g] {
         a->o.threads = g.threads;
         a->o.robust = !a->noRobust;
+        requireOutputDir(a->out);  // before the work, not after it
         const bool tty = ::isatty(STDERR_FILENO) != 0;
         const auto start = std::chrono::steady_clock::now();
         if (!g.quiet)

@@ -124,7 +124,7 @@ void addRenderCommand(CLI::App& app, Global& g) {
     addSceneOptions(c, a->scene);
     c->add_option("-o,--output", a->output, "Output PNG; with --frames N: out_0000.png ... out_<N-1>.png")->required();
     c->add_option("--frames", a->frames, "Frames along the camera path [the scene's frames, 1]")
-        ->check(CLI::Range(1, 1000000));
+        ->check(wholeNumber(1, 1000000));
     c->add_flag("--overwrite", a->overwrite, "Render frames that already exist again (default: skip them, resume)");
     c->add_flag("--reference", a->reference, "Use the C++ reference renderer (no OpenGL; slow)");
     c->callback([a, &g] { run(*a, g); });

@@ -88,6 +88,7 @@ void runServe(const ServeArgs& a, const Global& g) {
 }
 
 void runAnalyze(const AnalyzeArgs& a, const Global& g) {
+    requireOutputDir(a.output);
     study::StudyData data = study::readStudyData(a.input);
     if (!a.twoafc.empty()) data.choices = study::readTwoAfcCsv(a.twoafc);
     const study::Analysis an = study::analyze(data);
@@ -116,16 +117,16 @@ void addStudyCommand(CLI::App& app, Global& g) {
     plan->add_option("--manifest", p->manifest, "Image manifest (JSON: id, file, category 1-5, patient, pose)")
         ->required();
     plan->add_option("-o,--output", p->output, "Output plan (JSON)")->required();
-    plan->add_option("--observers", p->o.observers, "Observer slots to plan [30]")->check(CLI::Range(1, 100000));
+    plan->add_option("--observers", p->o.observers, "Observer slots to plan [30]")->check(wholeNumber(1, 100000));
     plan->add_option("--seed", p->o.seed, "Random seed (same seed, same plan) [1]");
     plan->add_option("--series", p->o.seriesLength, "Likert images per series; a pause screen between series [15]")
-        ->check(CLI::Range(1, 100000));
+        ->check(wholeNumber(1, 100000));
     plan->add_option("--likert", p->o.likertLimit,
                      "Likert images per observer, drawn evenly across categories; 0 = every image [0]")
-        ->check(CLI::NonNegativeNumber);
+        ->check(wholeNumber(0));
     plan->add_option("--twoafc", p->o.twoafcPerComparison,
                      "2AFC pairs per comparison (3 vs 4, 3 vs 5, 4 vs 5); 0 = no 2AFC [10]")
-        ->check(CLI::Range(0, 10000));
+        ->check(wholeNumber(0, 10000));
     plan->callback([p, &g] { runPlan(*p, g); });
 
     auto sv = std::make_shared<ServeArgs>();
@@ -137,18 +138,18 @@ void addStudyCommand(CLI::App& app, Global& g) {
     serve->add_option("plan", sv->plan, "Study plan from `mucosa study plan`")->required();
     serve->add_option("--db", sv->o.db, "Answers database (SQLite; created if missing, resumed if present)")
         ->required();
-    serve->add_option("--port", sv->o.port, "TCP port; 0 = any free port [8080]")->check(CLI::Range(0, 65535));
+    serve->add_option("--port", sv->o.port, "TCP port; 0 = any free port [8080]")->check(wholeNumber(0, 65535));
     serve->add_option("--host", sv->o.host, "Address to listen on; 0.0.0.0 exposes it to the network [127.0.0.1]");
     serve->add_option("--links-out", sv->linksOut,
                       "Write the observer links here (mode 0600) instead of printing them");
     serve->add_option("--http-threads", sv->o.threads, "Request worker threads (they wait on SQLite commits) [8]")
-        ->check(CLI::Range(1, 1024));
+        ->check(wholeNumber(1, 1024));
     serve->add_option("--max-connections", sv->o.maxConnections, "Open connections in total; more are closed [512]")
-        ->check(CLI::Range(1, 100000));
+        ->check(wholeNumber(1, 100000));
     serve
         ->add_option("--client-connections", sv->o.maxClientConnections,
                      "Open connections from one address; raise it for observers behind one NAT [64]")
-        ->check(CLI::Range(1, 100000));
+        ->check(wholeNumber(1, 100000));
     serve->callback([sv, &g] { runServe(*sv, g); });
 
     auto an = std::make_shared<AnalyzeArgs>();

@@ -18,7 +18,7 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     app.fallthrough();
     cli::Global global;
-    app.add_option("--threads", global.threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", global.threads, "Worker threads (0 = all cores)")->check(cli::wholeNumber(0));
     app.add_flag("-q,--quiet", global.quiet, "Print only warnings and errors");
     cli::addRegisteredCommands(app, global);
     try {
@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::fprintf(stderr, "error: %s (see mucosa --help)\n", e.what());
+        std::fprintf(stderr, "error: %s\n", cli::describeParseError(app, e).c_str());
         return 2;
     } catch (const Error& e) {
         std::fprintf(stderr, "error: %s\n", e.what());

@@ -28,7 +28,7 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
             shading::registryHelp());
 }
 
-std::pair<int, int> parseSize(const std::string& text) {
+std::pair<int, int> parseSize(const std::string& text, const std::string& option) {
     const auto x = text.find('x');
     int w = 0, h = 0;
     auto num = [](std::string_view s, int& v) {
@@ -37,7 +37,7 @@ std::pair<int, int> parseSize(const std::string& text) {
     };
     if (x == std::string::npos || !num(std::string_view(text).substr(0, x), w) ||
         !num(std::string_view(text).substr(x + 1), h) || w < 16 || h < 16 || w > 8192 || h > 8192)
-        throw InputError("--size", "", "'" + text + "' is not WxH with 16..8192 pixels per side (e.g. 640x480)");
+        throw InputError(option, "", "'" + text + "' is not WxH with 16..8192 pixels per side (e.g. 640x480)");
     return {w, h};
 }
 
