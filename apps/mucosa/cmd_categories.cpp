@@ -49,8 +49,8 @@ void addCategoriesCommand(CLI::App& app, Global& g) {
         const fit::FittedModel model = fit::readFitDirectory(a->fitDir);
         const mesh::Mesh m = mesh::load(a->mesh);
         const auto images = fit::renderCategories(m, frames, model, a->out, a->o);
-        info(g, fmt::format("wrote {} images ({} poses x 5 categories) and {}/images.json", images.size(),
-                            images.size() / 5, a->out));
+        info(g, fmt::format("wrote {} ({} x 5 categories) and {}", count(images.size(), "image"),
+                            count(images.size() / 5, "pose"), joinPath(a->out, "images.json")));
     });
 }
 

@@ -65,8 +65,8 @@ void addFitCommand(CLI::App& app, Global& g) {
              fmt::format("rho(gamma) = {:.4f} + {:.4f} g + {:.4f} g^2 + {:.4f} g^3", b.c[0], b.c[1], b.c[2], b.c[3]));
         info(g, fmt::format("delta(r) = 1 + {:.4f} r + {:.4f} r^2 + {:.4f} r^3, z in [{:.2f}, {:.2f}] mm", b.d[0],
                             b.d[1], b.d[2], b.zmin, b.zmax));
-        info(g, fmt::format("{} samples in the solve, rms {:.4f}; texture covers {:.1f} % of the atlas", b.samples,
-                            b.rms, 100.0 * r.coveredFraction));
+        info(g, fmt::format("{} in the solve, rms {:.4f}; texture covers {:.1f} % of the atlas",
+                            count(b.samples, "sample"), b.rms, 100.0 * r.coveredFraction));
         for (const auto& h : r.holdout)
             info(g, fmt::format("held-out frame {} ({}): PSNR {:.2f} dB over {} pixels ({} masked)", h.frame, h.image,
                                 h.psnr, h.compared, h.masked));

@@ -50,8 +50,8 @@ void run(const RenderArgs& a, const Global& g) {
     if (frames > 1 && !a.overwrite)
         for (const fs::path& p : names) existing += fs::exists(p);
     if (frames > 1 && existing == frames) {
-        info(g, fmt::format("all {} frames exist ({} ...); nothing to do (--overwrite renders them again)", frames,
-                            names.front().string()));
+        info(g, fmt::format("all {} exist ({} ...); nothing to do (--overwrite renders them again)",
+                            count(frames, "frame"), names.front().string()));
         return;
     }
     // One mode per run: a mode that reads no map (procedural, the baselines)
@@ -87,8 +87,9 @@ void run(const RenderArgs& a, const Global& g) {
             // whose frames will not fit before writing any of them (x1.25 for
             // frames that compress less well, plus 64 MiB to spare).
             const std::uint64_t toWrite = static_cast<std::uint64_t>(frames - existing);
-            requireDisk(saturatingMul(toWrite, png.size() + png.size() / 4) + (64ull << 20), out,
-                        fmt::format("{} frames of ~{}", toWrite, formatBytes(png.size())));
+            // Absolute: the disk probe walks up from the path, and "fly.png" alone has no parent to walk to.
+            requireDisk(saturatingMul(toWrite, png.size() + png.size() / 4) + (64ull << 20), fs::absolute(out),
+                        fmt::format("{} of ~{}", count(toWrite, "frame"), formatBytes(png.size())));
         }
         writeFileAtomic(name, png);
         ++written;
@@ -110,7 +111,7 @@ void run(const RenderArgs& a, const Global& g) {
         info(g, fmt::format("wrote {} ({}x{}, mode {})", out.string(), scene.width, scene.height,
                             shading::modeName(scene.mode)));
     else
-        info(g, fmt::format("wrote {} frames {} .. {} ({}x{}, mode {}){}", written, names.front().string(),
+        info(g, fmt::format("wrote {} of {} .. {} ({}x{}, mode {}){}", count(written, "frame"), names.front().string(),
                             names.back().string(), scene.width, scene.height, shading::modeName(scene.mode),
                             skipped ? fmt::format(", kept {} existing", skipped) : ""));
 }

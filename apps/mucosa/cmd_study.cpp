@@ -39,11 +39,11 @@ void runPlan(const PlanArgs& a, const Global& g) {
     const study::Plan plan = study::makePlan(study::readManifest(a.manifest), a.o);
     const std::string fingerprint = study::writePlan(plan, a.output);
     const auto& first = plan.observers.front();
-    info(g, fmt::format("wrote {}: {} observer slots, {} images; each observer: calibration pair, {} Likert images "
-                        "(series of {}), {} 2AFC pairs (plan {})",
-                        a.output, plan.observers.size(), plan.images.size(), first.likertCount(),
-                        plan.options.seriesLength,
-                        first.trials.size() - 1 - static_cast<std::size_t>(first.likertCount()), fingerprint));
+    const std::size_t likert = static_cast<std::size_t>(first.likertCount());
+    info(g, fmt::format("wrote {}: {}, {}; each observer: calibration pair, {} (series of {}), {} (plan {})", a.output,
+                        count(plan.observers.size(), "observer slot"), count(plan.images.size(), "image"),
+                        count(likert, "Likert image"), plan.options.seriesLength,
+                        count(first.trials.size() - 1 - likert, "2AFC pair"), fingerprint));
 }
 
 void runServe(const ServeArgs& a, const Global& g) {
@@ -69,11 +69,10 @@ void runServe(const ServeArgs& a, const Global& g) {
             // --links-out, else on stdout, one per slot, after this line.
             const std::vector<std::string> links = server.observerLinks(port);
             if (!a.linksOut.empty()) study::writeLinksFile(a.linksOut, links);
-            info(g,
-                 fmt::format("serving the study on http://{}:{}/ ({} observer slots, answers in {}); {}; Ctrl-C stops",
-                             a.o.host, port, slots, a.o.db.string(),
-                             a.linksOut.empty() ? "each observer opens their own link below"
-                                                : "observer links in " + a.linksOut));
+            info(g, fmt::format("serving the study on http://{}:{}/ ({}, answers in {}); {}; Ctrl-C stops", a.o.host,
+                                port, count(slots, "observer slot"), a.o.db.string(),
+                                a.linksOut.empty() ? "each observer opens their own link below"
+                                                   : "observer links in " + a.linksOut));
             if (a.linksOut.empty())
                 for (const std::string& l : links) std::fprintf(stdout, "%s\n", l.c_str());
             std::fflush(stdout);
@@ -96,15 +95,15 @@ void runAnalyze(const AnalyzeArgs& a, const Global& g) {
     study::writeCsv(data, a.output);
     for (const auto& w : an.warnings) warn(w);
     for (const auto& gr : an.groups) {
-        std::string line = fmt::format("{}: {} observers", gr.group, gr.observers.size());
+        std::string line = fmt::format("{}: {}", gr.group, count(gr.observers.size(), "observer"));
         if (gr.friedman.result)
             line += fmt::format(", Friedman chi2 = {:.3f} (df {}, p = {:.3g})", gr.friedman.result->chi2,
                                 gr.friedman.result->df, gr.friedman.result->p);
         for (const auto& [c, r] : gr.roc) line += fmt::format(", AUC {} = {:.3f}", c, r.auc);
         info(g, line);
     }
-    info(g, fmt::format("wrote {}/stats.json, report.html, fig6_scores.svg, fig7_roc.svg, ratings.csv{}", a.output,
-                        data.choices.empty() ? "" : ", pairs.csv"));
+    info(g, fmt::format("wrote {}, report.html, fig6_scores.svg, fig7_roc.svg, ratings.csv{}",
+                        joinPath(a.output, "stats.json"), data.choices.empty() ? "" : ", pairs.csv"));
 }
 
 void addStudyCommand(CLI::App& app, Global& g) {

@@ -28,7 +28,7 @@ void run(const ViewArgs& a, const Global& g) {
     scene::SceneAssets assets = scene::loadAssets(scene, g.threads);
     for (const std::string& n : assets.notes) info(g, n);
     const render::ViewerReport r = render::runViewer(std::move(scene), std::move(assets), o);
-    info(g, fmt::format("{} frames, {:.1f} fps on average ({})", r.frames, r.meanFps, r.glRenderer));
+    info(g, fmt::format("{}, {:.1f} fps on average ({})", count(r.frames, "frame"), r.meanFps, r.glRenderer));
     if (o.screenshot) info(g, "wrote " + o.screenshot->string());
 }
 

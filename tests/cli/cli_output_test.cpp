@@ -57,5 +57,30 @@ TEST(CliOutput, SceneCommandsPointToParamsInsteadOfRepeatingTheRegistry) {
                        "unknown parameter 'material.shinyness' (did you mean 'material.shininess'? see mucosa params)");
 }
 
+TEST(CliOutput, CountsAreSingularForOne) {
+    TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [32, 24]})";
+    auto r = runCli("render tube.json -o f.png --frames 2", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("wrote 2 frames of f_0000.png .. f_0001.png"), std::string::npos) << r.out;
+    std::filesystem::remove(dir / "f_0001.png");
+    r = runCli("render tube.json -o f.png --frames 2", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("wrote 1 frame of f_0000.png .. f_0001.png"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("kept 1 existing"), std::string::npos) << r.out;
+
+    // A study plan for one observer, from one image per category.
+    nlohmann::json images = nlohmann::json::array();
+    for (int c = 1; c <= 5; ++c) {
+        const std::string name = fmt::format("c{}.png", c);
+        std::ofstream(dir / name) << "not really a png";
+        images.push_back({{"id", name}, {"file", name}, {"category", c}, {"patient", 1}, {"pose", c}});
+    }
+    std::ofstream(dir / "images.json") << nlohmann::json{{"images", images}}.dump();
+    r = runCli("study plan --manifest images.json -o plan.json --observers 1 --twoafc 1 --series 1", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("1 observer slot, 5 images"), std::string::npos) << r.out;
+}
+
 }  // namespace
 }  // namespace mucosa::test
