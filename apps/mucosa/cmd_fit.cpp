@@ -1,8 +1,10 @@
 // mucosa fit: patient-specific texture and BRDF from registered frames.
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <memory>
 
 #include <fmt/format.h>
 
@@ -40,14 +42,23 @@ void addFitCommand(CLI::App& app, Global& g) {
         requireOutputDir(a->out);  // before the work, not after it
         const bool tty = ::isatty(STDERR_FILENO) != 0;
         const auto start = std::chrono::steady_clock::now();
-        if (!g.quiet)
-            a->o.progress = [tty, start](const std::string& stage, double fraction) {
-                const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-                std::fprintf(stderr, tty ? "\r[fit %3.0f%%] %-48s %6.1f s" : "[fit %3.0f%%] %s (%.1f s)\n",
-                             100.0 * fraction, stage.c_str(), s);
-                if (tty && fraction >= 1.0) std::fprintf(stderr, "\n");
-                std::fflush(stderr);
-            };
+        // One fraction for the whole command, never going back: reading the
+        // inputs, the fit (its own 0..1 mapped into kFitFrom..kFitTo), writing.
+        constexpr double kFitFrom = 0.02, kFitTo = 0.92, kWriting = 0.95;
+        auto shown = std::make_shared<double>(0.0);
+        auto report = [&g, tty, start, shown](const std::string& stage, double fraction) {
+            if (g.quiet) return;
+            *shown = std::max(*shown, fraction);
+            const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            std::fprintf(stderr, tty ? "\r[fit %3.0f%%] %-48s %6.1f s\x1b[K" : "[fit %3.0f%%] %s (%.1f s)\n",
+                         100.0 * *shown, stage.c_str(), s);
+            if (tty && *shown >= 1.0) std::fprintf(stderr, "\n");
+            std::fflush(stderr);
+        };
+        a->o.progress = [report](const std::string& stage, double fraction) {
+            report(stage, kFitFrom + (kFitTo - kFitFrom) * std::clamp(fraction, 0.0, 1.0));
+        };
+        report("reading " + a->frames + " and " + a->mesh, 0.0);
         const fit::FrameSet frames = fit::readFrames(a->frames);
         mesh::Mesh m = mesh::load(a->mesh);
         fit::FitResult r;
@@ -59,7 +70,9 @@ void addFitCommand(CLI::App& app, Global& g) {
             if (e.file().empty()) throw InputError(e.subject(), a->frames, e.reason());
             throw;
         }
+        report("writing " + joinPath(a->out, "brdf.json") + ", texture.png, ...", kWriting);
         fit::writeFitOutputs(r, a->out);
+        report("done", 1.0);
         const auto& b = r.brdf;
         info(g,
              fmt::format("rho(gamma) = {:.4f} + {:.4f} g + {:.4f} g^2 + {:.4f} g^3", b.c[0], b.c[1], b.c[2], b.c[3]));
@@ -68,9 +81,9 @@ void addFitCommand(CLI::App& app, Global& g) {
         info(g, fmt::format("{} in the solve, rms {:.4f}; texture covers {:.1f} % of the atlas",
                             count(b.samples, "sample"), b.rms, 100.0 * r.coveredFraction));
         for (const auto& h : r.holdout)
-            info(g, fmt::format("held-out frame {} ({}): PSNR {:.2f} dB over {} pixels ({} masked)", h.frame, h.image,
-                                h.psnr, h.compared, h.masked));
-        info(g, fmt::format("wrote {}/{{brdf.json, texture.png, coverage.png, report.html}}", a->out));
+            info(g, fmt::format("held-out frame {} ({}): PSNR {:.2f} dB over {} ({} masked)", h.frame, h.image, h.psnr,
+                                count(h.compared, "pixel"), h.masked));
+        info(g, "wrote " + joinPath(a->out, "{brdf.json, texture.png, coverage.png, report.html}"));
     });
 }
 

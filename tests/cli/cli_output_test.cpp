@@ -82,5 +82,36 @@ TEST(CliOutput, CountsAreSingularForOne) {
     EXPECT_NE(r.out.find("1 observer slot, 5 images"), std::string::npos) << r.out;
 }
 
+// The numbers in "[fit NN%]" progress lines, in order.
+std::vector<int> fitPercents(const std::string& err) {
+    std::vector<int> p;
+    const std::regex line(R"(\[fit +([0-9]+)%\])");
+    for (auto it = std::sregex_iterator(err.begin(), err.end(), line); it != std::sregex_iterator(); ++it)
+        p.push_back(std::stoi((*it)[1]));
+    return p;
+}
+
+TEST(CliOutput, FitProgressOnlyGoesForwardAndItsPathsHaveNoDoubledSlash) {
+    TempDir dir;
+    const mesh::Mesh tube = makeTube(9, 80, 64, 64);
+    mesh::save(tube, dir / "tube.ply");
+    SyntheticOptions so;
+    so.frames = 12;  // more frames than stages: the back-projection alone once reached 90 %
+    so.size = 96;
+    renderSynthetic(tube, Truth{}, so, dir.path());
+    const auto r = runCli("fit --mesh tube.ply --frames frames.json -o out/ --texture-size 64 --holdout 2", dir.path());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const std::vector<int> p = fitPercents(r.err);
+    ASSERT_GE(p.size(), 16u) << r.err;  // reading, 12 frames, solve, texture, 2 held out, writing, done
+    for (std::size_t i = 1; i < p.size(); ++i) EXPECT_LT(p[i - 1], p[i]) << "line " << i << ":\n" << r.err;
+    EXPECT_EQ(p.front(), 0);
+    EXPECT_EQ(p.back(), 100);
+    // 100 % comes after the outputs are written, not before.
+    EXPECT_LT(r.err.find("writing"), r.err.find("[fit 100%]")) << r.err;
+    EXPECT_NE(r.out.find("wrote out/{brdf.json, texture.png, coverage.png, report.html}"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("//"), std::string::npos) << r.out;
+    EXPECT_TRUE(std::filesystem::exists(dir / "out" / "brdf.json"));
+}
+
 }  // namespace
 }  // namespace mucosa::test
