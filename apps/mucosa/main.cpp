@@ -13,6 +13,9 @@
 
 int main(int argc, char** argv) {
     using namespace mucosa;
+    // Line-buffered even into a file or pipe, so a run that is killed keeps
+    // every line of its log.
+    std::setvbuf(stdout, nullptr, _IOLBF, BUFSIZ);
     CLI::App app{"Mucosa: photorealistic real-time rendering of wet, mucus-covered tissue.", "mucosa"};
     app.set_version_flag("--version", std::string(version()));
     app.require_subcommand(1);

@@ -113,5 +113,40 @@ TEST(CliOutput, FitProgressOnlyGoesForwardAndItsPathsHaveNoDoubledSlash) {
     EXPECT_TRUE(std::filesystem::exists(dir / "out" / "brdf.json"));
 }
 
+// stdout is line-buffered even into a file: a run killed half way keeps the
+// lines it printed (block buffering would keep them in memory until exit).
+TEST(CliOutput, AKilledRunKeepsItsLog) {
+    TempDir dir;
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [16, 16]})";
+    const std::filesystem::path log = dir / "log.txt";
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        const int null = ::open("/dev/null", O_WRONLY);
+        ::dup2(fd, 1);
+        ::dup2(null, 2);
+        ::chdir(dir.path().c_str());
+        // Long enough never to finish before it is killed.
+        ::execl(MUCOSA_CLI, MUCOSA_CLI, "render", "tube.json", "-o", "f.png", "--frames", "100000", nullptr);
+        ::_exit(127);
+    }
+    bool logged = false;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    while (!logged && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        logged = readBytes(log).find("GL_RENDERER") != std::string::npos;
+        int status = 0;
+        if (::waitpid(pid, &status, WNOHANG) == pid) {
+            ADD_FAILURE() << "mucosa render ended on its own:\n" << readBytes(log);
+            return;
+        }
+    }
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, nullptr, 0);
+    EXPECT_TRUE(logged) << "nothing in the log of a running render after 120 s:\n" << readBytes(log);
+    EXPECT_NE(readBytes(log).find("tube: radius"), std::string::npos) << readBytes(log);
+}
+
 }  // namespace
 }  // namespace mucosa::test
