@@ -1,9 +1,17 @@
 #include "commands.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <utility>
 #include <vector>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
 
 namespace mucosa::cli {
 
@@ -30,6 +38,50 @@ void info(const Global& g, const std::string& line) {
 
 void warn(const std::string& line) {
     std::fprintf(stderr, "warning: %s\n", line.c_str());
+}
+
+std::string count(std::uint64_t n, std::string_view singular, std::string_view plural) {
+    if (n == 1) return fmt::format("1 {}", singular);
+    if (plural.empty()) return fmt::format("{} {}s", n, singular);
+    return fmt::format("{} {}", n, plural);
+}
+
+std::string joinPath(const std::filesystem::path& dir, std::string_view name) {
+    return (dir / name).lexically_normal().string();
+}
+
+void requireOutputDir(const std::filesystem::path& dir) {
+    namespace fs = std::filesystem;
+    const fs::path d = dir.has_filename() ? dir : dir.parent_path();  // "fit/" -> "fit"
+    std::error_code ec;
+    const fs::file_status st = fs::status(d, ec);
+    if (fs::exists(st)) {
+        if (!fs::is_directory(st)) throw IoError("output folder", d.string(), "exists and is not a directory");
+        if (::access(d.c_str(), W_OK | X_OK) != 0) throw IoError("output folder", d.string(), "is not writable");
+        return;
+    }
+    requireWritable(d);  // the parent must exist and be writable, as for any output file
+}
+
+CLI::Validator wholeNumber(long long min, long long max) {
+    std::string description = fmt::format("{}..{}", min, max);
+    if (max == std::numeric_limits<int>::max())
+        description = min == 0 ? "NONNEGATIVE" : min == 1 ? "POSITIVE" : fmt::format(">={}", min);
+    return CLI::Validator(
+        [min, max](std::string& text) -> std::string {
+            long long v = 0;
+            const char* end = text.data() + text.size();
+            const auto r = std::from_chars(text.data(), end, v);
+            if (r.ptr != end || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range))
+                return fmt::format("'{}' is not a whole number", text);
+            const bool negative = !text.empty() && text[0] == '-';
+            if (r.ec == std::errc::result_out_of_range ? negative : v < min)
+                return fmt::format("must be at least {}, got {}", min, text);
+            if (r.ec == std::errc::result_out_of_range || v > max)
+                return fmt::format("must be at most {}, got {}", max, text);
+            return {};
+        },
+        description);
 }
 
 }  // namespace mucosa::cli

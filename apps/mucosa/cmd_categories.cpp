@@ -33,11 +33,12 @@ void addCategoriesCommand(CLI::App& app, Global& g) {
     c->add_option("-o,--output", a->out, "Output folder (images + images.json)")->required();
     c->add_option("--patient", a->o.patient, "Patient label in the manifest [patient]");
     c->add_option("--low-res", a->o.lowResDivisor, "Category 2: reduce the texture by this factor [8]")
-        ->check(CLI::Range(2, 256));
+        ->check(wholeNumber(2, 256));
     c->add_option("--preset", a->o.preset, "Reflectance-map preset of category 4 [bronchial]");
     c->add_option("--map-tiling", a->o.mapTiling, "Map repeats per unit of texture coordinate [4]");
     c->callback([a, &g] {
         a->o.threads = g.threads;
+        requireOutputDir(a->out);
         const bool tty = ::isatty(STDERR_FILENO) != 0;
         if (!g.quiet)
             a->o.progress = [tty](int done, int total) {
@@ -48,8 +49,8 @@ void addCategoriesCommand(CLI::App& app, Global& g) {
         const fit::FittedModel model = fit::readFitDirectory(a->fitDir);
         const mesh::Mesh m = mesh::load(a->mesh);
         const auto images = fit::renderCategories(m, frames, model, a->out, a->o);
-        info(g, fmt::format("wrote {} images ({} poses x 5 categories) and {}/images.json", images.size(),
-                            images.size() / 5, a->out));
+        info(g, fmt::format("wrote {} ({} x 5 categories) and {}", count(images.size(), "image"),
+                            count(images.size() / 5, "pose"), joinPath(a->out, "images.json")));
     });
 }
 

@@ -29,7 +29,7 @@ void run(const CompareArgs& a, const Global& g) {
         throw InputError("--output", a.output, "must end in .png");
     requireWritable(a.output);
     render::CompareOptions o;
-    std::tie(o.tileWidth, o.tileHeight) = parseSize(a.tile);
+    std::tie(o.tileWidth, o.tileHeight) = parseSize(a.tile, "--tile");
     o.views = a.views;
     const bool tty = isatty(2) && !g.quiet;
     if (tty) o.progress = [](int done, int total) { std::fprintf(stderr, "\rtile %d/%d\x1b[K", done, total); };
@@ -51,7 +51,7 @@ void addCompareCommand(CLI::App& app, Global& g) {
     addSceneOptions(c, a->scene, false);
     c->add_option("-o,--output", a->output, "Output PNG")->required();
     c->add_option("--tile", a->tile, "Size of each picture WxH [400x300]");
-    c->add_option("--views", a->views, "Views along the camera path [2]")->check(CLI::Range(1, 8));
+    c->add_option("--views", a->views, "Views along the camera path [2]")->check(wholeNumber(1, 8));
     c->callback([a, &g] { run(*a, g); });
 }
 

@@ -16,13 +16,15 @@ void addDemoCommand(CLI::App& app, Global& g) {
     auto outDir = std::make_shared<std::string>("out");
     CLI::App* c =
         app.add_subcommand("demo", "Run the whole pipeline on the built-in default and write results to ./out/");
-    c->add_option("-o,--output-dir", *outDir, "Output directory [out]");
+    c->add_option("-o,--output-dir", *outDir, "Output folder, created if its parent exists [out]");
     c->callback([outDir, &g] {
         namespace fs = std::filesystem;
         const fs::path dir = *outDir;
+        // As every other command's output: the folder is created, its parents must exist.
+        requireOutputDir(dir);
         std::error_code ec;
-        fs::create_directories(dir, ec);
-        if (ec) throw IoError("output directory", dir.string(), ec.message());
+        fs::create_directory(dir, ec);
+        if (ec) throw IoError("output folder", dir.string(), ec.message());
         const reflectance::Preset& preset = reflectance::findPreset("bronchial");
         reflectance::MapOutputs out;
         out.map = dir / "reflectance_map.png";
@@ -33,7 +35,7 @@ void addDemoCommand(CLI::App& app, Global& g) {
         info(g, fmt::format("  reflectance map: {}", fs::absolute(out.map).lexically_normal().string()));
         info(g, fmt::format("  height map:      {}", fs::absolute(*out.height).lexically_normal().string()));
         info(g, fmt::format("  parameters:      {}", fs::absolute(r.sidecar).lexically_normal().string()));
-        render::writeDefaultCompareSheet(dir / "compare.png", g.threads);  // the paper's Fig. 2 and 3 (issue 4)
+        render::writeDefaultCompareSheet(dir / "compare.png", g.threads);  // the paper's Fig. 2 and 3
         info(g, fmt::format("  comparison:      {}", fs::absolute(dir / "compare.png").lexically_normal().string()));
     });
 }

@@ -1,8 +1,10 @@
 // mucosa fit: patient-specific texture and BRDF from registered frames.
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <memory>
 
 #include <fmt/format.h>
 
@@ -37,16 +39,26 @@ void addFitCommand(CLI::App& app, Global& g) {
     c->callback([a, &g] {
         a->o.threads = g.threads;
         a->o.robust = !a->noRobust;
+        requireOutputDir(a->out);  // before the work, not after it
         const bool tty = ::isatty(STDERR_FILENO) != 0;
         const auto start = std::chrono::steady_clock::now();
-        if (!g.quiet)
-            a->o.progress = [tty, start](const std::string& stage, double fraction) {
-                const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-                std::fprintf(stderr, tty ? "\r[fit %3.0f%%] %-48s %6.1f s" : "[fit %3.0f%%] %s (%.1f s)\n",
-                             100.0 * fraction, stage.c_str(), s);
-                if (tty && fraction >= 1.0) std::fprintf(stderr, "\n");
-                std::fflush(stderr);
-            };
+        // One fraction for the whole command, never going back: reading the
+        // inputs, the fit (its own 0..1 mapped into kFitFrom..kFitTo), writing.
+        constexpr double kFitFrom = 0.02, kFitTo = 0.92, kWriting = 0.95;
+        auto shown = std::make_shared<double>(0.0);
+        auto report = [&g, tty, start, shown](const std::string& stage, double fraction) {
+            if (g.quiet) return;
+            *shown = std::max(*shown, fraction);
+            const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            std::fprintf(stderr, tty ? "\r[fit %3.0f%%] %-48s %6.1f s\x1b[K" : "[fit %3.0f%%] %s (%.1f s)\n",
+                         100.0 * *shown, stage.c_str(), s);
+            if (tty && *shown >= 1.0) std::fprintf(stderr, "\n");
+            std::fflush(stderr);
+        };
+        a->o.progress = [report](const std::string& stage, double fraction) {
+            report(stage, kFitFrom + (kFitTo - kFitFrom) * std::clamp(fraction, 0.0, 1.0));
+        };
+        report("reading " + a->frames + " and " + a->mesh, 0.0);
         const fit::FrameSet frames = fit::readFrames(a->frames);
         mesh::Mesh m = mesh::load(a->mesh);
         fit::FitResult r;
@@ -58,18 +70,20 @@ void addFitCommand(CLI::App& app, Global& g) {
             if (e.file().empty()) throw InputError(e.subject(), a->frames, e.reason());
             throw;
         }
+        report("writing " + joinPath(a->out, "brdf.json") + ", texture.png, ...", kWriting);
         fit::writeFitOutputs(r, a->out);
+        report("done", 1.0);
         const auto& b = r.brdf;
         info(g,
              fmt::format("rho(gamma) = {:.4f} + {:.4f} g + {:.4f} g^2 + {:.4f} g^3", b.c[0], b.c[1], b.c[2], b.c[3]));
         info(g, fmt::format("delta(r) = 1 + {:.4f} r + {:.4f} r^2 + {:.4f} r^3, z in [{:.2f}, {:.2f}] mm", b.d[0],
                             b.d[1], b.d[2], b.zmin, b.zmax));
-        info(g, fmt::format("{} samples in the solve, rms {:.4f}; texture covers {:.1f} % of the atlas", b.samples,
-                            b.rms, 100.0 * r.coveredFraction));
+        info(g, fmt::format("{} in the solve, rms {:.4f}; texture covers {:.1f} % of the atlas",
+                            count(b.samples, "sample"), b.rms, 100.0 * r.coveredFraction));
         for (const auto& h : r.holdout)
-            info(g, fmt::format("held-out frame {} ({}): PSNR {:.2f} dB over {} pixels ({} masked)", h.frame, h.image,
-                                h.psnr, h.compared, h.masked));
-        info(g, fmt::format("wrote {}/{{brdf.json, texture.png, coverage.png, report.html}}", a->out));
+            info(g, fmt::format("held-out frame {} ({}): PSNR {:.2f} dB over {} ({} masked)", h.frame, h.image, h.psnr,
+                                count(h.compared, "pixel"), h.masked));
+        info(g, "wrote " + joinPath(a->out, "{brdf.json, texture.png, coverage.png, report.html}"));
     });
 }
 

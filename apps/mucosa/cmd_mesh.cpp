@@ -73,10 +73,9 @@ void printInfo(const Global& g, const std::string& file, const std::string& unit
             "uv stretch:    {:.4g} uv area per mm^2; per-triangle area ratio / mean: p5 {:.2f}, p50 {:.2f}, "
             "p95 {:.2f}",
             st.uvPerSurfaceArea, st.areaP05, st.areaP50, st.areaP95));
-        line(
-            fmt::format("               anisotropy sigma1/sigma2: p50 {:.2f}, p95 {:.2f}; {} zero-area, {} flipped "
-                        "triangles",
-                        st.anisotropyP50, st.anisotropyP95, st.zeroUvAreaTriangles, st.flippedTriangles));
+        line(fmt::format("               anisotropy sigma1/sigma2: p50 {:.2f}, p95 {:.2f}; {} zero-area, {} flipped",
+                         st.anisotropyP50, st.anisotropyP95, st.zeroUvAreaTriangles,
+                         count(st.flippedTriangles, "triangle")));
     }
     if (!g.quiet) std::fputs(s.c_str(), stdout);
 }
@@ -105,16 +104,18 @@ void convert(const MeshArgs& a, const Global& g) {
     mesh::Mesh m = mesh::load(a.positional[0], lo, &li);
     verbose = verbose || m.triangleCount() > 1000000;
     for (const std::string& w : li.warnings) warn(w);
-    info(g, fmt::format("read {}: {} vertices, {} triangles, x{} to mm ({})", a.positional[0], m.vertexCount(),
-                        m.triangleCount(), li.scaleToMillimetres, li.unitReason));
+    info(g,
+         fmt::format("read {}: {}, {}, x{} to mm ({})", a.positional[0], count(m.vertexCount(), "vertex", "vertices"),
+                     count(m.triangleCount(), "triangle"), li.scaleToMillimetres, li.unitReason));
     bool tangentsStale = !m.hasTangents();
     if (a.weld) {
         progress("welding");
         const std::size_t removed = mesh::weld(m, a.weldTolerance);
         const std::size_t degenerate = mesh::removeDegenerateTriangles(m);
         const std::size_t unused = mesh::removeUnusedVertices(m);
-        info(g, fmt::format("welded {} vertices, dropped {} degenerate triangles and {} unused vertices", removed,
-                            degenerate, unused));
+        info(g,
+             fmt::format("welded {}, dropped {} and {}", count(removed, "vertex", "vertices"),
+                         count(degenerate, "degenerate triangle"), count(unused, "unused vertex", "unused vertices")));
         tangentsStale = true;
     }
     if (a.recomputeNormals || !m.hasNormals()) {
@@ -129,15 +130,17 @@ void convert(const MeshArgs& a, const Global& g) {
     if (a.uv == "centerline") {
         progress("centerline UVs");
         const mesh::CenterlineUvReport r = mesh::computeCenterlineUvs(m);
-        info(g, fmt::format("centerline UVs: {} pieces, {} branches, tile {:.2f} mm, {} seam vertices", r.pieces,
-                            r.centerline.branches.size(), r.tileLength, r.seamVertices));
+        info(g, fmt::format("centerline UVs: {}, {}, tile {:.2f} mm, {}", count(r.pieces, "piece"),
+                            count(r.centerline.branches.size(), "branch", "branches"), r.tileLength,
+                            count(r.seamVertices, "seam vertex", "seam vertices")));
         tangentsStale = true;
     }
     if (m.hasUvs() && !a.noTangents && tangentsStale) {
         progress("tangents");
         const mesh::TangentReport t = mesh::computeTangents(m, g.threads);
-        info(g, fmt::format("tangents: {} mirrored vertices, {} zero-UV-area triangles, {} fallback frames",
-                            t.mirroredVertices, t.degenerateUvTriangles, t.fallbackVertices));
+        info(g, fmt::format("tangents: {}, {}, {}", count(t.mirroredVertices, "mirrored vertex", "mirrored vertices"),
+                            count(t.degenerateUvTriangles, "zero-UV-area triangle"),
+                            count(t.fallbackVertices, "fallback frame")));
     } else if (!m.hasUvs()) {
         m.tangents.clear();
         warn("no texture coordinates: written without tangents (try --uv centerline)");
@@ -145,7 +148,8 @@ void convert(const MeshArgs& a, const Global& g) {
     if (a.noTangents) m.tangents.clear();
     progress("writing " + a.output);
     mesh::save(m, a.output);
-    info(g, fmt::format("wrote {} ({} vertices, {} triangles)", a.output, m.vertexCount(), m.triangleCount()));
+    info(g, fmt::format("wrote {} ({}, {})", a.output, count(m.vertexCount(), "vertex", "vertices"),
+                        count(m.triangleCount(), "triangle")));
 }
 
 void addMeshCommand(CLI::App& app, Global& g) {

@@ -59,10 +59,11 @@ void addPhantomCommand(CLI::App& app, Global& g) {
         mesh::save(ph.mesh, a->output, so);
         mesh::writeCenterlineJson(ph.centerline, cl);
         const mesh::MeshReport r = mesh::analyse(ph.mesh);
-        info(g, fmt::format("wrote {} ({} vertices, {} triangles, {:.0f} x {:.0f} x {:.0f} mm, {})", a->output,
-                            r.vertices, r.triangles, r.boundsMax[0] - r.boundsMin[0], r.boundsMax[1] - r.boundsMin[1],
+        info(g, fmt::format("wrote {} ({}, {}, {:.0f} x {:.0f} x {:.0f} mm, {})", a->output,
+                            count(r.vertices, "vertex", "vertices"), count(r.triangles, "triangle"),
+                            r.boundsMax[0] - r.boundsMin[0], r.boundsMax[1] - r.boundsMin[1],
                             r.boundsMax[2] - r.boundsMin[2], r.watertight() ? "watertight" : "NOT watertight"));
-        info(g, fmt::format("wrote {} ({} branches)", cl.string(), ph.centerline.branches.size()));
+        info(g, fmt::format("wrote {} ({})", cl.string(), count(ph.centerline.branches.size(), "branch", "branches")));
     });
 }
 

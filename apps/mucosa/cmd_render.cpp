@@ -14,6 +14,7 @@
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/offscreen.hpp>
 
+#include "render_manifest.hpp"
 #include "scene_options.hpp"
 
 namespace mucosa::cli {
@@ -45,13 +46,16 @@ void run(const RenderArgs& a, const Global& g) {
     std::vector<fs::path> names;
     for (int i = 0; i < frames; ++i) names.push_back(frames == 1 ? out : render::frameName(out, i));
     // A sequence is resumable: frames already on disk are kept (the writes are
-    // atomic, so a file that exists is complete).
+    // atomic, so a file that exists is complete), if the record next to them
+    // says they were made with this run's settings.
+    const nlohmann::json manifest = frames > 1 ? renderManifest(scene, a.scene, frames, a.reference) : nlohmann::json();
     int existing = 0;
     if (frames > 1 && !a.overwrite)
         for (const fs::path& p : names) existing += fs::exists(p);
+    if (existing > 0) requireResumable(out, manifest, existing);
     if (frames > 1 && existing == frames) {
-        info(g, fmt::format("all {} frames exist ({} ...); nothing to do (--overwrite renders them again)", frames,
-                            names.front().string()));
+        info(g, fmt::format("all {} exist ({} ...) and match this run; nothing to do (--overwrite renders them again)",
+                            count(frames, "frame"), names.front().string()));
         return;
     }
     // One mode per run: a mode that reads no map (procedural, the baselines)
@@ -87,9 +91,11 @@ void run(const RenderArgs& a, const Global& g) {
             // whose frames will not fit before writing any of them (x1.25 for
             // frames that compress less well, plus 64 MiB to spare).
             const std::uint64_t toWrite = static_cast<std::uint64_t>(frames - existing);
-            requireDisk(saturatingMul(toWrite, png.size() + png.size() / 4) + (64ull << 20), out,
-                        fmt::format("{} frames of ~{}", toWrite, formatBytes(png.size())));
+            // Absolute: the disk probe walks up from the path, and "fly.png" alone has no parent to walk to.
+            requireDisk(saturatingMul(toWrite, png.size() + png.size() / 4) + (64ull << 20), fs::absolute(out),
+                        fmt::format("{} of ~{}", count(toWrite, "frame"), formatBytes(png.size())));
         }
+        if (written == 0 && frames > 1) writeFileAtomic(manifestPath(out), manifest.dump(2) + "\n");
         writeFileAtomic(name, png);
         ++written;
         if (frames > 1 && !g.quiet) {
@@ -110,7 +116,7 @@ void run(const RenderArgs& a, const Global& g) {
         info(g, fmt::format("wrote {} ({}x{}, mode {})", out.string(), scene.width, scene.height,
                             shading::modeName(scene.mode)));
     else
-        info(g, fmt::format("wrote {} frames {} .. {} ({}x{}, mode {}){}", written, names.front().string(),
+        info(g, fmt::format("wrote {} of {} .. {} ({}x{}, mode {}){}", count(written, "frame"), names.front().string(),
                             names.back().string(), scene.width, scene.height, shading::modeName(scene.mode),
                             skipped ? fmt::format(", kept {} existing", skipped) : ""));
 }
@@ -122,10 +128,15 @@ void addRenderCommand(CLI::App& app, Global& g) {
         "Examples:\n  mucosa render -o frame.png\n  mucosa render scene.json -o fly.png --frames 120 "
         "--mode vertex-phong --size 1280x1024");
     addSceneOptions(c, a->scene);
-    c->add_option("-o,--output", a->output, "Output PNG; with --frames N: out_0000.png ... out_<N-1>.png")->required();
+    c->add_option("-o,--output", a->output,
+                  "Output PNG; with --frames N: out_0000.png ... out_<N-1>.png and out.render.json, the settings they "
+                  "were made with")
+        ->required();
     c->add_option("--frames", a->frames, "Frames along the camera path [the scene's frames, 1]")
-        ->check(CLI::Range(1, 1000000));
-    c->add_flag("--overwrite", a->overwrite, "Render frames that already exist again (default: skip them, resume)");
+        ->check(wholeNumber(1, 1000000));
+    c->add_flag("--overwrite", a->overwrite,
+                "Start over: render every frame again, even those on disk (default: keep them and resume, if "
+                "OUT.render.json says they were made with the same settings)");
     c->add_flag("--reference", a->reference, "Use the C++ reference renderer (no OpenGL; slow)");
     c->callback([a, &g] { run(*a, g); });
 }

@@ -39,11 +39,11 @@ void runPlan(const PlanArgs& a, const Global& g) {
     const study::Plan plan = study::makePlan(study::readManifest(a.manifest), a.o);
     const std::string fingerprint = study::writePlan(plan, a.output);
     const auto& first = plan.observers.front();
-    info(g, fmt::format("wrote {}: {} observer slots, {} images; each observer: calibration pair, {} Likert images "
-                        "(series of {}), {} 2AFC pairs (plan {})",
-                        a.output, plan.observers.size(), plan.images.size(), first.likertCount(),
-                        plan.options.seriesLength,
-                        first.trials.size() - 1 - static_cast<std::size_t>(first.likertCount()), fingerprint));
+    const std::size_t likert = static_cast<std::size_t>(first.likertCount());
+    info(g, fmt::format("wrote {}: {}, {}; each observer: calibration pair, {} (series of {}), {} (plan {})", a.output,
+                        count(plan.observers.size(), "observer slot"), count(plan.images.size(), "image"),
+                        count(likert, "Likert image"), plan.options.seriesLength,
+                        count(first.trials.size() - 1 - likert, "2AFC pair"), fingerprint));
 }
 
 void runServe(const ServeArgs& a, const Global& g) {
@@ -69,11 +69,10 @@ void runServe(const ServeArgs& a, const Global& g) {
             // --links-out, else on stdout, one per slot, after this line.
             const std::vector<std::string> links = server.observerLinks(port);
             if (!a.linksOut.empty()) study::writeLinksFile(a.linksOut, links);
-            info(g,
-                 fmt::format("serving the study on http://{}:{}/ ({} observer slots, answers in {}); {}; Ctrl-C stops",
-                             a.o.host, port, slots, a.o.db.string(),
-                             a.linksOut.empty() ? "each observer opens their own link below"
-                                                : "observer links in " + a.linksOut));
+            info(g, fmt::format("serving the study on http://{}:{}/ ({}, answers in {}); {}; Ctrl-C stops", a.o.host,
+                                port, count(slots, "observer slot"), a.o.db.string(),
+                                a.linksOut.empty() ? "each observer opens their own link below"
+                                                   : "observer links in " + a.linksOut));
             if (a.linksOut.empty())
                 for (const std::string& l : links) std::fprintf(stdout, "%s\n", l.c_str());
             std::fflush(stdout);
@@ -88,6 +87,7 @@ void runServe(const ServeArgs& a, const Global& g) {
 }
 
 void runAnalyze(const AnalyzeArgs& a, const Global& g) {
+    requireOutputDir(a.output);
     study::StudyData data = study::readStudyData(a.input);
     if (!a.twoafc.empty()) data.choices = study::readTwoAfcCsv(a.twoafc);
     const study::Analysis an = study::analyze(data);
@@ -95,15 +95,15 @@ void runAnalyze(const AnalyzeArgs& a, const Global& g) {
     study::writeCsv(data, a.output);
     for (const auto& w : an.warnings) warn(w);
     for (const auto& gr : an.groups) {
-        std::string line = fmt::format("{}: {} observers", gr.group, gr.observers.size());
+        std::string line = fmt::format("{}: {}", gr.group, count(gr.observers.size(), "observer"));
         if (gr.friedman.result)
             line += fmt::format(", Friedman chi2 = {:.3f} (df {}, p = {:.3g})", gr.friedman.result->chi2,
                                 gr.friedman.result->df, gr.friedman.result->p);
         for (const auto& [c, r] : gr.roc) line += fmt::format(", AUC {} = {:.3f}", c, r.auc);
         info(g, line);
     }
-    info(g, fmt::format("wrote {}/stats.json, report.html, fig6_scores.svg, fig7_roc.svg, ratings.csv{}", a.output,
-                        data.choices.empty() ? "" : ", pairs.csv"));
+    info(g, fmt::format("wrote {}, report.html, fig6_scores.svg, fig7_roc.svg, ratings.csv{}",
+                        joinPath(a.output, "stats.json"), data.choices.empty() ? "" : ", pairs.csv"));
 }
 
 CLI::App* addAnalyzeCommand(CLI::App& study, const std::string& name, Global& g) {
@@ -131,16 +131,16 @@ void addStudyCommand(CLI::App& app, Global& g) {
     plan->add_option("--manifest", p->manifest, "Image manifest (JSON: id, file, category 1-5, patient, pose)")
         ->required();
     plan->add_option("-o,--output", p->output, "Output plan (JSON)")->required();
-    plan->add_option("--observers", p->o.observers, "Observer slots to plan [30]")->check(CLI::Range(1, 100000));
+    plan->add_option("--observers", p->o.observers, "Observer slots to plan [30]")->check(wholeNumber(1, 100000));
     plan->add_option("--seed", p->o.seed, "Random seed (same seed, same plan) [1]");
     plan->add_option("--series", p->o.seriesLength, "Likert images per series; a pause screen between series [15]")
-        ->check(CLI::Range(1, 100000));
+        ->check(wholeNumber(1, 100000));
     plan->add_option("--likert", p->o.likertLimit,
                      "Likert images per observer, drawn evenly across categories; 0 = every image [0]")
-        ->check(CLI::NonNegativeNumber);
+        ->check(wholeNumber(0));
     plan->add_option("--twoafc", p->o.twoafcPerComparison,
                      "2AFC pairs per comparison (3 vs 4, 3 vs 5, 4 vs 5); 0 = no 2AFC [10]")
-        ->check(CLI::Range(0, 10000));
+        ->check(wholeNumber(0, 10000));
     plan->callback([p, &g] { runPlan(*p, g); });
 
     auto sv = std::make_shared<ServeArgs>();
@@ -152,18 +152,18 @@ void addStudyCommand(CLI::App& app, Global& g) {
     serve->add_option("plan", sv->plan, "Study plan from `mucosa study plan`")->required();
     serve->add_option("--db", sv->o.db, "Answers database (SQLite; created if missing, resumed if present)")
         ->required();
-    serve->add_option("--port", sv->o.port, "TCP port; 0 = any free port [8080]")->check(CLI::Range(0, 65535));
+    serve->add_option("--port", sv->o.port, "TCP port; 0 = any free port [8080]")->check(wholeNumber(0, 65535));
     serve->add_option("--host", sv->o.host, "Address to listen on; 0.0.0.0 exposes it to the network [127.0.0.1]");
     serve->add_option("--links-out", sv->linksOut,
                       "Write the observer links here (mode 0600) instead of printing them");
     serve->add_option("--http-threads", sv->o.threads, "Request worker threads (they wait on SQLite commits) [8]")
-        ->check(CLI::Range(1, 1024));
+        ->check(wholeNumber(1, 1024));
     serve->add_option("--max-connections", sv->o.maxConnections, "Open connections in total; more are closed [512]")
-        ->check(CLI::Range(1, 100000));
+        ->check(wholeNumber(1, 100000));
     serve
         ->add_option("--client-connections", sv->o.maxClientConnections,
                      "Open connections from one address; raise it for observers behind one NAT [64]")
-        ->check(CLI::Range(1, 100000));
+        ->check(wholeNumber(1, 100000));
     serve->callback([sv, &g] { runServe(*sv, g); });
 
     addAnalyzeCommand(*study, "analyze", g);

@@ -20,7 +20,7 @@ struct ViewArgs {
 void run(const ViewArgs& a, const Global& g) {
     scene::Scene scene = resolveScene(a.scene);
     render::ViewerOptions o;
-    std::tie(o.width, o.height) = parseSize(a.window);
+    std::tie(o.width, o.height) = parseSize(a.window, "--window");
     o.maxFrames = a.frames;
     o.autoplay = !a.noAutoplay;
     if (!a.screenshot.empty()) o.screenshot = a.screenshot;
@@ -28,7 +28,7 @@ void run(const ViewArgs& a, const Global& g) {
     scene::SceneAssets assets = scene::loadAssets(scene, g.threads);
     for (const std::string& n : assets.notes) info(g, n);
     const render::ViewerReport r = render::runViewer(std::move(scene), std::move(assets), o);
-    info(g, fmt::format("{} frames, {:.1f} fps on average ({})", r.frames, r.meanFps, r.glRenderer));
+    info(g, fmt::format("{}, {:.1f} fps on average ({})", count(r.frames, "frame"), r.meanFps, r.glRenderer));
     if (o.screenshot) info(g, "wrote " + o.screenshot->string());
 }
 
@@ -40,7 +40,7 @@ void addViewCommand(CLI::App& app, Global& g) {
     addSceneOptions(c, a->scene, false);
     c->add_option("--window", a->window, "Window size WxH [1280x800]");
     c->add_flag("--no-autoplay", a->noAutoplay, "Start paused (Space plays the fly-through)");
-    c->add_option("--frames", a->frames, "Close after N frames (scripted runs)")->check(CLI::PositiveNumber);
+    c->add_option("--frames", a->frames, "Close after N frames (scripted runs)")->check(wholeNumber(1));
     c->add_option("--screenshot", a->screenshot, "With --frames: save the last frame, panels included, to this PNG");
     c->callback([a, &g] { run(*a, g); });
 }

@@ -13,12 +13,15 @@
 
 int main(int argc, char** argv) {
     using namespace mucosa;
+    // Line-buffered even into a file or pipe, so a run that is killed keeps
+    // every line of its log.
+    std::setvbuf(stdout, nullptr, _IOLBF, BUFSIZ);
     CLI::App app{"Mucosa: photorealistic real-time rendering of wet, mucus-covered tissue.", "mucosa"};
     app.set_version_flag("--version", std::string(version()));
     app.require_subcommand(1);
     app.fallthrough();
     cli::Global global;
-    app.add_option("--threads", global.threads, "Worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", global.threads, "Worker threads (0 = all cores)")->check(cli::wholeNumber(0));
     app.add_flag("-q,--quiet", global.quiet, "Print only warnings and errors");
     cli::addRegisteredCommands(app, global);
     try {
@@ -30,7 +33,7 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::fprintf(stderr, "error: %s (see mucosa --help)\n", e.what());
+        std::fprintf(stderr, "error: %s\n", cli::describeParseError(app, e).c_str());
         return 2;
     } catch (const Error& e) {
         std::fprintf(stderr, "error: %s\n", e.what());

@@ -14,7 +14,7 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
     c->add_option("scene", o.sceneFile,
                   "Scene file (.json, see docs/scene-format.md), or a mesh file (.obj, .ply, .stl, .gltf, .glb, ...: "
                   "the default scene with that mesh, flying along its centerline); default: the airway phantom");
-    c->add_option("--mode", o.mode, "Shading mode: " + shading::modeList() + " [noise]");
+    c->add_option("--mode", o.mode, "Shading mode: " + shading::modeList() + " [noise] (described by mucosa params)");
     if (withSize) c->add_option("--size", o.size, "Frame size WxH [640x480, or the scene's resolution]");
     c->add_option("--noise-space", o.noiseSpace,
                   "Procedural mode: evaluate the map's noise in texture space (uv) or as solid noise on the surface "
@@ -22,15 +22,13 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
     c->add_option("--specular-aa", o.specularAA,
                   "Specular anti-aliasing: on (Toksvig on the map's mips; octave fade procedurally) or off (the "
                   "full-resolution map, every octave) [on, or the scene's specular_aa]");
-    c->add_option(
-        "--set", o.sets,
-        "Override a parameter, e.g. --set material.shininess=80 or --set reflectance_map.frequency=32 (repeatable; "
-        "reflectance_map takes the keys of a scene's \"reflectance_map\" object and applies to the generated map and "
-        "the procedural mode). Parameters:\n" +
-            shading::registryHelp());
+    c->add_option("--set", o.sets,
+                  "Override a parameter, e.g. --set material.shininess=80 or --set reflectance_map.frequency=32 "
+                  "(repeatable; reflectance_map takes the keys of a scene's \"reflectance_map\" object and applies to "
+                  "the generated map and the procedural mode). Every parameter, its range and default: mucosa params");
 }
 
-std::pair<int, int> parseSize(const std::string& text) {
+std::pair<int, int> parseSize(const std::string& text, const std::string& option) {
     const auto x = text.find('x');
     int w = 0, h = 0;
     auto num = [](std::string_view s, int& v) {
@@ -39,7 +37,7 @@ std::pair<int, int> parseSize(const std::string& text) {
     };
     if (x == std::string::npos || !num(std::string_view(text).substr(0, x), w) ||
         !num(std::string_view(text).substr(x + 1), h) || w < 16 || h < 16 || w > 8192 || h > 8192)
-        throw InputError("--size", "", "'" + text + "' is not WxH with 16..8192 pixels per side (e.g. 640x480)");
+        throw InputError(option, "", "'" + text + "' is not WxH with 16..8192 pixels per side (e.g. 640x480)");
     return {w, h};
 }
 
@@ -70,8 +68,15 @@ scene::Scene resolveScene(const SceneOptions& o) {
             continue;
         }
         const shading::ParamInfo* pi = shading::findParam(name);
-        if (pi == nullptr || (dot != std::string::npos && key.substr(0, dot) != pi->group))
-            throw InputError("--set", "", "unknown parameter '" + key + "' (see mucosa render --help)");
+        if (pi == nullptr || (dot != std::string::npos && key.substr(0, dot) != pi->group)) {
+            std::vector<std::string> names;
+            for (const shading::ParamInfo& p : shading::registry())
+                names.push_back(dot == std::string::npos ? std::string(p.name) : fmt::format("{}.{}", p.group, p.name));
+            const std::vector<std::string> close = nearest(key, names);
+            throw InputError("--set", "",
+                             fmt::format("unknown parameter '{}' ({}see mucosa params)", key,
+                                         close.empty() ? "" : "did you mean '" + close.front() + "'? "));
+        }
         std::vector<float> v;
         std::size_t pos = 0;
         while (pos <= value.size()) {

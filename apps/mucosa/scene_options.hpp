@@ -28,7 +28,7 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize = true);
 // and applies the overrides; InputError names the option on bad values.
 scene::Scene resolveScene(const SceneOptions& o);
 
-// "640x480" -> (640, 480); InputError("--size", ...) otherwise.
-std::pair<int, int> parseSize(const std::string& text);
+// "640x480" -> (640, 480); InputError(option, ...) otherwise.
+std::pair<int, int> parseSize(const std::string& text, const std::string& option = "--size");
 
 }  // namespace mucosa::cli

@@ -44,6 +44,10 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
                   "the fit");
 
     const auto held = holdoutFrames(set.frames.size(), o.holdout);
+    // Progress: one fraction rising from 0 to 1 over the stages, each its own
+    // share: back-projection [0, 0.5), the joint solve [0.5, 0.8), the texture
+    // [0.8, 0.9), the held-out frames [0.9, 1).
+    constexpr double kSolveAt = 0.5, kTextureAt = 0.8, kHoldoutAt = 0.9;
     FitResult r;
     r.perFrame.resize(set.frames.size());
     std::vector<Sample> samples;
@@ -51,7 +55,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
         const Frame& f = set.frames[i];
         if (o.progress)
             o.progress(fmt::format("back-projecting frame {}/{}", i + 1, set.frames.size()),
-                       static_cast<double>(i) / set.frames.size());
+                       kSolveAt * static_cast<double>(i) / static_cast<double>(set.frames.size()));
         const bool isHeld = std::find(held.begin(), held.end(), i) != held.end();
         image::Image8 sat;
         const image::ImageF img = loadFrameImage(f, set.gamma, &sat, o.saturation);
@@ -83,14 +87,17 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
         r.uvMin = {umin, vmin};
         r.uvMax = {umax, vmax};
     }
-    if (o.progress) o.progress("fitting rho(gamma) and delta(r)", 0.5);
+    if (o.progress) o.progress("fitting rho(gamma) and delta(r)", kSolveAt);
     r.brdf = solveBrdf(samples, o, &r);
-    if (o.progress) o.progress("building the texture", 0.8);
+    if (o.progress) o.progress("building the texture", kTextureAt);
     buildTexture(samples, r.brdf, o, r);
 
-    for (std::size_t i : held) {
+    for (std::size_t k = 0; k < held.size(); ++k) {
+        const std::size_t i = held[k];
         const Frame& f = set.frames[i];
-        if (o.progress) o.progress(fmt::format("validating on held-out frame {}", i), 0.9);
+        if (o.progress)
+            o.progress(fmt::format("validating on held-out frame {} ({}/{})", i, k + 1, held.size()),
+                       kHoldoutAt + (1.0 - kHoldoutAt) * static_cast<double>(k) / static_cast<double>(held.size()));
         image::Image8 sat;
         const image::ImageF real = loadFrameImage(f, set.gamma, &sat, o.saturation);
         std::vector<std::uint8_t> seen;
@@ -123,7 +130,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
         r.holdout.push_back(h);
     }
     r.totalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (o.progress) o.progress("done", 1.0);
+    if (o.progress) o.progress("fitted", 1.0);
     return r;
 }
 

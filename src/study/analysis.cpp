@@ -85,10 +85,10 @@ GroupAnalysis analyzeGroup(const std::string& group, const StudyData& data, cons
     }
     g.friedman.result = friedman(g.observerMeans, &g.friedman.why);
     if (!g.friedman.excludedObservers.empty())
-        warnings.push_back(
-            fmt::format("group {}: Friedman test leaves out {} observer(s) who did not rate every "
-                        "category: {}",
-                        group, g.friedman.excludedObservers.size(), fmt::join(g.friedman.excludedObservers, ", ")));
+        warnings.push_back(fmt::format("group {}: Friedman test leaves out {} {} who did not rate every category: {}",
+                                       group, g.friedman.excludedObservers.size(),
+                                       g.friedman.excludedObservers.size() == 1 ? "observer" : "observers",
+                                       fmt::join(g.friedman.excludedObservers, ", ")));
 
     // Wilcoxon signed-rank, each category against the real frames, paired by observer means.
     for (int c : categories) {
@@ -106,10 +106,10 @@ GroupAnalysis analyzeGroup(const std::string& group, const StudyData& data, cons
         }
         w.result = wilcoxonSignedRank(x, y, &w.why);
         if (!w.excludedObservers.empty())
-            warnings.push_back(
-                fmt::format("group {}: Wilcoxon {} vs {} leaves out observer(s) without ratings in both: "
-                            "{}",
-                            group, c, kReferenceCategory, fmt::join(w.excludedObservers, ", ")));
+            warnings.push_back(fmt::format("group {}: Wilcoxon {} vs {} leaves out {} {} without ratings in both: {}",
+                                           group, c, kReferenceCategory, w.excludedObservers.size(),
+                                           w.excludedObservers.size() == 1 ? "observer" : "observers",
+                                           fmt::join(w.excludedObservers, ", ")));
         g.wilcoxon[c] = std::move(w);
         if (!scores[c].empty() && !scores[kReferenceCategory].empty())
             g.roc[c] = roc(scores[c], scores[kReferenceCategory]);

@@ -97,9 +97,9 @@ CsvTable readCsv(const fs::path& path, const std::vector<std::string>& required)
             continue;
         }
         if (fields.size() < t.columns.size())
-            throw InputError(
-                "CSV", t.file,
-                fmt::format("line {}: {} fields, the header has {}", lineNo, fields.size(), t.columns.size()));
+            throw InputError("CSV", t.file,
+                             fmt::format("line {}: {} {}, the header has {}", lineNo, fields.size(),
+                                         fields.size() == 1 ? "field" : "fields", t.columns.size()));
         t.rows.emplace_back(lineNo, std::move(fields));
     }
     if (header) throw InputError("CSV", t.file, "is empty (no header line)");

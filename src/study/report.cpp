@@ -339,10 +339,10 @@ std::string reportHtml(const Analysis& a, const std::string& source, const std::
     h += "<h2>Scores per category (Fig. 6)</h2>\n" + fig6;
     for (const auto& g : a.groups) {
         h += fmt::format(
-            "<h2>Group {} ({} observers)</h2>\n<table><tr><th>category</th><th>ratings</th><th>observers"
+            "<h2>Group {} ({} {})</h2>\n<table><tr><th>category</th><th>ratings</th><th>observers"
             "</th><th>mean</th><th>SD</th><th>Wilcoxon vs 5: T</th><th>z</th><th>p</th><th>n</th>"
             "<th>ROC AUC</th><th>observer AUC mean &#177; SD</th></tr>\n",
-            esc(g.group), g.observers.size());
+            esc(g.group), g.observers.size(), g.observers.size() == 1 ? "observer" : "observers");
         for (const auto& [c, s] : g.categories) {
             h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>", esc(categoryLabel(c)),
                              s.nRatings, s.nObservers, num(s.mean), s.sd ? num(*s.sd) : "-");

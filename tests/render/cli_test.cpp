@@ -30,7 +30,7 @@ TEST(RenderCli, FrameSequenceIsNumberedAndResumable) {
     const auto before = std::filesystem::last_write_time(dir / "fly_0003.png");
     r = test::runCli(base);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_NE(r.out.find("wrote 1 frames"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("wrote 1 frame of"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("kept 3 existing"), std::string::npos) << r.out;
     EXPECT_TRUE(std::filesystem::exists(dir / "fly_0001.png"));
     EXPECT_EQ(std::filesystem::last_write_time(dir / "fly_0003.png"), before);
