@@ -37,7 +37,7 @@ void printInfo(const Global& g, const std::string& file, const std::string& unit
     lo.allowNonFinite = true;
     mesh::LoadInfo li;
     const mesh::Mesh m = mesh::load(file, lo, &li);
-    const mesh::MeshReport r = mesh::analyse(m);
+    const mesh::MeshReport r = mesh::analyze(m);
     for (const std::string& w : li.warnings) warn(w);
     std::string s;
     auto line = [&s](const std::string& l) { s += l + "\n"; };

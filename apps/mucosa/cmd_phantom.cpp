@@ -58,7 +58,7 @@ void addPhantomCommand(CLI::App& app, Global& g) {
         so.name = "airway phantom";
         mesh::save(ph.mesh, a->output, so);
         mesh::writeCenterlineJson(ph.centerline, cl);
-        const mesh::MeshReport r = mesh::analyse(ph.mesh);
+        const mesh::MeshReport r = mesh::analyze(ph.mesh);
         info(g, fmt::format("wrote {} ({}, {}, {:.0f} x {:.0f} x {:.0f} mm, {})", a->output,
                             count(r.vertices, "vertex", "vertices"), count(r.triangles, "triangle"),
                             r.boundsMax[0] - r.boundsMin[0], r.boundsMax[1] - r.boundsMin[1],

@@ -23,7 +23,7 @@ std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t x) {
 
 }  // namespace
 
-MeshReport analyse(const Mesh& mesh) {
+MeshReport analyze(const Mesh& mesh) {
     validateIndices(mesh);
     MeshReport r;
     r.vertices = mesh.vertexCount();

@@ -40,7 +40,7 @@ TEST(MeshCli, ConvertsFlipsAndWritesTangents) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const Mesh m = mesh::load(dir / "o.glb");
     EXPECT_TRUE(m.hasTangents());
-    EXPECT_EQ(mesh::analyse(m).badTangents, 0u);
+    EXPECT_EQ(mesh::analyze(m).badTangents, 0u);
 }
 
 TEST(MeshCli, InfoCountsNonFiniteValuesAndUnitOverride) {

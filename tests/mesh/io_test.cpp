@@ -89,7 +89,7 @@ TEST(MeshIo, AirwayLoadsInMillimetres) {
     mesh::LoadInfo info;
     const Mesh m = mesh::load(testdata("airway/vh_m_airway_lumen.obj"), {}, &info);
     EXPECT_EQ(info.scaleToMillimetres, 1000.0);
-    const auto r = mesh::analyse(m);
+    const auto r = mesh::analyze(m);
     // Trachea + main bronchi: about 156 mm tall (the stats file: 0.1563 m).
     EXPECT_NEAR(r.boundsMax[1] - r.boundsMin[1], 156.3, 0.1);
     EXPECT_TRUE(m.hasNormals());

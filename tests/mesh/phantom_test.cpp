@@ -20,7 +20,7 @@ const mesh::Phantom& defaultPhantom() {
 
 TEST(Phantom, IsWatertightManifoldAndFacesTheLumen) {
     const auto& ph = defaultPhantom();
-    const auto r = mesh::analyse(ph.mesh);
+    const auto r = mesh::analyze(ph.mesh);
     std::printf("phantom: %zu vertices, %zu triangles, %.1f x %.1f x %.1f mm\n", r.vertices, r.triangles,
                 r.boundsMax[0] - r.boundsMin[0], r.boundsMax[1] - r.boundsMin[1], r.boundsMax[2] - r.boundsMin[2]);
     EXPECT_EQ(r.boundaryEdges, 0u);
@@ -38,7 +38,7 @@ TEST(Phantom, IsWatertightManifoldAndFacesTheLumen) {
 
 TEST(Phantom, HasTheDocumentedDimensions) {
     const auto& ph = defaultPhantom();
-    const auto r = mesh::analyse(ph.mesh);
+    const auto r = mesh::analyze(ph.mesh);
     // The trachea's top cap reaches its radius above the origin.
     EXPECT_NEAR(r.boundsMax[1], 9.0, 0.6);
     // Trachea cross-section halfway down: about 18 mm across (rings make it
@@ -133,7 +133,7 @@ TEST(Phantom, CoarseAndSmallVariantsAreWatertight) {
         p.generations = gens;
         p.resolution = 1.0;
         const auto ph = mesh::makePhantom(p);
-        const auto r = mesh::analyse(ph.mesh);
+        const auto r = mesh::analyze(ph.mesh);
         EXPECT_TRUE(r.watertight()) << gens;
         EXPECT_EQ(r.components, 1u) << gens;
         EXPECT_EQ(r.badTangents, 0u) << gens;
@@ -177,7 +177,7 @@ TEST(PhantomCli, WritesMeshAndCenterlineOrOneErrorLine) {
     const auto c = mesh::readCenterlineJson(dir / "a.centerline.json");
     EXPECT_EQ(c.branches.size(), 3u);
     const Mesh m = mesh::load(dir / "a.glb");
-    EXPECT_TRUE(mesh::analyse(m).watertight());
+    EXPECT_TRUE(mesh::analyze(m).watertight());
 
     const auto bad = runCli("phantom -o '" + (dir / "b.glb").string() + "' --generations 42");
     EXPECT_NE(bad.exitCode, 0);

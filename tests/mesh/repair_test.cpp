@@ -28,7 +28,7 @@ TEST(Repair, WeldMakesSoupWatertightAndNormalsPointOut) {
     Mesh m = soupCube();
     EXPECT_EQ(mesh::weld(m), 36u - 8u);
     mesh::recomputeNormals(m);
-    const auto r = mesh::analyse(m);
+    const auto r = mesh::analyze(m);
     EXPECT_TRUE(r.watertight());
     EXPECT_EQ(r.inconsistentEdges, 0u);
     EXPECT_NEAR(r.signedVolume, 1.0, 1e-6);
@@ -53,7 +53,7 @@ TEST(Repair, FlipReversesWindingNormalsAndHandedness) {
         // Flipping keeps the frame the tangent algorithm would compute.
         for (int k = 0; k < 4; ++k) EXPECT_NEAR(f.tangents[v][k], recomputed.tangents[v][k], 1e-6f);
     }
-    EXPECT_LT(mesh::analyse(f).normalsAgainstWinding, 1u);
+    EXPECT_LT(mesh::analyze(f).normalsAgainstWinding, 1u);
 }
 
 TEST(Repair, DropsDegenerateTrianglesAndUnusedVertices) {
@@ -64,11 +64,11 @@ TEST(Repair, DropsDegenerateTrianglesAndUnusedVertices) {
     const std::size_t good = m.triangleCount();
     m.indices.insert(m.indices.end(), {0, 0, 1});  // repeated index
     m.indices.insert(m.indices.end(), {0, 1, 2});  // collinear: zero area
-    EXPECT_EQ(mesh::analyse(m).degenerateTriangles, 2u);
+    EXPECT_EQ(mesh::analyze(m).degenerateTriangles, 2u);
     EXPECT_EQ(mesh::removeDegenerateTriangles(m), 2u);
     EXPECT_EQ(m.triangleCount(), good);
     EXPECT_EQ(mesh::removeUnusedVertices(m), 1u);
-    EXPECT_EQ(mesh::analyse(m).unusedVertices, 0u);
+    EXPECT_EQ(mesh::analyze(m).unusedVertices, 0u);
 }
 
 TEST(Repair, NonManifoldFanIsReported) {
@@ -77,7 +77,7 @@ TEST(Repair, NonManifoldFanIsReported) {
     m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};
     m.indices = {0, 1, 2, 1, 0, 3, 0, 1, 4};
     mesh::recomputeNormals(m);
-    const auto r = mesh::analyse(m);
+    const auto r = mesh::analyze(m);
     EXPECT_EQ(r.nonManifoldEdges, 1u);
     EXPECT_FALSE(r.watertight());
 }
@@ -92,7 +92,7 @@ TEST(Repair, WeldKeepsUvSeams) {
     m.indices[4] = 4;
     EXPECT_EQ(mesh::weld(m), 0u);
     EXPECT_EQ(m.vertexCount(), 5u);
-    EXPECT_EQ(mesh::analyse(m).boundaryEdges, 4u) << "a UV seam is not a boundary";
+    EXPECT_EQ(mesh::analyze(m).boundaryEdges, 4u) << "a UV seam is not a boundary";
 }
 
 TEST(Repair, OpenSurfaceVolumeCapsItsEndsSoFarFromTheOriginItKeepsItsSign) {
@@ -107,7 +107,7 @@ TEST(Repair, OpenSurfaceVolumeCapsItsEndsSoFarFromTheOriginItKeepsItsSign) {
     for (float shift : {0.0f, 500.0f, -2000.0f}) {
         Mesh moved = box;
         for (auto& p : moved.positions) p = {p[0] + shift, p[1] - shift, p[2] + 2 * shift};
-        const auto r = mesh::analyse(moved);
+        const auto r = mesh::analyze(moved);
         EXPECT_EQ(r.boundaryLoops, 1u);
         EXPECT_NEAR(r.signedVolume, 1.0, 1e-6) << shift;
     }

@@ -71,7 +71,7 @@ TEST(CenterlineUv, CylinderGetsSquareTexelsAndASeamlessWrap) {
     EXPECT_NEAR(vmax - vmin, 100.0 / rep.tileLength, 0.02);
     EXPECT_EQ(trianglesSpanningU(m, 1.5 / 48), 0u);  // one column of the 48 around
     // The topology is unchanged (the seam is not a boundary).
-    EXPECT_EQ(mesh::analyse(m).boundaryEdges, 2u * 48u);
+    EXPECT_EQ(mesh::analyze(m).boundaryEdges, 2u * 48u);
     // UVs follow the winding: no mirrored tangent frames.
     const auto t = mesh::computeTangents(m);
     EXPECT_EQ(t.mirroredVertices, 0u);
@@ -99,7 +99,7 @@ TEST(CenterlineUv, WorksOnTheCtAirway) {
     mesh::flipOrientation(m);
     const auto rep = mesh::computeCenterlineUvs(m);
     mesh::computeTangents(m);
-    const auto r = mesh::analyse(m);
+    const auto r = mesh::analyze(m);
     ASSERT_TRUE(r.stretch);
     const auto& s = *r.stretch;
     std::printf(

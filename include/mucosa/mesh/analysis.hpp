@@ -44,7 +44,7 @@ struct MeshReport {
     bool watertight() const noexcept { return boundaryEdges == 0 && nonManifoldEdges == 0; }
 };
 
-MeshReport analyse(const Mesh& mesh);
+MeshReport analyze(const Mesh& mesh);
 
 // Throws InputError if the mesh has no UVs or no triangle with area.
 UvStretch measureUvStretch(const Mesh& mesh);
