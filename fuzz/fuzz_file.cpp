@@ -4,13 +4,13 @@
 #include <cstddef>
 #include <cstdint>
 
-#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/scene/scene.hpp>
+#include <mucosa/shading/brdf.hpp>
 #include <mucosa/study/analysis.hpp>
 #include <mucosa/study/plan.hpp>
 

@@ -76,8 +76,9 @@ void addMapCommand(CLI::App& app, Global& g) {
         const std::string name = "--" + std::string(i.name);
         const double v = reflectance::get(d, i.id);
         const bool flag = i.kind == reflectance::MapParamKind::Boolean;
-        const std::string help = fmt::format("{}{} [{}]", static_cast<char>(std::toupper(i.description[0])),
-                                             i.description.substr(1), flag ? (v != 0 ? "on" : "off") : fmt::format("{}", v));
+        const std::string help =
+            fmt::format("{}{} [{}]", static_cast<char>(std::toupper(i.description[0])), i.description.substr(1),
+                        flag ? (v != 0 ? "on" : "off") : fmt::format("{}", v));
         // Booleans are flags (--tileable, or --tileable=false); the rest take a value of the registry's kind.
         if (flag) {
             a->options[k] = c->add_flag(name + "{true}", a->values[k], help);

@@ -60,8 +60,7 @@ void run(const RenderArgs& a, const Global& g) {
     }
     // One mode per run: a mode that reads no map (procedural, the baselines)
     // does not generate one.
-    const scene::SceneAssets assets =
-        scene::loadAssets(scene, g.threads, shading::info(scene.mode).readsMap);
+    const scene::SceneAssets assets = scene::loadAssets(scene, g.threads, shading::info(scene.mode).readsMap);
     for (const std::string& n : assets.notes) info(g, n);
     const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, frames);
     std::unique_ptr<render::OffscreenSession> session;

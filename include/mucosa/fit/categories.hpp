@@ -12,10 +12,10 @@
 #include <string>
 #include <vector>
 
-#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
+#include <mucosa/shading/brdf.hpp>
 
 namespace mucosa::fit {
 

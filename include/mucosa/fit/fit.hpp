@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include <mucosa/shading/brdf.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
+#include <mucosa/shading/brdf.hpp>
 
 namespace mucosa::fit {
 
@@ -94,7 +94,8 @@ image::ImageF loadFrameImage(const Frame& frame, double gamma, image::Image8* sa
                              double saturation = 0.99);
 
 // The joint robust solve on samples (zmin/zmax from the data).
-shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& options, FitResult* diagnostics = nullptr);
+shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& options,
+                              FitResult* diagnostics = nullptr);
 
 // Albedo atlas from samples and fitted shading; push-pull fills the rest.
 void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams& brdf, const FitOptions& options,
