@@ -44,6 +44,16 @@ MUCOSA_CONSTEXPR bool modeReadsReflectanceMap(int mode) {
 MUCOSA_CONSTEXPR bool modeReadsHighlight(int mode) {
     return mode == kModeMultitexture;
 }
+// Linear radiance for the endoscope's camera (camera.glsl) rather than display
+// values: the modes that show the tissue as a camera would, not the debug
+// views, nor the fitted modes (their texture and rho, delta already are a
+// camera's output).
+MUCOSA_CONSTEXPR bool modeIsPhotographic(int mode) {
+    return mode == kModeNoise || mode == kModeVertexPhong || mode == kModeMultitexture || mode == kModeDiffuse ||
+           mode == kModeProcedural;
+}
+// The largest finite half float: the camera's HDR target (RGBA16F) holds no more.
+const float kHalfMax = 65504.0f;
 // Noise evaluated per pixel (procedural_noise.glsl) instead of the map.
 MUCOSA_CONSTEXPR bool modeIsProcedural(int mode) {
     return mode == kModeProcedural || mode == kModeProceduralNormals;
@@ -74,8 +84,13 @@ struct Material {
     vec3 d;                  // d1..d3 of delta(r), paper eq. 10
     float depthMin;          // z_min (mm)
     float depthMax;          // z_max (mm)
-    float lightIntensity;    // I_L
-    float lightRange;        // distance (mm) at which the light falls to half
+    float lightIntensity;    // I_L: the lamp's radiant intensity on its axis (irradiance x mm^2)
+    float lampSourceRadius;  // a: radius (mm) of the lamp's emitting disk
+    float lampSpread;        // mu: the lamp's angular fall-off, exp(-mu (1 - cos theta))
+    float wrap;              // w: wrap lighting (sub-surface approximation)
+    float sheenStrength;     // k_sheen: the mucus film's broad lobe
+    float sheenShininess;    // its Phong exponent
+    float mucusF0;           // Fresnel reflectance of the film at normal incidence
 };
 
 // Per-frame values (camera and light positions in world space, mm).
@@ -84,6 +99,7 @@ struct Frame {
     mat4 view;
     vec3 eye;
     vec3 light;
+    vec3 lampAxis;    // the scope's viewing direction (world, unit): the lamp's axis
     float normalSign;  // +1, or -1 to view a mesh from the side its normals point away from
     int specularAA;    // 1: specular anti-aliasing (Toksvig on the map's mips; octave fade procedurally)
     vec4 diffuseUvTransform;  // subject texture at uv * xy + zw (a fitted atlas spanning uv_min..uv_max)
@@ -117,7 +133,8 @@ struct Varyings {
     vec3 B;
     vec3 N;
     float diffuseLight;  // I_L att rho delta (per vertex in every mode)
-    float specular;      // I_L att k_s, times the Phong lobe in vertex-phong
+    float specular;      // E k_s, times the Phong lobe in vertex-phong (E: the lamp's irradiance)
+    float irradiance;    // E: the lamp's irradiance, lampIrradiance (the sheen's, per pixel)
     vec2 sphereUv;       // multitexture: highlight-texture coordinates (highlightCoord)
     vec3 P;              // world position (mm): procedural noise in object space, per-pixel L and V
 };
@@ -144,10 +161,57 @@ float depthRatio(float z, float zmin, float zmax) {
     return clamp((z - zmin) / max(zmax - zmin, kTiny), 0.0f, 1.0f);
 }
 
-// Point-light fall-off: 1 / (1 + (dist / range)^2); half intensity at dist = range.
-float lightAttenuation(float dist, float range) {
-    float q = dist / max(range, kTiny);
-    return 1.0f / (1.0f + q * q);
+// The endoscope's lamp (docs/theory.md, "The endoscope's lamp"): the
+// irradiance at distance d, at angle theta from the lamp's axis, is
+//   E = I_L exp(-mu (1 - cos theta)) / (d^2 + a^2),
+// the spot-light-source model of endoscope light guides (Modrzejewski et al.
+// 2020, EndoMapper) with inverse-square fall-off; a^2 keeps it finite at the
+// tip: I / (d^2 + a^2) is the exact on-axis irradiance of a Lambertian disk of
+// radius a, and 1 / d^2 beyond a few radii.
+float lampIrradiance(float dist, float cosTheta, Material m) {
+    float a = m.lampSourceRadius;
+    return m.lightIntensity * exp(-m.lampSpread * (1.0f - cosTheta)) / (dist * dist + a * a);
+}
+
+// Wrap lighting (a sub-surface approximation, as in GPU Gems 1, ch. 16): the
+// diffuse cosine becomes (cos + w) / (1 + w), so light reaches a little past
+// the terminator and shading is softer, as in translucent tissue.
+float wrapCosine(float cosine, float w) {
+    return max((cosine + w) / (1.0f + w), 0.0f);
+}
+
+// The ambient term: light scattered back by the airway's walls, k_a times the
+// lamp's irradiance at kAmbientDistanceMm (so it follows the lamp's power
+// and the exposure treats it like the direct light).
+const float kAmbientDistanceMm = 10.0f;
+float ambientIrradiance(Material m) {
+    return m.ambient * m.lightIntensity / (kAmbientDistanceMm * kAmbientDistanceMm);
+}
+
+// Schlick's approximation of the Fresnel reflectance of a dielectric film.
+float fresnelSchlick(float cosine, float f0) {
+    float q = 1.0f - clamp(cosine, 0.0f, 1.0f);
+    float q2 = q * q;
+    return f0 + (1.0f - f0) * (q2 * q2 * q);
+}
+
+// Only where the lamp reaches: the method's glints and the sheen fade out as
+// the surface turns away from the lamp (cosine of the geometric normal).
+float lampReach(float cosNL) {
+    return smoothstep(0.0f, 0.1f, cosNL);
+}
+
+// The mucus film's broad sheen (docs/theory.md, "Wet tissue"): an
+// energy-normalised Phong lobe on the smooth film's normal (the tangent
+// frame's N), times Fresnel, times cos(theta_i), for irradiance 1:
+//   k_sheen F(N.V) (n + 2) / 2 (R.V)^n cos(theta_i).
+// (The BRDF k_sheen F (n + 2) / (2 pi) (R.V)^n; the pi is the one the diffuse
+// term leaves out.) Its directional albedo is at most k_sheen <= 1.
+// L and V: unit vectors in tangent space (N = (0, 0, 1)).
+float sheenLobe(vec3 L, vec3 V, Material m) {
+    float n = m.sheenShininess;
+    float rv = max(-L.x * V.x - L.y * V.y + L.z * V.z, 0.0f);  // R = reflect(-L, N)
+    return m.sheenStrength * fresnelSchlick(V.z, m.mucusF0) * (0.5f * (n + 2.0f)) * pow(rv, n) * max(L.z, 0.0f);
 }
 
 // Paper eq. 11 without the albedo: rho(gamma) delta(r), gamma = cos(V, N),
@@ -240,25 +304,34 @@ Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, in
     o.N = N;
     o.diffuseLight = 0.0f;
     o.specular = 0.0f;
+    o.irradiance = 0.0f;
     o.sphereUv = vec2(0.0f);
     o.P = P;
-    // The diffuse term (paper eq. 11) and the light's fall-off are per vertex
-    // in every mode: the modes differ only in how the highlight is made, and
-    // the per-pixel work of the method is the specular term alone.
+    // The diffuse term (paper eq. 11, with wrap lighting) and the lamp's
+    // irradiance are per vertex in every mode: the modes differ only in how
+    // the highlight is made, and the per-pixel work of the method is its
+    // specular term and the film's sheen.
     float dl = max(length(L), kTiny);
     float dv = max(length(V), kTiny);
     vec3 Ln = L / dl;
     vec3 Vn = V / dv;
-    float lightI = m.lightIntensity * lightAttenuation(dl, m.lightRange);
-    o.diffuseLight = lightI * diffuseShading(dot(N, Vn), dv, m);
-    o.specular = lightI * m.specularStrength;
+    float cosNL = dot(N, Ln);
+    float E = lampIrradiance(dl, -dot(Ln, f.lampAxis), m);
+    o.irradiance = E * lampReach(cosNL);
+    o.diffuseLight =
+        E * brdfRho(wrapCosine(cosNL, m.wrap), m.c) * depthDelta(depthRatio(dv, m.depthMin, m.depthMax), m.d);
+    o.specular = o.irradiance * m.specularStrength;
     if (mode == kModeVertexPhong) {
         o.specular = o.specular * phongLobe(N, Ln, Vn, m.shininess);
     }
     // The fitted model (paper eq. 11): delta(r) is the whole fall-off with
     // distance, so no point-light attenuation on the diffuse term.
+    // The fit's c and d carry the light's strength (mucosa fit solves for
+    // rho delta with I_L = 1), so the lamp's I_L is not applied either. Its
+    // specular (brdf-noise) has no fall-off: k_s.
     if (mode == kModeBrdf || mode == kModeBrdfNoise) {
-        o.diffuseLight = m.lightIntensity * diffuseShading(dot(N, Vn), dv, m);
+        o.diffuseLight = diffuseShading(dot(N, Vn), dv, m);
+        o.specular = m.specularStrength;
     }
     if (mode == kModeMultitexture) {
         o.sphereUv = highlightCoord(N, Ln, Vn, f);
@@ -299,14 +372,24 @@ float mapSampleVariance(vec4 mapSample, Material m, Frame f) {
     return mapSlopeVariance(mapSample.w) * m.bumpScale * m.bumpScale;
 }
 
+// The method's wet look besides its glints: the mucus film's sheen, per pixel
+// from the interpolated tangent-space vectors (the film is smooth: the
+// geometric normal, not the map's).
+float wetSheen(Varyings v, Material m) {
+    return v.irradiance * sheenLobe(normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt), m);
+}
+
 // Fragment stage, after the caller sampled the textures: albedoTex at v.uv,
 // mapSample at reflectanceMapCoord(v.uv) (rgb = 0.5 N + 0.5, a = slope
 // deviation, see kMapSigmaMax), highlight at v.sphereUv, and footprint =
-// noiseFootprint of proceduralCoord. Returns linear display values; the
-// caller clamps to [0, 1].
+// noiseFootprint of proceduralCoord. albedoTex is sRGB-encoded (decoded here;
+// the fitted modes read it as it is). Returns linear radiance for the
+// photographic modes (shading::ModeInfo::photographic: the camera,
+// camera.glsl, comes next), display values in [0, 1] for the others.
 vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight, float footprint, Material m,
                     Procedural pr, Frame f, int mode) {
-    vec3 albedo = mucusAlbedo(albedoTex * m.baseColor, m);
+    vec3 albedo = mucusAlbedo(srgbToLinear3(albedoTex) * m.baseColor, m);
+    float ambientE = ambientIrradiance(m);
     vec3 mapRgb = vec3(mapSample);
     if (mode == kModeNoise) {
         // Per pixel: the map's normal and the Phong lobe (paper, "Lighting in
@@ -314,7 +397,7 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
         float spec = methodSpecular(Nm, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt),
                                     mapSampleVariance(mapSample, m, f), m.shininess);
-        return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * spec);
+        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * spec + wetSheen(v, m));
     }
     if (mode == kModeProcedural || mode == kModeProceduralNormals) {
         // The noise gradient as a surface gradient (Mikkelsen 2010): the
@@ -343,10 +426,10 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             specP = methodSpecular(Np, normalize(MUCOSA_LIGHT_POSITION(f) - v.P), normalize(f.eye - v.P), sigma2,
                                    m.shininess);
         }
-        return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * specP);
+        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * specP + wetSheen(v, m));
     }
     if (mode == kModeDiffuse) {
-        return albedo * (m.ambient + v.diffuseLight);
+        return albedo * (ambientE + v.diffuseLight);
     }
     if (mode == kModeBrdf) {
         return albedoTex * v.diffuseLight;
@@ -358,10 +441,10 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         return albedoTex * v.diffuseLight + vec3(v.specular * specB);
     }
     if (mode == kModeVertexPhong) {
-        return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular);
+        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular);
     }
     if (mode == kModeMultitexture) {
-        return albedo * (m.ambient + v.diffuseLight) + vec3(v.specular * highlight);
+        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * highlight);
     }
     if (mode == kModeNormals) {
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);

@@ -39,5 +39,6 @@ void main() {
         highlight = texture(uHighlight, v.sphereUv).r;
     vec3 color =
         tissueFragment(v, albedoTex, mapSample, highlight, footprint, uMaterial, uProcedural, uFrame, MUCOSA_MODE);
-    fragColor = vec4(clamp(color, 0.0f, 1.0f), 1.0f);
+    // Linear radiance for the camera's HDR target, or display values.
+    fragColor = vec4(clamp(color, 0.0f, modeIsPhotographic(MUCOSA_MODE) ? kHalfMax : 1.0f), 1.0f);
 }

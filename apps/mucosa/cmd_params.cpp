@@ -19,7 +19,8 @@ std::string paramsText() {
     for (const shading::ModeInfo& m : shading::modes()) width = std::max(width, m.name.size());
     for (const shading::ModeInfo& m : shading::modes())
         s += fmt::format("  {:<{}}  {}\n", m.name, width, m.description);
-    s += "\nParameters (--set group.name=value, or the scene file's \"material\", \"brdf\" and \"light\" objects; "
+    s += "\nParameters (--set group.name=value, or the scene file's \"material\", \"brdf\", \"light\" and \"camera\" "
+         "objects; "
          "colours r,g,b):\n";
     s += shading::registryHelp();
     s += "\nReflectance map (--set reflectance_map.KEY=VALUE): the keys of a scene's \"reflectance_map\" object, "

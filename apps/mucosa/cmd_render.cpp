@@ -72,18 +72,34 @@ void run(const RenderArgs& a, const Global& g) {
     const bool tty = isatty(2) && !g.quiet;
     const auto t0 = std::chrono::steady_clock::now();
     int written = 0, skipped = 0;
+    // Auto-exposure carries state from frame to frame. A resumed run renders
+    // (and discards) the frames just before the first missing one again, so
+    // the exposure has settled as in an uninterrupted run: after
+    // kSettleTimeConstants time constants the state left differs by e^-8.
+    int firstMissing = 0;
+    while (firstMissing < frames && frames > 1 && !a.overwrite &&
+           fs::exists(names[static_cast<std::size_t>(firstMissing)]))
+        ++firstMissing;
+    constexpr float kSettleTimeConstants = 8.0f;
+    const int settleFrames = static_cast<int>(std::ceil(
+        kSettleTimeConstants * scene.params[shading::Param::Adaptation] * scene.params[shading::Param::FrameRate]));
+    shading::ExposureState exposure;
+    auto renderFrame = [&](int i) {
+        shading::FrameSetup f = scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height);
+        f.frameIndex = i;
+        return a.reference ? shading::renderReference(assets.mesh, f, refTextures, &exposure) : session->renderFrame(f);
+    };
     for (int i = 0; i < frames; ++i) {
         const fs::path& name = names[static_cast<std::size_t>(i)];
         if (frames > 1 && !a.overwrite && fs::exists(name)) {
             ++skipped;
+            // From shortly before the first missing frame on, every frame
+            // carries the exposure to the next missing one.
+            const bool settle = scene.params[shading::Param::AutoExposure] != 0.0f && i >= firstMissing - settleFrames;
+            if (settle) (void)renderFrame(i);
             continue;
         }
-        const image::Image8 img =
-            a.reference ? shading::renderReference(
-                              assets.mesh,
-                              scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height),
-                              refTextures)
-                        : session->render(poses[static_cast<std::size_t>(i)]);
+        const image::Image8 img = renderFrame(i);
         const std::vector<std::byte> png = image::encodePng(img);
         if (written == 0 && frames - existing > 1) {
             // The first frame encoded is the estimate for the rest: refuse a run

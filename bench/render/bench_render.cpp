@@ -2,6 +2,10 @@
 //              [--octaves 0,1,2,4,6,8]  (0: the map path, timed in the same rounds)
 //              [--light-offset X,Y,Z]  (mm in the camera's frame; default: the scene's, the default
 //                                       scene's is 0: the light at the eye, the renderer's headlight programs)
+// A mode may carry "@bare": the mode without the endoscope's camera and the
+// wet film (camera.* at identity, so no HDR target or post pass; no sheen or
+// wrap): the frame as it was drawn before the camera existed, the peer of the
+// default look's cost ("noise" vs "noise@bare").
 // Frames per second of each shading mode, headless: every frame is drawn and
 // finished with glFinish (no read-back), along the scene's camera path, after
 // a warm-up. Shader compilation and texture upload happen before timing.
@@ -54,7 +58,7 @@ int main(int argc, char** argv) try {
     std::string sceneFile;
     int frames = 40;
     std::vector<std::string> sizes = {"640x480", "1280x1024"};
-    std::vector<std::string> modes = {"noise", "procedural", "vertex-phong", "multitexture", "diffuse"};
+    std::vector<std::string> modes = {"noise", "noise@bare", "procedural", "vertex-phong", "multitexture", "diffuse"};
     std::vector<std::string> octaveCounts = {"0", "1", "2", "4", "6", "8"};  // 0: the map, for the ratios
     std::vector<std::string> lightOffset;                                    // empty: the scene's
     for (int i = 1; i < argc; ++i) {
@@ -104,13 +108,27 @@ int main(int argc, char** argv) try {
         // other load then hurts every mode alike.
         for (int round = 0; round < kRounds; ++round)
             for (const std::string& m : modes) {
-                const shading::Mode mode = shading::parseMode(m, "--modes");
-                for (int i = 0; i < 2; ++i) session.draw(poses[static_cast<std::size_t>(i) % poses.size()], mode);
+                const bool bare = m.ends_with("@bare");
+                const shading::Mode mode = shading::parseMode(bare ? m.substr(0, m.size() - 5) : m, "--modes");
+                auto frame = [&](int i) {
+                    shading::FrameSetup f =
+                        scene::frameSetup(scene, poses[static_cast<std::size_t>(i) % poses.size()], w, h);
+                    f.mode = mode;
+                    f.frameIndex = i;
+                    if (bare) {
+                        using P = shading::Param;
+                        for (P p : {P::AutoExposure, P::Vignetting, P::Mask, P::Softness, P::FullWell, P::ReadNoise,
+                                    P::ToneCurve, P::SheenStrength, P::Wrap})
+                            f.params.set(p, 0.0f);
+                    }
+                    return f;
+                };
+                for (int i = 0; i < 2; ++i) session.draw(frame(i));
                 session.finish();
                 const auto t0 = std::chrono::steady_clock::now();
                 std::size_t drawn = 0;
                 for (int i = 0; i < frames; ++i) {
-                    session.draw(poses[static_cast<std::size_t>(i)], mode);
+                    session.draw(frame(i));
                     session.finish();
                     drawn += session.renderer().lastDrawnTriangles();
                 }
@@ -167,6 +185,11 @@ int main(int argc, char** argv) try {
         std::printf("| frame-time ratio noise / vertex-phong (median of rounds) |");
         for (const auto& s : sizes)
             std::printf(" %.2f |", medianRatio(roundMs[s]["noise"], roundMs[s]["vertex-phong"]));
+        std::printf("\n");
+    }
+    if (fps.begin()->second.count("noise") && fps.begin()->second.count("noise@bare")) {
+        std::printf("| frame-time ratio noise (default look) / noise@bare (no camera, no film) (median of rounds) |");
+        for (const auto& s : sizes) std::printf(" %.2f |", medianRatio(roundMs[s]["noise"], roundMs[s]["noise@bare"]));
         std::printf("\n");
     }
     if (fps.begin()->second.count("noise") && fps.begin()->second.count("procedural")) {

@@ -154,7 +154,6 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
     fitted.set(P::MucusOpacity, 0.0f);
     fitted.setColor(P::BaseColor, {1.0f, 1.0f, 1.0f});
     fitted.set(P::LightIntensity, 1.0f);
-    fitted.set(P::LightRange, shading::info(P::LightRange).max);
     fitted.set(P::MapTiling, static_cast<float>(o.mapTiling));
     const shading::ParamSet unreal;  // the registry's defaults, flat colour, plain Phong
 

@@ -38,7 +38,8 @@ constexpr std::array<const char*, 3> kSamplers = {"uDiffuse", "uReflectance", "u
 // `defines`: extra preprocessor lines (the procedural mode's specialisation).
 Program link(int mode, const std::string& defines = "") {
     const std::string header = fmt::format("#version 330 core\n#define MUCOSA_MODE {}\n", mode) + defines;
-    const std::string common = std::string(permutationPrelude()) + std::string(shaderSource("procedural_noise.glsl")) +
+    const std::string common = std::string(permutationPrelude()) + std::string(shaderSource("camera.glsl")) +
+                               std::string(shaderSource("procedural_noise.glsl")) +
                                std::string(shaderSource("common_shading.glsl"));
     const std::string name =
         fmt::format("surface_tissue (mode {})", shading::modeName(static_cast<shading::Mode>(mode)));
@@ -55,6 +56,75 @@ Program link(int mode, const std::string& defines = "") {
         glUniform1i(glGetUniformLocation(p.id, kSamplers[unit]), static_cast<GLint>(unit));
     return p;
 }
+
+// The camera's post pass (camera_post.frag): reads the HDR target, writes
+// the displayed frame.
+struct PostProgram {
+    GLuint id = 0;
+    UniformBlock camera;
+};
+
+PostProgram linkPost() {
+    const std::string header = "#version 330 core\n" + std::string(shaderSource("camera.glsl"));
+    PostProgram p;
+    p.id = linkProgram("#version 330 core\n" + std::string(shaderSource("camera_post.vert")),
+                       header + std::string(shaderSource("camera_post.frag")), "camera_post");
+    checkActiveUniforms(p.id, "camera_post");
+    p.camera = UniformBlock(p.id, cameraUniforms());
+    glUseProgram(p.id);
+    glUniform1i(glGetUniformLocation(p.id, "uHdr"), 0);
+    return p;
+}
+
+// The surface pass's target for the photographic modes: linear radiance in
+// half floats (RGBA16F: renderable on every GL 3.3 implementation), a depth
+// buffer, and the auto-exposure meter's kMeterGrid^2 target.
+struct HdrTarget {
+    GLuint fbo = 0, color = 0, depth = 0;
+    GLuint meterFbo = 0, meterColor = 0;
+    int width = 0, height = 0;
+
+    void ensure(int w, int h) {
+        if (fbo != 0 && w == width && h == height) return;
+        release();
+        glGenFramebuffers(1, &fbo);
+        glGenTextures(1, &color);
+        glBindTexture(GL_TEXTURE_2D, color);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_FLOAT, nullptr);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+        glGenRenderbuffers(1, &depth);
+        glBindRenderbuffer(GL_RENDERBUFFER, depth);
+        glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+        glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, color, 0);
+        glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+        if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw GraphicsError("framebuffer", "", "the HDR target (RGBA16F) is incomplete");
+        glGenFramebuffers(1, &meterFbo);
+        glGenTextures(1, &meterColor);
+        glBindTexture(GL_TEXTURE_2D, meterColor);
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, shading::kMeterGrid, shading::kMeterGrid, 0, GL_RGBA, GL_FLOAT,
+                     nullptr);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+        glBindFramebuffer(GL_FRAMEBUFFER, meterFbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, meterColor, 0);
+        if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw GraphicsError("framebuffer", "", "the auto-exposure meter (RGBA32F) is incomplete");
+        width = w;
+        height = h;
+    }
+    void release() {
+        if (fbo != 0) glDeleteFramebuffers(1, &fbo);
+        if (meterFbo != 0) glDeleteFramebuffers(1, &meterFbo);
+        if (color != 0) glDeleteTextures(1, &color);
+        if (meterColor != 0) glDeleteTextures(1, &meterColor);
+        if (depth != 0) glDeleteRenderbuffers(1, &depth);
+        fbo = color = depth = meterFbo = meterColor = 0;
+        width = height = 0;
+    }
+};
 
 struct Texture {
     GLuint id = 0;
@@ -231,6 +301,12 @@ struct Renderer::Impl {
     // turbulence, headlight): compiled on first use (procedural_noise.glsl).
     std::map<std::array<int, 5>, Program> procedural;
     float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
+    // The camera: the post pass, its HDR target, and auto-exposure's state
+    // along the current camera path (frame 0 starts it afresh).
+    PostProgram post;
+    GLuint postVao = 0;
+    HdrTarget hdr;
+    shading::ExposureState exposure;
 
     // The phases of draw(), in order.
     Program& programFor(const shading::FrameSetup& frame, const shading::ModeInfo& info);
@@ -239,6 +315,7 @@ struct Renderer::Impl {
                         const shading::glsl::Material& m, const shading::ModeInfo& info);
     void bindTextures(bool specularAA);
     void drawVisibleChunks(const glm::mat4& viewProj);
+    void developFrame(const shading::FrameSetup& frame, GLint target, const GLint viewport[4]);
 };
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
@@ -246,6 +323,8 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
     for (const shading::ModeInfo& m : shading::modes())
         if (m.headlight && !m.procedural)
             impl_->headlight[static_cast<std::size_t>(m.id)] = link(static_cast<int>(m.id), "#define MUCOSA_HEADLIGHT 1\n");
+    impl_->post = linkPost();
+    glGenVertexArrays(1, &impl_->postVao);
     glGenVertexArrays(1, &impl_->vao);
     glGenBuffers(1, &impl_->vbo);
     glGenBuffers(1, &impl_->ibo);
@@ -259,6 +338,9 @@ Renderer::~Renderer() {
     for (Program& p : impl_->programs) glDeleteProgram(p.id);
     for (Program& p : impl_->headlight) glDeleteProgram(p.id);
     for (auto& [key, p] : impl_->procedural) glDeleteProgram(p.id);
+    glDeleteProgram(impl_->post.id);
+    glDeleteVertexArrays(1, &impl_->postVao);
+    impl_->hdr.release();
     glDeleteVertexArrays(1, &impl_->vao);
     glDeleteBuffers(1, &impl_->vbo);
     glDeleteBuffers(1, &impl_->ibo);
@@ -472,10 +554,57 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     const shading::glsl::Material m = shading::glsl::packMaterial(frame.params);
     const shading::glsl::Frame f = shading::glsl::packFrame(frame);
     impl_->refreshHighlight(info, m.shininess);
+    // The photographic modes draw linear radiance into the HDR target; the
+    // camera then develops it into the caller's framebuffer.
+    // (A camera that changes nothing is skipped: the frame goes straight to
+    // the target, whose 8-bit format clamps it.)
+    const bool develop = info.photographic && !shading::cameraIsIdentity(frame.params);
+    GLint target = 0, viewport[4] = {0, 0, 0, 0};
+    if (develop) {
+        glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
+        glGetIntegerv(GL_VIEWPORT, viewport);
+        impl_->hdr.ensure(viewport[2], viewport[3]);
+        glBindFramebuffer(GL_FRAMEBUFFER, impl_->hdr.fbo);
+        glViewport(0, 0, viewport[2], viewport[3]);
+    }
     setPipelineState(frame);
     impl_->uploadUniforms(program, frame, f, m, info);
     impl_->bindTextures(frame.specularAA);
     impl_->drawVisibleChunks(f.viewProj);
+    if (develop) impl_->developFrame(frame, target, viewport);
+}
+
+// The camera (camera.glsl): meter the HDR frame on a kMeterGrid^2 grid (a
+// nearest-neighbour blit picks the same pixels as shading::meterPixel), set
+// the exposure (shading::exposureFor), then the post pass into `target`.
+void Renderer::Impl::developFrame(const shading::FrameSetup& frame, GLint target, const GLint viewport[4]) {
+    if (frame.frameIndex == 0) exposure = {};
+    float metered = 0.0f;
+    if (frame.params[shading::Param::AutoExposure] != 0.0f) {
+        constexpr int n = shading::kMeterGrid;
+        glBindFramebuffer(GL_READ_FRAMEBUFFER, hdr.fbo);
+        glBindFramebuffer(GL_DRAW_FRAMEBUFFER, hdr.meterFbo);
+        glBlitFramebuffer(0, 0, hdr.width, hdr.height, 0, 0, n, n, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+        std::vector<float> rgba(4 * static_cast<std::size_t>(n) * n), rgb(3 * static_cast<std::size_t>(n) * n);
+        glBindFramebuffer(GL_READ_FRAMEBUFFER, hdr.meterFbo);
+        glReadPixels(0, 0, n, n, GL_RGBA, GL_FLOAT, rgba.data());
+        for (std::size_t i = 0; i < static_cast<std::size_t>(n) * n; ++i)
+            for (std::size_t k = 0; k < 3; ++k) rgb[3 * i + k] = rgba[4 * i + k];
+        metered = shading::meterLuminance(rgb.data(), frame);
+    }
+    const shading::glsl::Camera cam = shading::glsl::packCamera(frame, shading::exposureFor(frame, metered, exposure));
+    glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(target));
+    glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glUseProgram(post.id);
+    post.camera.upload(&cam);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, hdr.color);
+    glBindVertexArray(postVao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glBindVertexArray(0);
+    glEnable(GL_DEPTH_TEST);
 }
 
 }  // namespace mucosa::render

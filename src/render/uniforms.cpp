@@ -36,21 +36,41 @@ constexpr UniformType uniformType() {
     }
 
 static_assert(std::is_standard_layout_v<glsl::Frame> && std::is_standard_layout_v<glsl::Material> &&
-              std::is_standard_layout_v<glsl::Procedural>);
+              std::is_standard_layout_v<glsl::Procedural> && std::is_standard_layout_v<glsl::Camera>);
 
 constexpr std::array kFrame = {
-    MUCOSA_UNIFORM(Frame, viewProj),   MUCOSA_UNIFORM(Frame, view),       MUCOSA_UNIFORM(Frame, eye),
-    MUCOSA_UNIFORM(Frame, light),      MUCOSA_UNIFORM(Frame, normalSign), MUCOSA_UNIFORM(Frame, specularAA),
-    MUCOSA_UNIFORM(Frame, diffuseUvTransform),
+    MUCOSA_UNIFORM(Frame, viewProj),   MUCOSA_UNIFORM(Frame, view),
+    MUCOSA_UNIFORM(Frame, eye),        MUCOSA_UNIFORM(Frame, light),
+    MUCOSA_UNIFORM(Frame, lampAxis),   MUCOSA_UNIFORM(Frame, normalSign),
+    MUCOSA_UNIFORM(Frame, specularAA), MUCOSA_UNIFORM(Frame, diffuseUvTransform),
 };
 constexpr std::array kMaterial = {
-    MUCOSA_UNIFORM(Material, baseColor),      MUCOSA_UNIFORM(Material, mucusColor),
-    MUCOSA_UNIFORM(Material, mucusOpacity),   MUCOSA_UNIFORM(Material, specularStrength),
-    MUCOSA_UNIFORM(Material, shininess),      MUCOSA_UNIFORM(Material, bumpScale),
-    MUCOSA_UNIFORM(Material, mapTiling),      MUCOSA_UNIFORM(Material, ambient),
-    MUCOSA_UNIFORM(Material, c),              MUCOSA_UNIFORM(Material, d),
-    MUCOSA_UNIFORM(Material, depthMin),       MUCOSA_UNIFORM(Material, depthMax),
-    MUCOSA_UNIFORM(Material, lightIntensity), MUCOSA_UNIFORM(Material, lightRange),
+    MUCOSA_UNIFORM(Material, baseColor),
+    MUCOSA_UNIFORM(Material, mucusColor),
+    MUCOSA_UNIFORM(Material, mucusOpacity),
+    MUCOSA_UNIFORM(Material, specularStrength),
+    MUCOSA_UNIFORM(Material, shininess),
+    MUCOSA_UNIFORM(Material, bumpScale),
+    MUCOSA_UNIFORM(Material, mapTiling),
+    MUCOSA_UNIFORM(Material, ambient),
+    MUCOSA_UNIFORM(Material, c),
+    MUCOSA_UNIFORM(Material, d),
+    MUCOSA_UNIFORM(Material, depthMin),
+    MUCOSA_UNIFORM(Material, depthMax),
+    MUCOSA_UNIFORM(Material, lightIntensity),
+    MUCOSA_UNIFORM(Material, lampSourceRadius),
+    MUCOSA_UNIFORM(Material, lampSpread),
+    MUCOSA_UNIFORM(Material, wrap),
+    MUCOSA_UNIFORM(Material, sheenStrength),
+    MUCOSA_UNIFORM(Material, sheenShininess),
+    MUCOSA_UNIFORM(Material, mucusF0),
+};
+constexpr std::array kCamera = {
+    MUCOSA_UNIFORM(Camera, exposure),    MUCOSA_UNIFORM(Camera, vignettingPower), MUCOSA_UNIFORM(Camera, tanHalfFovX),
+    MUCOSA_UNIFORM(Camera, tanHalfFovY), MUCOSA_UNIFORM(Camera, width),           MUCOSA_UNIFORM(Camera, height),
+    MUCOSA_UNIFORM(Camera, mask),        MUCOSA_UNIFORM(Camera, maskRadius),      MUCOSA_UNIFORM(Camera, softness),
+    MUCOSA_UNIFORM(Camera, fullWell),    MUCOSA_UNIFORM(Camera, readNoise),       MUCOSA_UNIFORM(Camera, toneCurve),
+    MUCOSA_UNIFORM(Camera, frameSeed),
 };
 constexpr std::array kProcedural = {
     MUCOSA_UNIFORM(Procedural, frequency), MUCOSA_UNIFORM(Procedural, octaves),
@@ -87,6 +107,7 @@ constexpr std::size_t total(const std::array<UniformField, N>& fields) {
 static_assert(total(kFrame) == sizeof(glsl::Frame), "a member of Frame is missing from kFrame");
 static_assert(total(kMaterial) == sizeof(glsl::Material), "a member of Material is missing from kMaterial");
 static_assert(total(kProcedural) == sizeof(glsl::Procedural), "a member of Procedural is missing from kProcedural");
+static_assert(total(kCamera) == sizeof(glsl::Camera), "a member of Camera is missing from kCamera");
 
 // The varyings, each named once (the struct gives the type).
 struct Varying {
@@ -110,9 +131,17 @@ constexpr std::string_view glslType() {
             sizeof(glsl::Varyings::field)                                                       \
     }
 constexpr std::array kVaryings = {
-    MUCOSA_VARYING(Lt),           MUCOSA_VARYING(Vt),       MUCOSA_VARYING(uv),       MUCOSA_VARYING(T),
-    MUCOSA_VARYING(B),            MUCOSA_VARYING(N),        MUCOSA_VARYING(diffuseLight),
-    MUCOSA_VARYING(specular),     MUCOSA_VARYING(sphereUv), MUCOSA_VARYING(P),
+    MUCOSA_VARYING(Lt),
+    MUCOSA_VARYING(Vt),
+    MUCOSA_VARYING(uv),
+    MUCOSA_VARYING(T),
+    MUCOSA_VARYING(B),
+    MUCOSA_VARYING(N),
+    MUCOSA_VARYING(diffuseLight),
+    MUCOSA_VARYING(specular),
+    MUCOSA_VARYING(irradiance),
+    MUCOSA_VARYING(sphereUv),
+    MUCOSA_VARYING(P),
 };
 #undef MUCOSA_VARYING
 constexpr bool coversVaryings() {
@@ -152,6 +181,9 @@ std::span<const UniformField> materialUniforms() noexcept {
 }
 std::span<const UniformField> proceduralUniforms() noexcept {
     return kProcedural;
+}
+std::span<const UniformField> cameraUniforms() noexcept {
+    return kCamera;
 }
 
 UniformBlock::UniformBlock(GLuint program, std::span<const UniformField> fields) : fields_(fields) {
@@ -211,6 +243,8 @@ void checkActiveUniforms(GLuint program, const std::string& name) {
         if (uniform.starts_with("uFrame.")) table = kFrame;
         else if (uniform.starts_with("uMaterial.")) table = kMaterial;
         else if (uniform.starts_with("uProcedural.")) table = kProcedural;
+        else if (uniform.starts_with("uCamera."))
+            table = kCamera;
         else continue;  // samplers and the permutation arrays are set by name where they are used
         const UniformField* field = nullptr;
         for (const UniformField& f : table)

@@ -1,5 +1,5 @@
 #pragma once
-// The shaders' struct uniforms (uFrame, uMaterial, uProcedural), each field
+// The shaders' struct uniforms (uFrame, uMaterial, uProcedural, uCamera), each field
 // declared once: its GLSL name, its offset in the C++ twin of the GLSL struct
 // (shading::glsl::Frame, Material, Procedural: the same source text, so the
 // fields cannot drift apart) and its type, read from the C++ member's type.
@@ -27,6 +27,7 @@ struct UniformField {
 std::span<const UniformField> frameUniforms() noexcept;       // uFrame: shading::glsl::Frame
 std::span<const UniformField> materialUniforms() noexcept;    // uMaterial: shading::glsl::Material
 std::span<const UniformField> proceduralUniforms() noexcept;  // uProcedural: shading::glsl::Procedural
+std::span<const UniformField> cameraUniforms() noexcept;      // uCamera: shading::glsl::Camera (the post pass)
 
 // The locations of one table's fields in one program (-1 where the program
 // does not use a field).
@@ -51,8 +52,8 @@ private:
 // ("in vec3 vLt; ..." and readVaryings()).
 std::string varyingDeclarations(bool vertexStage);
 
-// Throws InternalError naming the first active uniform of a uFrame, uMaterial
-// or uProcedural struct that the tables lack, or whose GL type differs from
+// Throws InternalError naming the first active uniform of a uFrame, uMaterial,
+// uProcedural or uCamera struct that the tables lack, or whose GL type differs from
 // the table's (`name`: the program, for the message).
 void checkActiveUniforms(GLuint program, const std::string& name);
 

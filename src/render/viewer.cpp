@@ -169,6 +169,9 @@ private:
     shading::FrameSetup frame(int w, int h) const {
         shading::FrameSetup fs = scene::frameSetup(scene_, pose_, w, h);
         fs.mode = static_cast<shading::Mode>(mode_);
+        // A live camera: the sensor noise changes every frame and
+        // auto-exposure adapts from one to the next.
+        fs.frameIndex = drawn_;
         return fs;
     }
 
@@ -367,6 +370,7 @@ private:
             scene_.mapParams.noise = mapParams_.noise;  // the procedural mode's parameters, live
             scene_.mapParams.strength = mapParams_.strength;
             renderer_.draw(frame(w, h));
+            ++drawn_;
         }
         return {w, h};
     }
@@ -401,6 +405,7 @@ private:
     double lastX_ = 0, lastY_ = 0;
     bool dragging_ = false;
     int shots_ = 0;
+    int drawn_ = 0;  // frames drawn to the window (the camera's frame index)
 };
 
 }  // namespace

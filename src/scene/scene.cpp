@@ -471,7 +471,9 @@ void readCamera(const Parser& P, const json& j, Scene& s) {
     if (!j.contains("camera")) return;
     const json& c = j["camera"];
     P.object(c, "camera");
-    P.known(c, "camera.", {"fov_deg", "near_mm", "far_mm", "pose", "path"});
+    // The lens and the path, and the registry's camera group (exposure,
+    // sensor, tone curve, mask: shaders/camera.glsl).
+    P.registryGroup(c, "camera", s.params, {"fov_deg", "near_mm", "far_mm", "pose", "path"});
     if (c.contains("fov_deg")) s.lens.fovDeg = static_cast<float>(P.number(c["fov_deg"], "camera.fov_deg"));
     if (c.contains("near_mm")) s.lens.nearMm = static_cast<float>(P.number(c["near_mm"], "camera.near_mm"));
     if (c.contains("far_mm")) s.lens.farMm = static_cast<float>(P.number(c["far_mm"], "camera.far_mm"));

@@ -35,7 +35,9 @@ inline int permSlicePairAt(int j, int Z0) {
 // The mode predicates are constant expressions in C++ (checked against the
 // mode table at compile time, src/shading/params.cpp).
 #define MUCOSA_CONSTEXPR constexpr
-// procedural_noise.glsl first: common_shading.glsl uses its Procedural struct.
+// procedural_noise.glsl and camera.glsl first: common_shading.glsl uses
+// their Procedural struct and sRGB decoding.
+#include "../../shaders/camera.glsl"
 #include "../../shaders/procedural_noise.glsl"
 // (A separate block, so include sorting keeps the order.)
 #include "../../shaders/common_shading.glsl"
@@ -61,8 +63,37 @@ inline Material packMaterial(const ParamSet& p) {
     m.depthMin = p[Param::DepthMin];
     m.depthMax = p[Param::DepthMax];
     m.lightIntensity = p[Param::LightIntensity];
-    m.lightRange = p[Param::LightRange];
+    m.lampSourceRadius = p[Param::LightSourceRadius];
+    m.lampSpread = p[Param::LightSpread];
+    m.wrap = p[Param::Wrap];
+    m.sheenStrength = p[Param::SheenStrength];
+    m.sheenShininess = p[Param::SheenShininess];
+    const float n = p[Param::MucusIor];
+    m.mucusF0 = ((n - 1.0f) / (n + 1.0f)) * ((n - 1.0f) / (n + 1.0f));
     return m;
+}
+
+// The registry's camera values and the frame's size and projection in the
+// layout of the GLSL Camera struct (camera.glsl). `exposure` is the linear
+// factor the frame uses (2^EV, after auto-exposure: shading::ExposureState).
+inline Camera packCamera(const FrameSetup& f, float exposure) {
+    const ParamSet& p = f.params;
+    Camera c;
+    c.exposure = exposure;
+    c.vignettingPower = p[Param::Vignetting];
+    // The projection's focal terms: P[0][0] = 1 / tan(fov_x / 2), P[1][1] = 1 / tan(fov_y / 2).
+    c.tanHalfFovX = f.projection[0] != 0.0f ? 1.0f / f.projection[0] : 1.0f;
+    c.tanHalfFovY = f.projection[5] != 0.0f ? 1.0f / f.projection[5] : 1.0f;
+    c.width = static_cast<float>(f.width);
+    c.height = static_cast<float>(f.height);
+    c.mask = static_cast<int>(p[Param::Mask]);
+    c.maskRadius = p[Param::MaskRadius];
+    c.softness = p[Param::Softness];
+    c.fullWell = p[Param::FullWell];
+    c.readNoise = p[Param::ReadNoise];
+    c.toneCurve = static_cast<int>(p[Param::ToneCurve]);
+    c.frameSeed = f.frameIndex;
+    return c;
 }
 
 // Binds a permutation table (noise::Permutation::table()) for permAt on this
@@ -110,6 +141,9 @@ inline Frame packFrame(const FrameSetup& f) {
     o.viewProj = toMat4(f.projection) * o.view;
     o.eye = vec3(f.eye[0], f.eye[1], f.eye[2]);
     o.light = vec3(f.light[0], f.light[1], f.light[2]);
+    // The camera looks down its -z: the view matrix's third row, negated.
+    const vec3 axis = -vec3(o.view[0][2], o.view[1][2], o.view[2][2]);
+    o.lampAxis = length(axis) > kTiny ? normalize(axis) : vec3(0.0f, 0.0f, -1.0f);
     o.normalSign = f.normalSign;
     o.specularAA = f.specularAA ? 1 : 0;
     o.diffuseUvTransform =

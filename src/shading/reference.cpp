@@ -11,6 +11,8 @@
 #include <mucosa/mesh/tangents.hpp>
 #include <mucosa/noise/perlin.hpp>
 
+#include <glm/gtc/packing.hpp>
+
 #include "glsl.hpp"
 
 namespace mucosa::shading {
@@ -19,7 +21,7 @@ namespace {
 
 using glsl::Varyings;
 constexpr int kVaryingFloats = static_cast<int>(sizeof(Varyings) / sizeof(float));
-static_assert(sizeof(Varyings) == 24 * sizeof(float), "Varyings must be tightly packed floats");
+static_assert(sizeof(Varyings) == 25 * sizeof(float), "Varyings must be tightly packed floats");
 
 struct ClipVertex {
     glm::vec4 clip;
@@ -151,6 +153,47 @@ int wrapIndex(int i, int n, Wrap w) {
     return m < 0 ? m + n : m;
 }
 
+// The camera (camera.glsl) on the linear radiance `hdr` (rows bottom-up), as
+// the GPU's post pass does it: meter, expose, then per pixel the PSF over
+// the kSoftRadius neighbourhood (clamped at the edges) and cameraPixel.
+std::vector<glm::vec3> applyCamera(const std::vector<glm::vec3>& hdr, const FrameSetup& frame, ExposureState* state) {
+    const int w = frame.width, h = frame.height;
+    std::vector<float> grid(3 * static_cast<std::size_t>(kMeterGrid) * kMeterGrid);
+    for (int j = 0; j < kMeterGrid; ++j)
+        for (int i = 0; i < kMeterGrid; ++i) {
+            const glm::vec3& c = hdr[static_cast<std::size_t>(meterPixel(j, h)) * static_cast<std::size_t>(w) +
+                                     static_cast<std::size_t>(meterPixel(i, w))];
+            float* g = grid.data() + 3 * (static_cast<std::size_t>(j) * kMeterGrid + static_cast<std::size_t>(i));
+            // The GPU meters the half-float target.
+            g[0] = glm::unpackHalf1x16(glm::packHalf1x16(c.x));
+            g[1] = glm::unpackHalf1x16(glm::packHalf1x16(c.y));
+            g[2] = glm::unpackHalf1x16(glm::packHalf1x16(c.z));
+        }
+    ExposureState fresh;
+    ExposureState& s = state != nullptr ? *state : fresh;
+    const float exposure = exposureFor(frame, meterLuminance(grid.data(), frame), s);
+    const glsl::Camera c = glsl::packCamera(frame, exposure);
+    std::vector<glm::vec3> out(hdr.size());
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            glm::vec3 sum(0.0f);
+            float weights = 0.0f;
+            for (int dy = -glsl::kSoftRadius; dy <= glsl::kSoftRadius; ++dy)
+                for (int dx = -glsl::kSoftRadius; dx <= glsl::kSoftRadius; ++dx) {
+                    const float wt = glsl::psfWeight(dx, dy, c.softness);
+                    if (wt <= 0.0f) continue;
+                    const int qx = std::clamp(x + dx, 0, w - 1), qy = std::clamp(y + dy, 0, h - 1);
+                    sum +=
+                        wt *
+                        hdr[static_cast<std::size_t>(qy) * static_cast<std::size_t>(w) + static_cast<std::size_t>(qx)];
+                    weights += wt;
+                }
+            out[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] =
+                glsl::cameraPixel(sum / weights, x, y, c);
+        }
+    return out;
+}
+
 }  // namespace
 
 std::array<float, 3> sampleTexture(const TextureView& t, float u, float v, std::array<float, 3> fallback) noexcept {
@@ -216,7 +259,68 @@ bool modeNeedsUvs(const FrameSetup& f) noexcept {
     return true;
 }
 
-image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures) {
+bool cameraIsIdentity(const ParamSet& p) noexcept {
+    return p[Param::AutoExposure] == 0.0f && p[Param::ExposureEv] == 0.0f && p[Param::Vignetting] == 0.0f &&
+           p[Param::Mask] == 0.0f && p[Param::Softness] == 0.0f && p[Param::FullWell] == 0.0f &&
+           p[Param::ReadNoise] == 0.0f && p[Param::ToneCurve] == 0.0f;
+}
+
+int meterPixel(int i, int size) noexcept {
+    return std::min(size - 1, static_cast<int>(std::floor((static_cast<float>(i) + 0.5f) * static_cast<float>(size) /
+                                                          static_cast<float>(kMeterGrid))));
+}
+
+float meterLuminance(const float* rgb, const FrameSetup& frame) {
+    const glsl::Camera c = glsl::packCamera(frame, 1.0f);
+    double sum = 0.0, weights = 0.0;
+    std::vector<float> inside;  // the luminance of the points inside the mask
+    inside.reserve(static_cast<std::size_t>(kMeterGrid) * kMeterGrid);
+    for (int j = 0; j < kMeterGrid; ++j)
+        for (int i = 0; i < kMeterGrid; ++i) {
+            const float* p = rgb + 3 * (static_cast<std::size_t>(j) * kMeterGrid + static_cast<std::size_t>(i));
+            const float px = static_cast<float>(meterPixel(i, frame.width)) + 0.5f;
+            const float py = static_cast<float>(meterPixel(j, frame.height)) + 0.5f;
+            const float w = glsl::fovMask(px, py, c);
+            const float y = 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2];
+            const float seen = y * glsl::vignetting(px, py, c);
+            sum += static_cast<double>(w * seen);
+            weights += static_cast<double>(w);
+            if (w >= 0.5f) inside.push_back(seen);
+        }
+    if (weights <= 0.0 || inside.empty()) return 0.0f;
+    // Peak-weighted: the near wall, brightest, must not clip.
+    const auto k = static_cast<std::ptrdiff_t>(0.95 * static_cast<double>(inside.size() - 1));
+    std::nth_element(inside.begin(), inside.begin() + k, inside.end());
+    const float peak = inside[static_cast<std::size_t>(k)];
+    const float w = frame.params[Param::AutoPeak];
+    return (1.0f - w) * static_cast<float>(sum / weights) + w * peak;
+}
+
+float exposureFor(const FrameSetup& frame, float metered, ExposureState& state) {
+    const ParamSet& p = frame.params;
+    if (p[Param::AutoExposure] == 0.0f) {
+        state = {true, p[Param::ExposureEv]};
+        return std::exp2(state.ev);
+    }
+    // Aim: metered x 2^EV = key (plus the compensation exposure_ev). A black
+    // frame (nothing lit in view) keeps the last exposure instead of
+    // diverging: the gain of a real camera has a ceiling.
+    const float floor = 1e-8f;
+    const float target = std::log2(p[Param::AutoKey] / std::max(metered, floor)) + p[Param::ExposureEv];
+    if (frame.frameIndex == 0 || !state.primed) {
+        state = {true, target};
+    } else {
+        // First-order lag with time constant tau, sampled at the frame rate.
+        const float tau = p[Param::Adaptation];
+        const float dt = 1.0f / p[Param::FrameRate];
+        const float k = tau > 0.0f ? 1.0f - std::exp(-dt / tau) : 1.0f;
+        state.ev += k * (target - state.ev);
+    }
+    return std::exp2(state.ev);
+}
+
+image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures,
+                              ExposureState* exposure) {
     if (!mesh.hasNormals()) throw InputError("mesh", "", "the reference renderer needs vertex normals");
     if (modeNeedsUvs(frame) && (!mesh.hasUvs() || !mesh.hasTangents()))
         throw InputError(
@@ -228,6 +332,8 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
     const noise::Permutation perm = noise::Permutation::fromSeed(frame.procedural.noise.seed);
     const glsl::PermutationScope permScope(perm.table().data());
     const int mode = static_cast<int>(frame.mode);
+    const bool photographic = info(frame.mode).photographic;
+    const bool develop = photographic && !cameraIsIdentity(frame.params);
     const bool derivatives =
         glsl::modeIsProcedural(mode) && frame.specularAA;
 
@@ -278,7 +384,9 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         const glm::vec3 c =
             glsl::tissueFragment(v, glm::vec3(albedo[0], albedo[1], albedo[2]), glm::vec4(map[0], map[1], map[2], 0.0f),
                                  highlight, footprint, m, pr, f, mode);
-        return glm::clamp(c, 0.0f, 1.0f);
+        // Linear radiance for the camera (kept in the range of the GPU's
+        // half-float target), or display values.
+        return develop ? glm::clamp(c, 0.0f, glsl::kHalfMax) : glm::clamp(c, 0.0f, 1.0f);
     };
 
     for (std::size_t tri = 0; tri + 2 < mesh.indices.size(); tri += 3) {
@@ -300,6 +408,7 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         for (std::size_t i = 1; i + 1 < sv.size(); ++i) rasterTriangle(t, sv[0], sv[i], sv[i + 1], derivatives, shade);
     }
 
+    if (develop) t.color = applyCamera(t.color, frame, exposure);
     image::Image8 out(frame.width, frame.height, 3);
     for (int y = 0; y < frame.height; ++y)
         for (int x = 0; x < frame.width; ++x) {

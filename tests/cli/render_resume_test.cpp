@@ -54,7 +54,7 @@ TEST_F(RenderResume, TheRecordNamesWhatChangesThePixels) {
     EXPECT_EQ(m["renderer"], "opengl");
     EXPECT_EQ(m["scene_file"], (dir / "tube.json").lexically_normal().string());
     EXPECT_TRUE(m["scene_fnv1a64"].is_string());
-    EXPECT_EQ(m["parameters"]["material.shininess"], 40.0);
+    EXPECT_EQ(m["parameters"]["material.shininess"], 120.0);
     EXPECT_TRUE(m["reflectance_map"].contains("frequency"));
     // No temporary left behind: it was written atomically.
     for (const auto& e : fs::directory_iterator(dir.path()))
@@ -76,7 +76,7 @@ TEST_F(RenderResume, AnInterruptedRunResumesWithTheSameSettings) {
     EXPECT_EQ(fs::last_write_time(dir / "f_0002.png"), keptTime);
     EXPECT_EQ(readBytes(dir / "f_0002.png"), kept);
     // The same settings spelled differently are the same settings.
-    r = render("--size 48x36 --mode noise --set shininess=40 --specular-aa on");
+    r = render("--size 48x36 --mode noise --set shininess=120 --specular-aa on");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("nothing to do"), std::string::npos) << r.out;
 }
@@ -90,7 +90,7 @@ TEST_F(RenderResume, FramesMadeWithOtherSettingsAreNotMixedIn) {
         {"--size 64x48", "size 48x36 (this run: 64x48)"},
         {"--frames 4", "frames 3 (this run: 4)"},
         {"--mode vertex-phong", "mode noise (this run: vertex-phong)"},
-        {"--set material.shininess=80", "material.shininess 40.0 (this run: 80.0)"},
+        {"--set material.shininess=80", "material.shininess 120.0 (this run: 80.0)"},
         {"--set reflectance_map.frequency=4", "reflectance_map.frequency"},
         {"--specular-aa off", "specular anti-aliasing true (this run: false)"},
         {"--reference", "renderer opengl (this run: reference)"},

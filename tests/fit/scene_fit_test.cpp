@@ -61,6 +61,7 @@ TEST(SceneFit, RenderCommandShadesWithTheFittedModel) {
     fit::writeFitOutputs(fit::fitFrames(tube, frames, fo), dir / "fit");
     {
         std::ofstream(dir / "scene.json") << R"({"mesh": "tube.ply", "fit": "fit", "mode": "brdf",
+            "material": {"shininess": 40},
             "camera": {"pose": {"position": [2, 1, 12], "look_at": [-4, 0, 40]}}, "resolution": [128, 96]})";
     }
     for (const char* mode : {"brdf", "brdf-noise"}) {

@@ -42,9 +42,13 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
     // top, looking 60 mm down its axis.
     const mesh::Vec3 eye = slabCentroid(m, 630, 640), target = slabCentroid(m, 570, 580);
     const std::string scene = fmt::format(
+        // The paper's material and a camera that only exposes (as test::paperLook).
         R"({{"mesh": "{}", "mode": "procedural", "noise_space": "object", "resolution": [640, 480],
-            "material": {{"noise_scale_mm": 12}},
-            "camera": {{"fov_deg": 100, "near_mm": 0.5, "far_mm": 200,
+            "material": {{"noise_scale_mm": 12, "specular_strength": 0.8, "shininess": 40, "sheen": 0, "wrap": 0,
+                          "base_color": [0.8, 0.45, 0.4]}},
+            "light": {{"spread": 0}},
+            "camera": {{"fov_deg": 100, "near_mm": 0.5, "far_mm": 200, "auto_peak": 0, "auto_key": 0.4,
+                        "tone_curve": 0, "full_well": 0, "read_noise": 0, "softness_px": 0, "vignetting": 0, "mask": 0,
                         "pose": {{"position": [{}, {}, {}], "look_at": [{}, {}, {}], "up": [0, 0, 1]}}}}}})",
         ct.string(), eye[0], eye[1], eye[2], target[0], target[1], target[2]);
     std::ofstream(dir / "ct.json") << scene;

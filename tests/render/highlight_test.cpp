@@ -41,6 +41,7 @@ TEST(RenderHighlights, MethodHighlightsAreIrregularWhereBaselinesAreNotOnACoarse
     test::glContext();
     scene::Scene scene = scene::defaultScene();
     scene.mesh.kind = scene::MeshKind::Tube;
+    test::paperLook(scene.params);
     const scene::SceneAssets assets = scene::loadAssets(scene);
     expectIrregularOrdering(scene, assets, camera::lookAt({0.0f, -3.0f, -30.0f}, {0.0f, 7.0f, -40.0f}), "tube");
 }
@@ -56,6 +57,7 @@ TEST(RenderHighlights, ProceduralTextureSpaceNoiseLooksLikeTheMap) {
     scene::Scene scene = scene::defaultScene();
     scene.noiseSpace = shading::NoiseSpace::Uv;
     scene.specularAA = false;
+    test::paperLook(scene.params);
     const scene::SceneAssets assets = scene::loadAssets(scene);
     render::OffscreenSession s(scene, assets, 640, 480);
     const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, 9);

@@ -119,6 +119,35 @@ TEST(RenderParity, FlatQuadWithKnownMapMatchesReferenceInEveryMode) {
     }
 }
 
+// The camera's variants: off (drawn straight, no HDR target), and fixed
+// exposure with an octagonal mask, the sRGB curve, strong vignetting, full
+// softness and heavy noise (the default camera is in every test above).
+TEST(RenderParity, TheCameraOffAndItsVariantsMatchReference) {
+    const mesh::Mesh quad = mesh::makeQuad(40.0f, 8);
+    const image::Image8 map = testMap(256, "bronchial");
+    const image::Image8 diffuse = testDiffuse(64);
+    using P = shading::Param;
+    for (Mode mode : {Mode::Noise, Mode::VertexPhong, Mode::Diffuse}) {
+        shading::FrameSetup f = frameFor(camera::lookAt({6.0f, -14.0f, 22.0f}, {0, 0, 0}), 640, 480, mode);
+        f.params.set(P::MapTiling, 1.5f);
+        for (P p : {P::AutoExposure, P::Vignetting, P::Mask, P::Softness, P::FullWell, P::ReadNoise, P::ToneCurve})
+            f.params.set(p, 0.0f);
+        ASSERT_TRUE(shading::cameraIsIdentity(f.params));
+        expectParity(renderBoth(quad, f, map, diffuse), "parity_camera_off_" + std::string(shading::modeName(mode)));
+        f.params.set(P::ExposureEv, 3.0f);
+        f.params.set(P::Mask, 2.0f);
+        f.params.set(P::MaskRadius, 0.8f);
+        f.params.set(P::ToneCurve, 2.0f);
+        f.params.set(P::Vignetting, 4.0f);
+        f.params.set(P::Softness, 1.0f);
+        f.params.set(P::FullWell, 300.0f);
+        f.params.set(P::ReadNoise, 0.02f);
+        f.frameIndex = 5;
+        expectParity(renderBoth(quad, f, map, diffuse),
+                     "parity_camera_variant_" + std::string(shading::modeName(mode)));
+    }
+}
+
 TEST(RenderParity, SphereMatchesReferenceInEveryMode) {
     const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
     const image::Image8 map = testMap(256, "serosa");

@@ -13,8 +13,32 @@
 
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/context.hpp>
+#include <mucosa/shading/params.hpp>
 
 namespace mucosa::test {
+
+// The paper's look, for tests that measure the shading model's highlights
+// rather than the default camera: the material of the paper's figures
+// (k_s 0.8, n 40, no sheen, no wrap), and a camera that only exposes
+// (auto-exposure metering the mean; linear response, no noise, softness,
+// vignetting or mask).
+inline void paperLook(shading::ParamSet& p) {
+    using shading::Param;
+    p.setColor(Param::BaseColor, {0.8f, 0.45f, 0.4f});
+    p.set(Param::SpecularStrength, 0.8f);
+    p.set(Param::Shininess, 40.0f);
+    p.set(Param::SheenStrength, 0.0f);
+    p.set(Param::Wrap, 0.0f);
+    p.set(Param::LightSpread, 0.0f);
+    p.set(Param::AutoPeak, 0.0f);  // mean metering: glints barely move it
+    p.set(Param::AutoKey, 0.4f);
+    p.set(Param::ToneCurve, 0.0f);
+    p.set(Param::FullWell, 0.0f);
+    p.set(Param::ReadNoise, 0.0f);
+    p.set(Param::Softness, 0.0f);
+    p.set(Param::Vignetting, 0.0f);
+    p.set(Param::Mask, 0.0f);
+}
 
 inline render::HeadlessContext& glContext() {
     static std::unique_ptr<render::HeadlessContext> ctx;

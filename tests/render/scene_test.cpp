@@ -27,19 +27,21 @@ TEST(RenderScene, FullSceneParses) {
       "reflectance_map": {"preset": "fine", "frequency": 32, "size": 256},
       "material": {"shininess": 80, "base_color": [0.7, 0.4, 0.4], "mucus_opacity": 0.3},
       "brdf": {"c0": 0.1, "c1": 0.9, "d1": -0.2},
-      "light": {"intensity": 2, "range_mm": 40, "offset_mm": [2, 0, 0]},
-      "camera": {"fov_deg": 100, "near_mm": 1, "far_mm": 300,
+      "light": {"intensity": 2, "spread": 2.5, "offset_mm": [2, 0, 0]},
+      "camera": {"fov_deg": 100, "near_mm": 1, "far_mm": 300, "exposure_ev": 1.5, "mask": 2,
                  "path": {"poses": [{"position": [0, 0, 0], "look_at": [0, 0, -10]},
                                     {"position": [0, 0, -20], "forward": [0, 0, -1], "up": [0, 1, 0]}]}},
       "resolution": [320, 240], "frames": 12})",
-                                               "dir/scene.json");
+                                             "dir/scene.json");
     EXPECT_EQ(s.mesh.kind, scene::MeshKind::Tube);
     EXPECT_EQ(s.mode, shading::Mode::VertexPhong);
     EXPECT_EQ(s.filter, shading::Filter::Linear);
     EXPECT_FLOAT_EQ(s.params[shading::Param::Shininess], 80.0f);
     EXPECT_FLOAT_EQ(s.params.color(shading::Param::BaseColor)[0], 0.7f);
     EXPECT_FLOAT_EQ(s.params[shading::Param::C0], 0.1f);
-    EXPECT_FLOAT_EQ(s.params[shading::Param::LightRange], 40.0f);
+    EXPECT_FLOAT_EQ(s.params[shading::Param::LightSpread], 2.5f);
+    EXPECT_FLOAT_EQ(s.params[shading::Param::ExposureEv], 1.5f);
+    EXPECT_FLOAT_EQ(s.params[shading::Param::Mask], 2.0f);
     EXPECT_FLOAT_EQ(s.light.offset[0], 2.0f);
     EXPECT_DOUBLE_EQ(s.mapParams.noise.frequency, 32.0);
     EXPECT_EQ(s.mapParams.size, 256);

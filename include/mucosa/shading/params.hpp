@@ -52,6 +52,11 @@ struct ModeInfo {
     bool readsHighlight;    // samples the sphere-mapped highlight texture
     bool procedural;        // evaluates the noise per pixel (procedural_noise.glsl)
     bool headlight;         // lights per pixel and has a variant for a light exactly at the eye (Lt = Vt)
+    // Renders linear radiance that goes through the endoscope's camera
+    // (shaders/camera.glsl: exposure, sensor, tone curve, mask). The debug
+    // views and the fitted modes (whose texture and rho, delta already are a
+    // camera's output) write their values as they are.
+    bool photographic;
 };
 
 // The table, in Mode order.
@@ -82,19 +87,37 @@ enum class Param : int {
     DepthMin,
     DepthMax,
     LightIntensity,
-    LightRange,
+    LightSourceRadius,
     NoiseScale,
+    LightSpread,
+    Wrap,
+    SheenStrength,
+    SheenShininess,
+    MucusIor,
+    ExposureEv,
+    AutoExposure,
+    AutoKey,
+    Adaptation,
+    FrameRate,
+    Vignetting,
+    Mask,
+    MaskRadius,
+    Softness,
+    FullWell,
+    ReadNoise,
+    ToneCurve,
+    AutoPeak,
 };
-inline constexpr std::size_t kParamCount = 20;
+inline constexpr std::size_t kParamCount = 38;
 
 struct ParamInfo {
     Param id;
     std::string_view name;          // scene-file key and viewer label, snake_case
-    std::string_view group;         // scene-file object: "material", "brdf" or "light"
+    std::string_view group;         // scene-file object: "material", "brdf", "light" or "camera"
     int components;                 // 1 (scalar) or 3 (RGB colour)
     std::array<float, 3> defaults;  // scalars use [0]
     float min, max;                 // inclusive range of every component
-    std::string_view unit;          // "", "mm", "1/uv", ...
+    std::string_view unit;          // "", "mm", "1/uv", ...; "choice": an integer naming an option
     std::string_view description;
     bool fittable;  // estimated by the BRDF fit (paper eq. 8-11)
 };

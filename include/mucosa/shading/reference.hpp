@@ -63,7 +63,39 @@ struct FrameSetup {
     // a fitted atlas spanning uv_min..uv_max mapped to [0, 1] (scene key "fit").
     std::array<float, 4> diffuseUvTransform{1, 1, 0, 0};
     int width = 640, height = 480;
+    // The frame's number along its camera path: the sensor noise's pattern,
+    // and frame 0 starts auto-exposure afresh (ExposureState).
+    int frameIndex = 0;
 };
+
+// Auto-exposure (docs/theory.md, "The endoscope's camera"), as video
+// bronchoscopes do it: meter the frame, aim the exposure at camera.auto_key,
+// and move there with the time constant camera.adaptation_s at
+// camera.frame_rate. The state a camera path carries from frame to frame.
+struct ExposureState {
+    bool primed = false;  // false: the next frame takes its target at once
+    float ev = 0.0f;      // log2 of the exposure factor
+};
+
+// The meter reads the frame's linear radiance at a kMeterGrid x kMeterGrid
+// grid of pixels: (floor((i + 0.5) W / kMeterGrid), floor((j + 0.5) H /
+// kMeterGrid)), bottom-up (what a nearest-neighbour blit to kMeterGrid^2
+// picks on the GPU).
+inline constexpr int kMeterGrid = 32;
+int meterPixel(int i, int size) noexcept;
+// The metered luminance (Rec. 709 weights) of the grid's radiance `rgb`
+// (kMeterGrid^2 RGB triples, row j = 0 at the bottom) as the sensor sees it at
+// exposure 1 (times vignetting): the mean over the mask (each point weighted
+// by its coverage) mixed with the 95th percentile by camera.auto_peak.
+float meterLuminance(const float* rgb, const FrameSetup& frame);
+// Whether the camera changes nothing: fixed exposure 2^0, no vignetting,
+// mask, softness or noise, the linear response. The renderers then draw the
+// photographic modes straight to the output, clamped, as before the camera
+// existed (no HDR target, no post pass).
+bool cameraIsIdentity(const ParamSet& p) noexcept;
+// The linear exposure factor for this frame given its metered luminance;
+// updates `state`. Fixed exposure (camera.auto_exposure 0): 2^exposure_ev.
+float exposureFor(const FrameSetup& frame, float metered, ExposureState& state);
 
 enum class Filter {
     Nearest,    // GL_NEAREST
@@ -107,8 +139,11 @@ image::Image8 highlightSphereMap(int size, float shininess);
 bool modeNeedsUvs(const FrameSetup& f) noexcept;
 
 // Renders `mesh` (positions and normals; uvs and tangents when
-// modeNeedsUvs) into an RGB8 image, first row = top, background black.
-// Throws InputError if the mesh lacks what the mode needs.
-image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures);
+// modeNeedsUvs) into an RGB8 image, first row = top, background black. The
+// photographic modes go through the camera (camera.glsl), with auto-exposure
+// state from `exposure` (a camera path passes the same state for every frame;
+// nullptr: a fresh state). Throws InputError if the mesh lacks what the mode needs.
+image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, const Textures& textures,
+                              ExposureState* exposure = nullptr);
 
 }  // namespace mucosa::shading

@@ -1,0 +1,145 @@
+// camera.glsl: the video bronchoscope's optics, sensor and processing, applied
+// to the linear HDR radiance the surface shaders write (docs/theory.md, "The
+// endoscope's camera"). Like common_shading.glsl it is compiled twice: as GLSL
+// 3.30 (the post pass, camera_post.frag) and as C++20 with glm (the C++
+// reference, src/shading/glsl.hpp), so both apply the same steps in the same
+// order. Same subset of the two languages: f-suffixed literals, u-suffixed
+// unsigned literals, no swizzles, no in/out parameters.
+//
+// Per pixel, in the order light meets them:
+//   1. optics: a small Gaussian point-spread function (softness) and natural
+//      vignetting, cos^k of the field angle;
+//   2. exposure: the radiance times 2^EV (fixed, or from auto-exposure);
+//   3. the sensor: Poisson-Gaussian noise (shot noise with variance
+//      signal / full well, read noise with a fixed deviation), then clipping
+//      at saturation, per channel, as a sensor clips;
+//   4. the camera's response (tone curve): linear, BT.709 or sRGB;
+//   5. the scope's field-of-view mask: a circle or an octagon, black outside.
+
+// Tone curves (shading::ToneCurve, the registry's camera.tone_curve).
+const int kToneLinear = 0;
+const int kToneBt709 = 1;
+const int kToneSrgb = 2;
+// Field-of-view masks (camera.mask).
+const int kMaskNone = 0;
+const int kMaskCircle = 1;
+const int kMaskOctagon = 2;
+// The softness kernel reaches this many pixels each side (5 x 5 taps):
+// enough for sigma <= 1 px (the weight at 2.5 sigma is 4 % of the centre's).
+const int kSoftRadius = 2;
+
+struct Camera {
+    float exposure;          // 2^EV: sensor signal per unit of radiance (after auto-exposure)
+    float vignettingPower;   // k of cos^k(field angle); 0 = off, 4 = the natural cos^4 law
+    float tanHalfFovX;       // tan of half the horizontal field of view (the projection's)
+    float tanHalfFovY;       // tan of half the vertical field of view
+    float width;             // frame size in pixels
+    float height;
+    int mask;                // kMaskNone, kMaskCircle, kMaskOctagon
+    float maskRadius;        // mask radius (inradius for the octagon) / half the smaller frame side
+    float softness;          // sigma of the Gaussian PSF in pixels; 0 = sharp
+    float fullWell;          // sensor signal 1 = this many photo-electrons; 0 = no noise
+    float readNoise;         // deviation of the read noise, in units of the full signal
+    int toneCurve;           // kToneLinear, kToneBt709, kToneSrgb
+    int frameSeed;           // the noise pattern of this frame
+};
+
+// Weight of the tap (dx, dy) of the PSF, unnormalised: exp(-r^2 / (2 sigma^2)).
+// sigma = 0 gives the centre alone.
+float psfWeight(int dx, int dy, float sigma) {
+    if (sigma <= 0.0f) return (dx == 0 && dy == 0) ? 1.0f : 0.0f;
+    float r2 = float(dx * dx + dy * dy);
+    return exp(-r2 / (2.0f * sigma * sigma));
+}
+
+// Natural vignetting at pixel centre (px, py) (pixels from the bottom-left
+// corner): the angle theta between the ray and the optical axis of the
+// rectilinear projection, cos(theta)^k (k = 4: the cos^4 law of a thin lens).
+float vignetting(float px, float py, Camera c) {
+    float x = (2.0f * px / c.width - 1.0f) * c.tanHalfFovX;
+    float y = (2.0f * py / c.height - 1.0f) * c.tanHalfFovY;
+    float cos2 = 1.0f / (1.0f + x * x + y * y);
+    return pow(cos2, 0.5f * c.vignettingPower);
+}
+
+// Coverage of pixel (px, py) by the field-of-view mask, anti-aliased over one
+// pixel: 1 inside, 0 outside.
+float fovMask(float px, float py, Camera c) {
+    if (c.mask == kMaskNone) return 1.0f;
+    float halfSide = 0.5f * min(c.width, c.height);
+    float x = abs(px - 0.5f * c.width);
+    float y = abs(py - 0.5f * c.height);
+    // Distance-like measure in pixels: Euclidean for the circle; for a
+    // regular octagon with inradius R, the largest of the four support
+    // functions max(|x|, |y|, (|x| + |y|) / sqrt(2)).
+    float d = sqrt(x * x + y * y);
+    if (c.mask == kMaskOctagon) d = max(max(x, y), (x + y) * 0.70710678f);
+    return clamp(c.maskRadius * halfSide - d + 0.5f, 0.0f, 1.0f);
+}
+
+// A 32-bit integer hash (PCG's output permutation; Jarzynski & Olano 2020,
+// "Hash functions for GPU rendering"): the sensor noise's random numbers, the
+// same on the GPU and in C++.
+uint pcgHash(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// Uniform in (0, 1) from a hash.
+float hashUniform(uint h) {
+    return (float(h >> 8u) + 0.5f) * (1.0f / 16777216.0f);
+}
+
+// A standard normal deviate for channel k of pixel (ix, iy) in frame `seed`
+// (Box-Muller on two hashed uniforms).
+float pixelGaussian(int ix, int iy, int k, int seed) {
+    uint h = pcgHash(uint(ix) + pcgHash(uint(iy) + pcgHash(uint(k) + pcgHash(uint(seed)))));
+    float u1 = hashUniform(h);
+    float u2 = hashUniform(pcgHash(h));
+    return sqrt(-2.0f * log(u1)) * cos(6.2831853f * u2);
+}
+
+// Poisson-Gaussian sensor noise (Foi et al. 2008): the variance of a pixel
+// with mean signal s is s / fullWell + readNoise^2 (the mean-variance line),
+// drawn as a Gaussian (the Poisson's normal limit at the counts of a sensor).
+float sensorNoise(float s, int ix, int iy, int k, Camera c) {
+    if (c.fullWell <= 0.0f && c.readNoise <= 0.0f) return s;
+    float shot = c.fullWell > 0.0f ? max(s, 0.0f) / c.fullWell : 0.0f;
+    return s + sqrt(shot + c.readNoise * c.readNoise) * pixelGaussian(ix, iy, k, c.frameSeed);
+}
+
+// The camera's response to a clipped sensor signal s in [0, 1].
+float toneCurve(float s, int curve) {
+    if (curve == kToneBt709) return s < 0.018f ? 4.5f * s : 1.099f * pow(s, 0.45f) - 0.099f;
+    if (curve == kToneSrgb) return s <= 0.0031308f ? 12.92f * s : 1.055f * pow(s, 1.0f / 2.4f) - 0.055f;
+    return s;
+}
+
+// The inverse of toneCurve: display value -> sensor signal (round trips).
+float inverseToneCurve(float v, int curve) {
+    if (curve == kToneBt709) return v < 0.081f ? v / 4.5f : pow((v + 0.099f) / 1.099f, 1.0f / 0.45f);
+    if (curve == kToneSrgb) return v <= 0.04045f ? v / 12.92f : pow((v + 0.055f) / 1.055f, 2.4f);
+    return v;
+}
+
+// The sRGB decoding of an 8-bit texture's value (IEC 61966-2-1): the subject
+// texture is stored as sRGB-encoded albedo, and shading needs it linear.
+float srgbToLinear(float v) {
+    return v <= 0.04045f ? v / 12.92f : pow((v + 0.055f) / 1.055f, 2.4f);
+}
+vec3 srgbToLinear3(vec3 v) {
+    return vec3(srgbToLinear(v.x), srgbToLinear(v.y), srgbToLinear(v.z));
+}
+
+// Steps 1 (vignetting) to 5 for pixel (ix, iy) whose PSF-filtered radiance
+// is `radiance`: the displayed value in [0, 1].
+vec3 cameraPixel(vec3 radiance, int ix, int iy, Camera c) {
+    float px = float(ix) + 0.5f;
+    float py = float(iy) + 0.5f;
+    vec3 s = radiance * (c.exposure * vignetting(px, py, c));
+    s = vec3(sensorNoise(s.x, ix, iy, 0, c), sensorNoise(s.y, ix, iy, 1, c), sensorNoise(s.z, ix, iy, 2, c));
+    s = clamp(s, 0.0f, 1.0f);
+    vec3 v = vec3(toneCurve(s.x, c.toneCurve), toneCurve(s.y, c.toneCurve), toneCurve(s.z, c.toneCurve));
+    return v * fovMask(px, py, c);
+}
