@@ -73,6 +73,6 @@ std::vector<std::string> nearest(std::string_view word, const std::vector<std::s
 #define MUCOSA_CLI_CONCAT2(a, b) a##b
 #define MUCOSA_CLI_CONCAT(a, b) MUCOSA_CLI_CONCAT2(a, b)
 // Order of subcommands in --help: map 10, mesh 20, phantom 30, render 40,
-// compare 50, view 60, params 65, fit 70, categories 80, study 90, demo 100.
+// compare 50, view 60, params 65, fit 70, tune 75, categories 80, study 90, demo 100.
 #define MUCOSA_REGISTER_COMMAND(order, fn) \
     static const ::mucosa::cli::CommandRegistration MUCOSA_CLI_CONCAT(kRegistration, __LINE__)(order, fn)

@@ -1,0 +1,358 @@
+// mucosa tune: how the reflectance map's noise and the specular lobe shape
+// the highlights (sweep), and a look fitted to target highlight statistics
+// (fit). docs/tune.md.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include <unistd.h>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/fit/tune.hpp>
+
+#include "scene_options.hpp"
+
+namespace mucosa::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ProbeArgs {
+    SceneOptions scene;
+    std::string params;
+    int views = 8;
+    int size = 320;
+};
+
+struct SweepArgs {
+    ProbeArgs probe;
+    std::string output, target;
+    int steps = 7;
+};
+
+struct FitArgs {
+    ProbeArgs probe;
+    std::string output, target, stats;
+    int maxEvals = 80;
+};
+
+std::string formatDuration(double seconds) {
+    const long long t = std::llround(std::max(seconds, 0.0));
+    if (t >= 3600) return fmt::format("{}h{:02}m", t / 3600, t / 60 % 60);
+    if (t >= 60) return fmt::format("{}m{:02}s", t / 60, t % 60);
+    return fmt::format("{}s", t);
+}
+
+std::vector<std::string> splitList(const std::string& s) {
+    std::vector<std::string> out;
+    std::size_t pos = 0;
+    while (pos <= s.size() && !s.empty()) {
+        const auto comma = s.find(',', pos);
+        std::string part = s.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+        if (!part.empty()) out.push_back(part);
+        if (comma == std::string::npos) break;
+        pos = comma + 1;
+    }
+    return out;
+}
+
+// The keys of --params, checked (each must be a tunable parameter), with their groups.
+std::vector<std::string> paramKeys(const std::string& list) {
+    std::vector<std::string> keys;
+    for (const std::string& k : splitList(list)) keys.emplace_back(fit::findTuneParam(k, "--params").key);
+    return keys;
+}
+
+// Progress on stderr: a line rewritten in place on a terminal, every tenth
+// of the work otherwise (so a log keeps a bounded number of lines).
+class Progress {
+public:
+    explicit Progress(const Global& g) : show_(!g.quiet), tty_(isatty(2) != 0), t0_(std::chrono::steady_clock::now()) {}
+    void operator()(int done, int total, const std::string& what) {
+        if (!show_ || total <= 0) return;
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+        const double eta = done > 0 ? s / done * (total - done) : 0;
+        const std::string line = fmt::format("[tune {:3.0f}%] {} ({}/{}, {} elapsed, ETA {})", 100.0 * done / total,
+                                             what, done, total, formatDuration(s), formatDuration(eta));
+        if (tty_) {
+            std::fprintf(stderr, "\r%s\x1b[K%s", line.c_str(), done >= total ? "\n" : "");
+            open_ = done < total;
+        } else if (done == total || done * 10 / total != (done - 1) * 10 / total) {
+            std::fprintf(stderr, "%s\n", line.c_str());
+        }
+        std::fflush(stderr);
+    }
+    void finish() {
+        if (show_ && tty_ && open_) std::fprintf(stderr, "\n");
+        open_ = false;
+    }
+
+private:
+    bool show_, tty_;
+    bool open_ = false;  // a line without its newline yet
+    std::chrono::steady_clock::time_point t0_;
+};
+
+fit::ProbeOptions probeOptions(const ProbeArgs& a, const Global& g) {
+    fit::ProbeOptions o;
+    o.views = a.views;
+    o.size = a.size;
+    o.threads = g.threads;
+    return o;
+}
+
+std::string fmtStat(double v) {
+    if (!std::isfinite(v)) return "-";
+    const double a = std::abs(v);
+    return (a != 0 && (a < 0.01 || a >= 1e4)) ? fmt::format("{:.2e}", v) : fmt::format("{:.3f}", v);
+}
+
+void runSweep(const SweepArgs& a, const Global& g) {
+    const scene::Scene scene = resolveScene(a.probe.scene);
+    fit::SweepOptions o;
+    o.params = paramKeys(a.probe.params);
+    o.steps = a.steps;
+    o.probe = probeOptions(a.probe, g);
+    std::optional<fit::HighlightSummary> target;
+    if (!a.target.empty()) target = fit::summarise(fit::readTargetFrames(a.target));
+    requireOutputDir(a.output);  // before the work, not after it
+    std::error_code ec;
+    fs::create_directory(a.output, ec);
+    if (ec) throw IoError("output folder", a.output, ec.message());
+    Progress progress(g);
+    o.progress = [&](int done, int total) { progress(done, total, "sweeping"); };
+    const fit::SweepResult r = fit::sweep(scene, o);
+    const fs::path dir = a.output;
+    writeFileAtomic(dir / "sweep.tsv", fit::sweepTsv(r));
+    writeFileAtomic(dir / "sweep.json", fit::sweepJson(r, target ? &*target : nullptr));
+    for (int k = 0; k < fit::kHighlightStatCount; ++k) {
+        const auto stat = static_cast<fit::HighlightStat>(k);
+        writeFileAtomic(dir / fmt::format("sweep_{}.svg", fit::statName(stat)),
+                        fit::sweepSvg(r, stat, target ? &*target : nullptr));
+    }
+    // The relationship in one line per parameter: each statistic's median at
+    // the lowest and the highest value swept.
+    for (const fit::TuneParam* p : r.params) {
+        const fit::SweepPoint *lo = nullptr, *hi = nullptr;
+        for (const fit::SweepPoint& pt : r.points)
+            if (pt.param == p) {
+                if (lo == nullptr) lo = &pt;
+                hi = &pt;
+            }
+        std::string line = fmt::format("{} {} -> {}:", p->key, fmtStat(lo->value), fmtStat(hi->value));
+        for (int k = 0; k < fit::kHighlightStatCount; ++k)
+            line += fmt::format(" {} {} -> {}", fit::statName(static_cast<fit::HighlightStat>(k)),
+                                fmtStat(lo->summary.stats[static_cast<std::size_t>(k)].median),
+                                fmtStat(hi->summary.stats[static_cast<std::size_t>(k)].median));
+        info(g, line);
+    }
+    info(g, fmt::format("wrote {}, sweep.json and {} plots sweep_<statistic>.svg ({} x {} views at {}x{})",
+                        joinPath(dir, "sweep.tsv"), fit::kHighlightStatCount, count(r.points.size(), "setting"),
+                        r.views, r.size, r.size));
+}
+
+void runFit(const FitArgs& a, const Global& g) {
+    const scene::Scene scene = resolveScene(a.probe.scene);
+    const fs::path out = a.output;
+    if (out.extension() != ".json") throw InputError("--output", out.string(), "must end in .json");
+    fit::TuneFitOptions o;
+    o.params = paramKeys(a.probe.params);
+    for (const std::string& s : splitList(a.stats)) {
+        fit::HighlightStat st{};
+        if (!fit::findStat(s, st)) {
+            std::string known;
+            for (int k = 0; k < fit::kHighlightStatCount; ++k)
+                known += (k ? ", " : "") + std::string(fit::statName(static_cast<fit::HighlightStat>(k)));
+            throw InputError("--stats", "", fmt::format("unknown statistic '{}' (known: {})", s, known));
+        }
+        o.stats.push_back(st);
+    }
+    o.probe = probeOptions(a.probe, g);
+    o.maxEvaluations = a.maxEvals;
+    const fit::HighlightSummary target = [&] {
+        try {
+            return fit::summarise(fit::readTargetFrames(a.target));
+        } catch (const InputError& e) {
+            if (e.file().empty()) throw InputError(e.subject(), a.target, e.reason());
+            throw;
+        }
+    }();
+    requireWritable(out);
+    fs::path reportPath = out;
+    reportPath.replace_extension(".tune.json");
+    Progress progress(g);
+    o.progress = [&](int done, int total, double best) {
+        progress(done, total, fmt::format("best distance {:.3f}", best));
+    };
+    const fit::TuneFitResult r = fit::fitToTarget(scene, target, o);
+    progress.finish();
+
+    info(g, fmt::format("{:<14} {:>10} {:>10} | {:>10} {:>7} | {:>10} {:>7}", "statistic", "target", "IQR", "before",
+                        "dist", "after", "dist"));
+    for (int k = 0; k < fit::kHighlightStatCount; ++k) {
+        const auto s = static_cast<fit::HighlightStat>(k);
+        const auto i = static_cast<std::size_t>(k);
+        info(g, fmt::format("{:<14} {:>10} {:>10} | {:>10} {:>7} | {:>10} {:>7}", fit::statName(s),
+                            fmtStat(target[s].median), target[s].n ? fmtStat(target[s].iqr()) : "-",
+                            fmtStat(r.beforeSummary[s].median), fmtStat(r.before.perStat[i]),
+                            fmtStat(r.afterSummary[s].median), fmtStat(r.after.perStat[i])));
+    }
+    std::string sets;
+    for (std::size_t i = 0; i < r.best.size(); ++i)
+        info(g,
+             fmt::format("{} {} -> {}", r.best[i].first->key, fmtStat(r.start[i].second), fmtStat(r.best[i].second)));
+    for (const auto& [p, v] : r.best) sets += fmt::format(" --set {}={:.6g}", p->key, v);
+    info(g, fmt::format("distance (sum over {} of |median - target| / target IQR): before {:.3f}, after {:.3f} ({})",
+                        count(r.after.terms, "statistic"), r.before.total, r.after.total,
+                        count(r.evaluations, "render", "renders") + " of the view set"));
+
+    writeFileAtomic(out, fit::presetJson(scene, r.best));
+    nlohmann::json rep;
+    auto summary = [](const fit::HighlightSummary& s) {
+        nlohmann::json j = nlohmann::json::object();
+        for (int k = 0; k < fit::kHighlightStatCount; ++k) {
+            const auto st = static_cast<fit::HighlightStat>(k);
+            if (s[st].n == 0) {
+                j[std::string(fit::statName(st))] = nullptr;
+                continue;
+            }
+            j[std::string(fit::statName(st))] = {{"median", s[st].median}, {"iqr", s[st].iqr()}, {"n", s[st].n}};
+        }
+        return j;
+    };
+    auto values = [](const fit::TuneValues& v) {
+        nlohmann::json j = nlohmann::json::object();
+        for (const auto& [p, x] : v) j[std::string(p->key)] = x;
+        return j;
+    };
+    auto perStat = [](const fit::Distance& d) {
+        nlohmann::json j = nlohmann::json::object();
+        for (int k = 0; k < fit::kHighlightStatCount; ++k)
+            if (std::isfinite(d.perStat[static_cast<std::size_t>(k)]))
+                j[std::string(fit::statName(static_cast<fit::HighlightStat>(k)))] =
+                    d.perStat[static_cast<std::size_t>(k)];
+        return j;
+    };
+    rep["target"] = a.target;
+    rep["target_stats"] = summary(target);
+    rep["start"] = values(r.start);
+    rep["fitted"] = values(r.best);
+    rep["before"] = {
+        {"distance", r.before.total}, {"per_stat", perStat(r.before)}, {"stats", summary(r.beforeSummary)}};
+    rep["after"] = {{"distance", r.after.total}, {"per_stat", perStat(r.after)}, {"stats", summary(r.afterSummary)}};
+    rep["evaluations"] = r.evaluations;
+    rep["views"] = a.probe.views;
+    rep["size"] = a.probe.size;
+    writeFileAtomic(reportPath, rep.dump(1) + "\n");
+    info(g, fmt::format("wrote {} (reflectance_map and material: merge them into a scene file, or render with{}) "
+                        "and {}",
+                        out.string(), sets, reportPath.string()));
+}
+
+// Per-frame statistics of PNG frames (files or folders), then their medians
+// and IQRs: the realism tool's numbers, from C++.
+void runStats(const std::vector<std::string>& inputs, const Global& g) {
+    std::vector<fs::path> files;
+    for (const std::string& in : inputs) {
+        std::error_code ec;
+        if (!fs::exists(in, ec)) throw IoError("frames", in, "no such file or folder");
+        if (fs::is_directory(in, ec)) {
+            const std::vector<fs::path> f = fit::listFrames(in);
+            files.insert(files.end(), f.begin(), f.end());
+        } else {
+            files.emplace_back(in);
+        }
+    }
+    std::string header = "frame";
+    for (int k = 0; k < fit::kHighlightStatCount; ++k)
+        header += fmt::format("\t{}", fit::statName(static_cast<fit::HighlightStat>(k)));
+    info(g, header);
+    std::vector<fit::FrameHighlights> frames;
+    for (const fs::path& f : files) {
+        frames.push_back(fit::measureFrameFile(f));
+        std::string line = f.filename().string();
+        for (double v : frames.back().values) line += fmt::format("\t{:.10g}", v);
+        info(g, line);
+    }
+    const fit::HighlightSummary s = fit::summarise(frames);
+    std::string med = "median", iqr = "iqr";
+    for (const fit::StatSummary& st : s.stats) {
+        med += "\t" + (st.n ? fmt::format("{:.6g}", st.median) : std::string("nan"));
+        iqr += "\t" + (st.n ? fmt::format("{:.6g}", st.iqr()) : std::string("nan"));
+    }
+    info(g, med);
+    info(g, iqr);
+}
+
+void addProbeOptions(CLI::App* c, ProbeArgs& a) {
+    addSceneOptions(c, a.scene, false);
+    std::string keys;
+    for (const fit::TuneParam& p : fit::tuneParams()) keys += (keys.empty() ? "" : ", ") + std::string(p.key);
+    c->add_option("--params", a.params,
+                  "Parameters, comma-separated, with or without their group (" + keys + ") [the first six]");
+    c->add_option("--views", a.views, "Views along the scene's camera path [8]")->check(wholeNumber(1, 64));
+    c->add_option("--size", a.size, "Frames are NxN (measured at 320x320, as the realism tool) [320]")
+        ->check(wholeNumber(16, 4096));
+}
+
+void addTuneCommand(CLI::App& app, Global& g) {
+    CLI::App* tune = app.add_subcommand(
+        "tune",
+        "How the map's noise and the specular lobe shape the highlights (sweep); a look fitted to target "
+        "highlight statistics (fit)");
+    tune->require_subcommand(1);
+
+    auto s = std::make_shared<SweepArgs>();
+    CLI::App* sw = tune->add_subcommand(
+        "sweep", "Vary each parameter over its range (the others at the scene's values) and measure the highlights");
+    sw->footer(
+        "Example: mucosa tune sweep -o sweep/ --steps 7 --views 8 --target ../shared/realism/real_dev_stats.json\n"
+        "Writes sweep.tsv, sweep.json and one SVG per statistic (docs/tune.md).");
+    addProbeOptions(sw, s->probe);
+    sw->add_option("-o,--output", s->output, "Output folder (sweep.tsv, sweep.json, sweep_<statistic>.svg)")
+        ->required();
+    sw->add_option("--steps", s->steps, "Values per parameter, plus the scene's own [7]")->check(wholeNumber(2, 64));
+    sw->add_option("--target", s->target,
+                   "Target statistics drawn in the plots: a realism_stats.py export (.json) or a folder of PNG frames");
+    sw->callback([s, &g] { runSweep(*s, g); });
+
+    auto f = std::make_shared<FitArgs>();
+    CLI::App* fi = tune->add_subcommand(
+        "fit", "Search the parameters for the highlights closest to a target (sum of |median - target| / IQR)");
+    fi->footer(
+        "Example: mucosa tune fit --target ../shared/realism/real_dev_stats.json -o bronchial_fit.json\n"
+        "Then merge its reflectance_map and material into a scene file, or use the --set options it prints.");
+    addProbeOptions(fi, f->probe);
+    fi->add_option("--target", f->target,
+                   "Target: a realism_stats.py export (.json, per-frame statistics) or a folder of PNG frames")
+        ->required();
+    fi->add_option("-o,--output", f->output,
+                   "Preset (.json: a scene fragment with reflectance_map and material); the report goes beside it "
+                   "as <name>.tune.json")
+        ->required();
+    fi->add_option("--stats", f->stats, "Statistics summed, comma-separated (hl_frac, hl_count, ...) [all eight]");
+    fi->add_option("--max-evals", f->maxEvals, "Renders of the view set at most [80]")->check(wholeNumber(1, 100000));
+    fi->callback([f, &g] { runFit(*f, g); });
+
+    auto st = std::make_shared<std::vector<std::string>>();
+    CLI::App* stc = tune->add_subcommand(
+        "stats", "Highlight statistics of PNG frames, per frame and their median and IQR (realism_stats.py's)");
+    stc->footer("Example: mucosa tune stats frames/ > stats.tsv");
+    stc->add_option("frames", *st, "PNG frames or folders of them (<stem>.mask.png beside a frame masks it)")
+        ->required();
+    stc->callback([st, &g] { runStats(*st, g); });
+}
+
+}  // namespace
+
+MUCOSA_REGISTER_COMMAND(75, addTuneCommand);
+
+}  // namespace mucosa::cli
