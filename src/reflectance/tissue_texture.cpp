@@ -19,8 +19,9 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-// A small deterministic generator (splitmix64, Steele et al. 2014): the same
-// network on every platform, which <random>'s distributions do not promise.
+// A small deterministic generator (splitmix64, Steele et al. 2014): one
+// sequence per seed whatever the standard library (<random>'s distributions
+// are implementation-defined).
 struct Rng {
     std::uint64_t state;
     std::uint64_t next() noexcept {
@@ -162,6 +163,10 @@ void growTree(const TissueParams& p, Rng& rng, int tree, double rootX, std::vect
             // Bifurcation: Murray radii and angles, the minor branch on a random side.
             const double f = rng.uniform(0.55, 0.85);
             const double r1 = t.r * std::cbrt(f), r2 = t.r * std::cbrt(1 - f);
+            if (r2 < kMinRadiusMm) {  // a side branch too fine to draw: none, and no split
+                t.nextBranch = -std::log(1.0 - rng.uniform()) * kBranchPerRadius * t.r;
+                continue;
+            }
             const double side = rng.uniform() < 0.5 ? -1.0 : 1.0;
             const double jitter = 1.0 + 0.15 * rng.normal();
             Tip minor = t;
