@@ -75,6 +75,9 @@ constexpr double kMinDepthMm = 0.03;
 // over its last 30 % (kDiveMm deeper), so they fade in and out.
 constexpr double kDiveMm = 0.7;
 constexpr double kTreesPerTile = 20.0;
+// The plexus: short trees (8-20 % of a tile), a third of the trunks' radius
+// and depth.
+constexpr double kPlexusTreesPerTile = 24.0, kPlexusRadius = 0.35, kPlexusDepth = 0.5;
 constexpr int kMaxSegmentsPerTree = 5000;
 
 struct Tip {
@@ -113,7 +116,14 @@ void validate(const TissueParams& p) {
     need(p.longitudinal >= 0 && p.longitudinal <= 10, "longitudinal", p.longitudinal, "must be in 0..10");
 }
 
-void growTree(const TissueParams& p, Rng& rng, int tree, double rootX, std::vector<VesselSegment>& out) {
+// Two populations: trunks (TissueParams::trunkRadius and vesselDepth, most
+// of a tile long) and a finer, shallower plexus of short trees between them.
+struct TreeKind {
+    double radius, depth, minLength, maxLength;  // mm; lengths as fractions of the tile
+};
+
+void growTree(const TissueParams& p, const TreeKind& kind, Rng& rng, int tree, double rootX,
+              std::vector<VesselSegment>& out) {
     const double lambda = kLongitudinalRate * p.longitudinal;
     // OU curvature: kappa' = kappa (1 - ds / l) + sigma sqrt(ds) N, whose
     // stationary variance is sigma^2 l / 2.
@@ -124,12 +134,12 @@ void growTree(const TissueParams& p, Rng& rng, int tree, double rootX, std::vect
     root.y = rng.uniform(0, p.tileMm);
     root.theta = (rng.uniform() < 0.5 ? 0.0 : kPi) + 0.35 * rng.normal();
     root.kappa = kCurvatureStd * rng.normal();
-    root.r = p.trunkRadius * std::clamp(std::exp(0.3 * rng.normal()), 0.5, 2.0);
-    root.depth = std::max(kMinDepthMm, p.vesselDepth * std::clamp(std::exp(0.35 * rng.normal()), 0.4, 2.5));
+    root.r = kind.radius * std::clamp(std::exp(0.3 * rng.normal()), 0.5, 2.0);
+    root.depth = std::max(kMinDepthMm, kind.depth * std::clamp(std::exp(0.35 * rng.normal()), 0.4, 2.5));
     root.nextBranch = -std::log(1.0 - rng.uniform()) * kBranchPerRadius * root.r;
     root.parent = -1;
     root.trunk = true;
-    root.maxPath = p.tileMm * rng.uniform(0.45, 0.85);  // the trunk's length: less than a tile
+    root.maxPath = p.tileMm * rng.uniform(kind.minLength, kind.maxLength);  // less than a tile
     tips.push_back(root);
     int segments = 0;
     while (!tips.empty()) {
@@ -397,12 +407,15 @@ std::vector<VesselSegment> vesselNetwork(const TissueParams& p) {
     validate(p);
     Rng rng{p.seed ^ 0x5EEDF00DCAFEull};
     // Poisson-like count: the expected number, rounded stochastically.
-    const double expected = kTreesPerTile * p.vesselDensity;
-    const int trees = static_cast<int>(std::floor(expected + rng.uniform()));
+    const int trees = static_cast<int>(std::floor(kTreesPerTile * p.vesselDensity + rng.uniform()));
+    const int plexus = static_cast<int>(std::floor(kPlexusTreesPerTile * p.vesselDensity + rng.uniform()));
+    const TreeKind trunk{p.trunkRadius, p.vesselDepth, 0.45, 0.85};
+    const TreeKind fine{p.trunkRadius * kPlexusRadius, p.vesselDepth * kPlexusDepth, 0.12, 0.3};
     std::vector<VesselSegment> out;
     // Roots stratified around the airway (u), uniform along it: the
     // longitudinal vessels spread evenly around the wall instead of clumping.
-    for (int t = 0; t < trees; ++t) growTree(p, rng, t, (t + rng.uniform()) * p.tileMm / trees, out);
+    for (int t = 0; t < trees; ++t) growTree(p, trunk, rng, t, (t + rng.uniform()) * p.tileMm / trees, out);
+    for (int t = 0; t < plexus; ++t) growTree(p, fine, rng, trees + t, (t + rng.uniform()) * p.tileMm / plexus, out);
     return out;
 }
 
