@@ -500,3 +500,19 @@ TEST(SceneVariation, CommandLineOptionDrawsThePatientAndReportsIt) {
     EXPECT_EQ(all.find("variation 3:"), std::string::npos) << all;
     EXPECT_TRUE(std::filesystem::exists(dir / "x.png"));
 }
+
+TEST(SceneVariation, AResumedRenderMustUseTheSameVariation) {
+    test::TempDir dir;
+    { std::ofstream(dir / "tube.json") << R"({"mesh": "tube"})"; }
+    const std::string base = "render tube.json -o f.png --size 24x24 --reference --frames 2";
+    ASSERT_EQ(test::runCli(base + " --variation 3", dir.path()).exitCode, 0);
+    const test::RunResult other = test::runCli(base + " --variation 4", dir.path());
+    EXPECT_NE(other.exitCode, 0);
+    EXPECT_NE(other.err.find("variation"), std::string::npos) << other.err;
+    EXPECT_EQ(test::runCli(base + " --variation 3", dir.path()).exitCode, 0) << "the same seed resumes";
+    // The default (no --variation) writes no key, so records from before the key existed still match.
+    test::TempDir plain;
+    { std::ofstream(plain / "tube.json") << R"({"mesh": "tube"})"; }
+    ASSERT_EQ(test::runCli(base, plain.path()).exitCode, 0);
+    EXPECT_EQ(test::readBytes(plain / "f.render.json").find("variation"), std::string::npos);
+}
