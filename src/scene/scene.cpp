@@ -523,6 +523,9 @@ Scene defaultScene() {
     s.path.kind = PathKind::Centerline;
     s.path.fly.frames = 120;
     s.generatedDiffuse = true;
+    // The generated texture carries the tissue colour (docs/theory.md,
+    // "Tissue texture"): base_color would tint it a second time.
+    s.params.setColor(shading::Param::BaseColor, {1, 1, 1});
     // The phantom at 1 grid cell per mm (~150 k triangles): real-time on a
     // CPU rasteriser, and the light has faded to ~5 % at the far plane.
     s.mesh.phantomResolution = 1.0;
@@ -549,6 +552,12 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     readBrdfAndLight(P, j, s);
     readOutput(P, j, s);
     readCamera(P, j, s);
+    // base_color: white over the generated texture (defaultScene); over a
+    // texture file, or none, the registry's tissue colour, unless the file
+    // sets it.
+    if (!s.generatedDiffuse &&
+        std::find(s.fileMaterial.begin(), s.fileMaterial.end(), shading::Param::BaseColor) == s.fileMaterial.end())
+        s.params.setColor(shading::Param::BaseColor, shading::ParamSet().color(shading::Param::BaseColor));
     return s;
 }
 

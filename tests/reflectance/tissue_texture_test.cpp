@@ -516,3 +516,25 @@ TEST(SceneVariation, AResumedRenderMustUseTheSameVariation) {
     ASSERT_EQ(test::runCli(base, plain.path()).exitCode, 0);
     EXPECT_EQ(test::readBytes(plain / "f.render.json").find("variation"), std::string::npos);
 }
+
+TEST(SceneVariation, BaseColourIsWhiteOverTheGeneratedTextureOnly) {
+    using shading::Param;
+    const std::array<float, 3> white{1, 1, 1}, registry = shading::ParamSet().color(Param::BaseColor);
+    // The generated texture carries the tissue colour: no second tint.
+    EXPECT_EQ(scene::defaultScene().params.color(Param::BaseColor), white);
+    EXPECT_EQ(scene::parseScene(R"({"mesh": "tube"})", "s.json").params.color(Param::BaseColor), white);
+    // A texture file, or none: the registry's tissue colour, as before.
+    EXPECT_EQ(scene::parseScene(R"({"mesh": "tube", "diffuse": "t.png"})", "s.json").params.color(Param::BaseColor),
+              registry);
+    EXPECT_EQ(scene::parseScene(R"({"mesh": "tube", "diffuse": "none"})", "s.json").params.color(Param::BaseColor),
+              registry);
+    // The file's own value wins either way.
+    const std::array<float, 3> own{0.5f, 0.4f, 0.3f};
+    EXPECT_EQ(scene::parseScene(R"({"mesh": "tube", "diffuse": "none", "material": {"base_color": [0.5, 0.4, 0.3]}})",
+                                "s.json")
+                  .params.color(Param::BaseColor),
+              own);
+    EXPECT_EQ(scene::parseScene(R"({"mesh": "tube", "material": {"base_color": [0.5, 0.4, 0.3]}})", "s.json")
+                  .params.color(Param::BaseColor),
+              own);
+}
