@@ -60,6 +60,7 @@ constexpr Setting kSettings[] = {
     {"noise_space", "noise space"},
     {"specular_aa", "specular anti-aliasing"},
     {"reflectance_map_file", "reflectance map file"},
+    {"variation", "variation"},
 };
 
 }  // namespace
@@ -87,6 +88,7 @@ json renderManifest(const scene::Scene& scene, const SceneOptions& options, int 
     m["noise_space"] = scene.noiseSpace == shading::NoiseSpace::Uv ? "uv" : "object";
     m["specular_aa"] = scene.specularAA;
     m["set"] = options.sets;
+    if (scene.variation != 0) m["variation"] = scene.variation;  // absent = 0, as before the key existed
     json params = json::object();
     for (const shading::ParamInfo& p : shading::registry()) {
         const std::string key = fmt::format("{}.{}", p.group, p.name);

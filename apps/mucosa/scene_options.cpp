@@ -22,6 +22,10 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
     c->add_option("--specular-aa", o.specularAA,
                   "Specular anti-aliasing: on (Toksvig on the map's mips; octave fade procedurally) or off (the "
                   "full-resolution map, every octave) [on, or the scene's specular_aa]");
+    c->add_option("--variation", o.variation,
+                  "Patient variation: draw tissue colour, vessels, mucus and exposure for patient SEED (a whole "
+                  "number; 0 = the default look; ranges: docs/theory.md, \"Patient variation\") [0, or the scene's "
+                  "variation]");
     c->add_option("--set", o.sets,
                   "Override a parameter, e.g. --set material.shininess=80 or --set reflectance_map.frequency=32 "
                   "(repeatable; reflectance_map takes the keys of a scene's \"reflectance_map\" object and applies to "
@@ -55,6 +59,15 @@ scene::Scene resolveScene(const SceneOptions& o) {
         if (o.specularAA != "on" && o.specularAA != "off")
             throw InputError("--specular-aa", "", "'" + o.specularAA + "' is not on or off");
         s.specularAA = o.specularAA == "on";
+    }
+    if (!o.variation.empty()) {
+        std::uint64_t seed = 0;
+        const char* end = o.variation.data() + o.variation.size();
+        const auto r = std::from_chars(o.variation.data(), end, seed);
+        if (r.ec != std::errc() || r.ptr != end)
+            throw InputError("--variation", "",
+                             "'" + o.variation + "' is not a whole number >= 0 (a patient seed; 0 = the default look)");
+        scene::applyVariation(s, seed);
     }
     for (const std::string& kv : o.sets) {
         const auto eq = kv.find('=');

@@ -361,7 +361,21 @@ void readShading(const Parser& P, const json& j, Scene& s) {
 
 // "material": the registry's material group.
 void readMaterial(const Parser& P, const json& j, Scene& s) {
-    if (j.contains("material")) P.registryGroup(j["material"], "material", s.params);
+    if (!j.contains("material")) return;
+    P.registryGroup(j["material"], "material", s.params);
+    for (auto it = j["material"].begin(); it != j["material"].end(); ++it)
+        s.fileMaterial.push_back(shading::findParam(it.key())->id);  // registryGroup checked the names
+}
+
+// "variation": a patient seed (reflectance::drawAppearance), after "material"
+// so the file's own mucus_opacity and specular_strength stay.
+void readVariation(const Parser& P, const json& j, Scene& s) {
+    if (!j.contains("variation")) return;
+    const json& v = j["variation"];
+    if (!v.is_number_unsigned())
+        P.fail("variation", fmt::format("must be a whole number >= 0 (a patient seed; 0 = the default look), not {}",
+                                        v.is_number() ? v.dump() : Parser::typeName(v)));
+    applyVariation(s, v.get<std::uint64_t>());
 }
 
 // "fit": the output folder of mucosa fit: its brdf.json sets c0..c3, d1..d3
@@ -491,6 +505,19 @@ void readCamera(const Parser& P, const json& j, Scene& s) {
 
 }  // namespace
 
+void applyVariation(Scene& scene, std::uint64_t seed) {
+    scene.variation = seed;
+    scene.appearance = reflectance::drawAppearance(seed);
+    const shading::ParamSet defaults;
+    const auto scale = [&](shading::Param p, double factor) {
+        if (std::find(scene.fileMaterial.begin(), scene.fileMaterial.end(), p) != scene.fileMaterial.end()) return;
+        const shading::ParamInfo& info = shading::info(p);
+        scene.params.set(p, std::clamp(static_cast<float>(defaults[p] * factor), info.min, info.max), "", "variation");
+    };
+    scale(shading::Param::MucusOpacity, reflectance::mucusOpacityScale(scene.appearance.mucus));
+    scale(shading::Param::SpecularStrength, reflectance::specularScale(scene.appearance.mucus));
+}
+
 Scene defaultScene() {
     Scene s;
     s.mapParams = reflectance::findPreset("bronchial").params;
@@ -498,6 +525,9 @@ Scene defaultScene() {
     s.path.kind = PathKind::Centerline;
     s.path.fly.frames = 120;
     s.generatedDiffuse = true;
+    // The generated texture carries the tissue colour (docs/theory.md,
+    // "Tissue texture"): base_color would tint it a second time.
+    s.params.setColor(shading::Param::BaseColor, {1, 1, 1});
     // The phantom at 1 grid cell per mm (~150 k triangles): real-time on a
     // CPU rasteriser, and the light has faded to ~5 % at the far plane.
     s.mesh.phantomResolution = 1.0;
@@ -511,7 +541,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     P.object(j, "scene");
     P.known(j, "",
             {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
-             "light", "camera", "resolution", "frames", "noise_space", "specular_aa"});
+             "light", "camera", "resolution", "frames", "noise_space", "specular_aa", "variation"});
     Scene s = defaultScene();
     s.file = fileForErrors;
     readMesh(P, j, s);
@@ -519,10 +549,17 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     readReflectanceMap(P, j, s);
     readShading(P, j, s);
     readMaterial(P, j, s);
+    readVariation(P, j, s);
     readFit(P, j, s);
     readBrdfAndLight(P, j, s);
     readOutput(P, j, s);
     readCamera(P, j, s);
+    // base_color: white over the generated texture (defaultScene); over a
+    // texture file, or none, the registry's tissue colour, unless the file
+    // sets it.
+    if (!s.generatedDiffuse &&
+        std::find(s.fileMaterial.begin(), s.fileMaterial.end(), shading::Param::BaseColor) == s.fileMaterial.end())
+        s.params.setColor(shading::Param::BaseColor, shading::ParamSet().color(shading::Param::BaseColor));
     return s;
 }
 
@@ -697,7 +734,15 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         requireFile(scene, "diffuse", *scene.diffuse);
         a.diffuse = image::to8(image::readPng(*scene.diffuse));
     } else if (scene.generatedDiffuse) {
-        a.diffuse = reflectance::tissueTexture(kTissueTextureSize);
+        a.diffuse = reflectance::tissueTexture(scene.appearance.tissue, kTissueTextureSize);
+        if (scene.variation != 0) {
+            const reflectance::Appearance& v = scene.appearance;
+            a.notes.push_back(fmt::format(
+                "variation {}: tissue hue {:.0f} deg (tone {:.2f}), vessels x{:.2f} at {:.2f} mm, mucus {:.2f}, "
+                "exposure {:+.2f} EV",
+                scene.variation, v.tissue.hue, v.tone, v.tissue.vesselDensity, v.tissue.vesselDepth, v.mucus,
+                v.exposureEv));
+        }
     }
     if (scene.reflectanceMap) {
         requireFile(scene, "reflectance_map", *scene.reflectanceMap);

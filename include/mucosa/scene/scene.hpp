@@ -12,6 +12,7 @@
 #include <mucosa/camera/camera.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
+#include <mucosa/reflectance/appearance.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/shading/reference.hpp>
 
@@ -81,6 +82,16 @@ struct Scene {
     PathSpec path;
     int width = 640, height = 480;
     int frames = 1;
+    // "variation" / --variation: a patient's appearance drawn by
+    // reflectance::drawAppearance (0: the default look). It shapes the
+    // generated tissue texture (appearance.tissue), scales
+    // material.mucus_opacity and specular_strength by the mucus amount (those
+    // a scene file sets itself stay), and carries appearance.exposureEv, an
+    // exposure offset in EV for the camera to apply (applyVariation).
+    std::uint64_t variation = 0;
+    reflectance::Appearance appearance = reflectance::defaultAppearance();
+    // The material parameters the scene file set explicitly.
+    std::vector<shading::Param> fileMaterial;
     // What parsing accepted but warns about (a deprecated key), one line each
     // ("<field> in <file>: <why>"), for the CLI to print.
     std::vector<std::string> warnings;
@@ -93,6 +104,13 @@ struct Scene {
 // mode use (a map file named by the scene is then replaced by the generated
 // map). Throws InputError("--set reflectance_map.<key>", ...).
 void setMapParameter(Scene& scene, const std::string& key, const std::string& value);
+
+// Draws patient `seed` (reflectance::drawAppearance; 0 = the default look)
+// into scene.variation and scene.appearance, and sets material.mucus_opacity
+// and specular_strength to their registry defaults times
+// reflectance::mucusOpacityScale / specularScale of its mucus amount, except
+// those in scene.fileMaterial. Applying another seed later replaces it.
+void applyVariation(Scene& scene, std::uint64_t seed);
 
 // The built-in default: the phantom, 'bronchial' map (1024 texels), flying
 // down the centerline.
