@@ -516,6 +516,13 @@ void applyVariation(Scene& scene, std::uint64_t seed) {
     };
     scale(shading::Param::MucusOpacity, reflectance::mucusOpacityScale(scene.appearance.mucus));
     scale(shading::Param::SpecularStrength, reflectance::specularScale(scene.appearance.mucus));
+    // The patient's exposure offset: auto-exposure's compensation (or the
+    // fixed exposure), on top of what the scene sets.
+    const shading::ParamInfo& ev = shading::info(shading::Param::ExposureEv);
+    scene.params.set(shading::Param::ExposureEv,
+                     std::clamp(scene.params[shading::Param::ExposureEv] + static_cast<float>(scene.appearance.exposureEv),
+                                ev.min, ev.max),
+                     "", "variation");
 }
 
 Scene defaultScene() {

@@ -86,8 +86,8 @@ struct Scene {
     // reflectance::drawAppearance (0: the default look). It shapes the
     // generated tissue texture (appearance.tissue), scales
     // material.mucus_opacity and specular_strength by the mucus amount (those
-    // a scene file sets itself stay), and carries appearance.exposureEv, an
-    // exposure offset in EV for the camera to apply (applyVariation).
+    // a scene file sets itself stay), and adds appearance.exposureEv to
+    // camera.exposure_ev (applyVariation).
     std::uint64_t variation = 0;
     reflectance::Appearance appearance = reflectance::defaultAppearance();
     // The material parameters the scene file set explicitly.
