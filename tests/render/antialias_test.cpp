@@ -23,6 +23,9 @@ TEST(SpecularAntiAliasing, FlickerDropsAndStillFramesConvergeTowardsSupersamplin
     // The view these figures were measured on: the path flown to its very end
     // (the default flight now stops short of it, which moves the third pose).
     scene.path.stopMm = 0.0f;
+    // On the centerline, looking ahead (not the default bronchoscopist's wandering).
+    scene.path.fly.wander = 0.0f;
+    scene.path.fly.lookAroundDeg = 0.0f;
     const scene::SceneAssets assets = scene::loadAssets(scene);
     const int w = 320, h = 240;
     render::OffscreenSession session(scene, assets, w, h);

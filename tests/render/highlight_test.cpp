@@ -56,6 +56,9 @@ TEST(RenderHighlights, ProceduralTextureSpaceNoiseLooksLikeTheMap) {
     scene::Scene scene = scene::defaultScene();
     scene.noiseSpace = shading::NoiseSpace::Uv;
     scene.specularAA = false;
+    // Views on the centerline, looking ahead (not the default bronchoscopist's wandering).
+    scene.path.fly.wander = 0.0f;
+    scene.path.fly.lookAroundDeg = 0.0f;
     const scene::SceneAssets assets = scene::loadAssets(scene);
     render::OffscreenSession s(scene, assets, 640, 480);
     const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, 9);
