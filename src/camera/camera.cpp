@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include <fmt/format.h>
 #include <glm/glm.hpp>
@@ -121,29 +122,105 @@ float pathLength(const std::vector<Vec3>& polyline) {
     return len;
 }
 
-std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrough& o) {
+namespace {
+
+// A smooth seeded signal in [-1, 1] along the path: three sinusoids of
+// incommensurate periods between `minPeriod` and 2.3 x `minPeriod`, weights
+// summing to 1 (a band-limited random walk; |d/ds| <= 2 pi / minPeriod).
+struct Wave {
+    float weight[3], k[3], phase[3];
+    Wave(std::mt19937_64& rng, float minPeriod) {
+        std::uniform_real_distribution<float> u(0.0f, 1.0f);
+        const float w[3] = {0.5f, 0.3f, 0.2f};
+        for (int i = 0; i < 3; ++i) {
+            weight[i] = w[i];
+            const float period = minPeriod * (2.3f - 0.6f * static_cast<float>(i)) * (0.85f + 0.15f * u(rng));
+            k[i] = 2.0f * std::numbers::pi_v<float> / std::max(period, minPeriod);
+            phase[i] = 2.0f * std::numbers::pi_v<float> * u(rng);
+        }
+    }
+    float operator()(float s) const {
+        float v = 0.0f;
+        for (int i = 0; i < 3; ++i) v += weight[i] * std::sin(k[i] * s + phase[i]);
+        return v;
+    }
+};
+
+glm::vec3 rotateAbout(const glm::vec3& x, const glm::vec3& axis, float angle) {
+    // Rodrigues' rotation formula.
+    const float c = std::cos(angle), s = std::sin(angle);
+    return x * c + glm::cross(axis, x) * s + axis * (glm::dot(axis, x) * (1.0f - c));
+}
+
+}  // namespace
+
+void validate(const FlyThrough& o) {
+    if (!(o.wander >= 0.0f && o.wander <= 0.9f))
+        throw InputError("camera.path.wander", "", fmt::format("{} is outside 0..0.9", o.wander));
+    if (!(o.lookAroundDeg >= 0.0f && o.lookAroundDeg <= 60.0f))
+        throw InputError("camera.path.look_around_deg", "", fmt::format("{} is outside 0..60", o.lookAroundDeg));
+    if (!(o.wallClearanceMm >= 0.0f) || !std::isfinite(o.wallClearanceMm))
+        throw InputError("camera.path.wall_clearance_mm", "", "must be a number >= 0");
+    if (!(o.wanderPeriodMm >= 1.0f) || !std::isfinite(o.wanderPeriodMm))
+        throw InputError("camera.path.wander_period_mm", "", "must be a number >= 1");
+}
+
+std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrough& o,
+                             const std::vector<float>& radii) {
     if (o.frames < 1) throw InputError("frames", "", "must be at least 1");
-    // Drop repeated points; keep the cumulative arc length.
+    validate(o);
+    const bool haveRadii = !radii.empty() && radii.size() == centerline.size();
+    // Drop repeated points; keep the cumulative arc length (and each kept point's radius).
     std::vector<glm::vec3> pts;
-    std::vector<float> arc;
-    for (const Vec3& p : centerline) {
-        const glm::vec3 q = v(p);
+    std::vector<float> arc, rad;
+    for (std::size_t i = 0; i < centerline.size(); ++i) {
+        const glm::vec3 q = v(centerline[i]);
         if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z))
             throw InputError("camera.path", "", "centerline has a non-finite point");
         if (!pts.empty() && glm::length(q - pts.back()) < 1e-6f) continue;
         arc.push_back(pts.empty() ? 0.0f : arc.back() + glm::length(q - pts.back()));
         pts.push_back(q);
+        if (haveRadii) {
+            const float r = radii[i];
+            if (!std::isfinite(r) || r < 0.0f) throw InputError("camera.path", "", "centerline has a bad radius");
+            rad.push_back(r);
+        }
     }
     if (pts.size() < 2) throw InputError("camera.path", "", "centerline needs at least two distinct points");
     const float total = arc.back();
-    const auto at = [&](float s) {
+    // Segment k and the fraction along it at arc length s.
+    const auto locate = [&](float s, float& t) {
         s = std::clamp(s, 0.0f, total);
         const auto it = std::upper_bound(arc.begin(), arc.end(), s);
         const std::size_t k = std::min<std::size_t>(
             static_cast<std::size_t>(std::max<std::ptrdiff_t>(it - arc.begin(), 1)) - 1, pts.size() - 2);
-        const float t = (s - arc[k]) / std::max(arc[k + 1] - arc[k], 1e-6f);
-        return glm::mix(pts[k], pts[k + 1], std::clamp(t, 0.0f, 1.0f));
+        t = std::clamp((s - arc[k]) / std::max(arc[k + 1] - arc[k], 1e-6f), 0.0f, 1.0f);
+        return k;
     };
+    const auto at = [&](float s) {
+        float t;
+        const std::size_t k = locate(s, t);
+        return glm::mix(pts[k], pts[k + 1], t);
+    };
+    // The lumen radius the offset must respect: the smallest within 6 mm
+    // either way (continuous in s, and ahead of narrowings and of the jumps
+    // at branch points).
+    const auto radiusNear = [&](float s) {
+        float r = 1e30f;
+        for (int j = -6; j <= 6; ++j) {
+            float t;
+            const std::size_t k = locate(s + static_cast<float>(j), t);
+            r = std::min(r, rad[k] + (rad[k + 1] - rad[k]) * t);
+        }
+        return r;
+    };
+    const bool offsets = o.wander > 0.0f && haveRadii;
+    const bool turns = o.lookAroundDeg > 0.0f;
+    std::mt19937_64 rng(o.seed);
+    const Wave offsetX(rng, o.wanderPeriodMm), offsetY(rng, o.wanderPeriodMm), yawWave(rng, o.wanderPeriodMm),
+        pitchWave(rng, o.wanderPeriodMm);
+    const float maxTurn = o.lookAroundDeg * std::numbers::pi_v<float> / 180.0f;
+
     const float start = std::clamp(o.startMm, 0.0f, total);
     const float end = std::max(start, total - std::max(o.stopMm, 0.0f));
     const float step =
@@ -154,7 +231,7 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrou
     glm::vec3 prevForward(0.0f);
     for (int i = 0; i < o.frames; ++i) {
         const float s = std::min(start + step * static_cast<float>(i), end);
-        const glm::vec3 p = at(s);
+        glm::vec3 p = at(s);
         // Look at a point ahead on the line; near the end, keep the last direction.
         glm::vec3 f = at(s + ahead) - p;
         if (glm::length(f) < 1e-3f * ahead) f = p - at(s - ahead);
@@ -176,10 +253,29 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrou
             up = glm::normalize(up - f * glm::dot(up, f));
         }
         prevForward = f;
+        glm::vec3 forward = f, poseUp = up;
+        const glm::vec3 right = glm::normalize(glm::cross(f, up));
+        if (offsets) {
+            // Off the centre in the plane across the path: within a disc of
+            // radius min(wander R, R - clearance) (|(x, y)| / sqrt 2 <= 1).
+            const float R = radiusNear(s);
+            const float reach = std::max(0.0f, std::min(o.wander * R, R - o.wallClearanceMm));
+            const float k = reach * 0.70710678f;
+            p += right * (k * offsetX(s)) + up * (k * offsetY(s));
+        }
+        if (turns) {
+            // Turn the view (the tip's bending section): yaw about up, then
+            // pitch about the turned right axis; up turns with it.
+            const float yaw = maxTurn * yawWave(s), pitch = maxTurn * pitchWave(s);
+            forward = rotateAbout(forward, up, yaw);
+            const glm::vec3 r2 = rotateAbout(right, up, yaw);
+            forward = glm::normalize(rotateAbout(forward, r2, pitch));
+            poseUp = glm::normalize(rotateAbout(up, r2, pitch));
+        }
         Pose pose;
         pose.position = a3(p);
-        pose.forward = a3(f);
-        pose.up = a3(up);
+        pose.forward = a3(forward);
+        pose.up = a3(poseUp);
         out.push_back(pose);
     }
     return out;

@@ -430,7 +430,7 @@ Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& bra
     std::unordered_map<std::uint64_t, std::uint32_t> variant;  // (vertex, branch, lifted)
     variant.reserve(nv + nv / 4);
     seamVertices = 0;
-    const bool normals = mesh.hasNormals();
+    const bool normals = mesh.hasNormals(), colors = mesh.hasColors();
     std::vector<char> firstUse(nv, 0);
     for (std::size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
         std::uint32_t vi[3];
@@ -468,6 +468,7 @@ Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& bra
             if (inserted) {
                 out.positions.push_back(mesh.positions[vi[k]]);
                 if (normals) out.normals.push_back(mesh.normals[vi[k]]);
+                if (colors) out.colors.push_back(mesh.colors[vi[k]]);
                 out.uvs.push_back({static_cast<float>(uv[k][0]), static_cast<float>(uv[k][1])});
                 if (firstUse[vi[k]]) ++seamVertices;
                 firstUse[vi[k]] = 1;

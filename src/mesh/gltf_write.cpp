@@ -3,6 +3,7 @@
 // tinygltf or Assimp's exporter because the accessor rules the Khronos
 // validator checks (exact min/max, unit normals, w = +-1) and the single
 // atomic write are easiest to guarantee where every byte is ours.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -84,7 +85,8 @@ void writeGltf(const Mesh& mesh, const std::filesystem::path& path, bool binary,
     if (mesh.triangleCount() == 0) throw InputError("mesh", path.string(), "nothing to write: no triangles");
     requireWritable(path);
     const std::size_t n = mesh.vertexCount();
-    requireMemory(saturatingMul(n, 48 * 3) + saturatingMul(mesh.indices.size(), 4 * 3), "glTF output");
+    requireMemory(saturatingMul(n, (48 + (mesh.hasColors() ? 12 : 0)) * 3) + saturatingMul(mesh.indices.size(), 4 * 3),
+                  "glTF output");
 
     Builder b;
     nlohmann::json attributes;
@@ -126,6 +128,18 @@ void writeGltf(const Mesh& mesh, const std::filesystem::path& path, bool binary,
             T[v] = {t[0], t[1], t[2], mesh.tangents[v][3] < 0 ? -1.0f : 1.0f};
         }
         attributes["TANGENT"] = b.add(T.data(), n * sizeof(Vec4), n, kFloat, "VEC4", kArrayBuffer);
+    }
+    if (mesh.hasColors()) {
+        // COLOR_0: linear RGB float VEC3 (glTF 2.0, "Meshes": multiplies the
+        // base colour), clamped to the 0..1 the specification allows.
+        std::vector<Vec3> C(n);
+        for (std::size_t v = 0; v < n; ++v)
+            for (int k = 0; k < 3; ++k) {
+                const float c = mesh.colors[v][k];
+                if (!std::isfinite(c)) throw InputError("mesh", path.string(), "non-finite vertex colour");
+                C[v][k] = std::clamp(c, 0.0f, 1.0f);
+            }
+        attributes["COLOR_0"] = b.add(C.data(), n * sizeof(Vec3), n, kFloat, "VEC3", kArrayBuffer);
     }
     int indices;
     if (n <= 65535) {

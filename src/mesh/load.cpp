@@ -69,7 +69,7 @@ struct Imported {
     Mesh mesh;
     std::string format;
     std::size_t subMeshes = 0, droppedPrimitives = 0;
-    bool allNormals = false, allUvs = false, allTangents = false;
+    bool allNormals = false, allUvs = false, allTangents = false, allColors = false;
     std::vector<std::string> warnings;
 };
 
@@ -133,13 +133,14 @@ std::string encode(const Imported& r) {
     w.str(r.format);
     w.u64(r.subMeshes);
     w.u64(r.droppedPrimitives);
-    w.u64((r.allNormals ? 1 : 0) | (r.allUvs ? 2 : 0) | (r.allTangents ? 4 : 0));
+    w.u64((r.allNormals ? 1 : 0) | (r.allUvs ? 2 : 0) | (r.allTangents ? 4 : 0) | (r.allColors ? 8 : 0));
     w.u64(r.warnings.size());
     for (const std::string& s : r.warnings) w.str(s);
     w.array(r.mesh.positions);
     w.array(r.mesh.normals);
     w.array(r.mesh.uvs);
     w.array(r.mesh.tangents);
+    w.array(r.mesh.colors);
     w.array(r.mesh.indices);
     return w.take();
 }
@@ -151,13 +152,14 @@ Imported decode(const std::string& bytes, const std::string& file) {
     out.subMeshes = r.u64();
     out.droppedPrimitives = r.u64();
     const std::uint64_t flags = r.u64();
-    out.allNormals = flags & 1, out.allUvs = flags & 2, out.allTangents = flags & 4;
+    out.allNormals = flags & 1, out.allUvs = flags & 2, out.allTangents = flags & 4, out.allColors = flags & 8;
     const std::uint64_t warnings = r.u64();
     for (std::uint64_t i = 0; i < warnings && i < 1000; ++i) out.warnings.push_back(r.str());
     r.array(out.mesh.positions);
     r.array(out.mesh.normals);
     r.array(out.mesh.uvs);
     r.array(out.mesh.tangents);
+    r.array(out.mesh.colors);
     r.array(out.mesh.indices);
     if (!r.done()) throw InputError("mesh", file, "the importer's result is malformed");
     // The child's output is checked like any input: lengths agree, indices in range.
@@ -197,7 +199,7 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
 
     // Count first, check memory, then copy.
     std::size_t vertices = 0, triangles = 0;
-    bool allNormals = true, allUvs = true, allTangents = true;
+    bool allNormals = true, allUvs = true, allTangents = true, allColors = true;
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
         const aiMesh* am = scene->mMeshes[m];
         if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) {
@@ -210,6 +212,7 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
         allNormals = allNormals && am->HasNormals();
         allUvs = allUvs && am->HasTextureCoords(0);
         allTangents = allTangents && am->HasTangentsAndBitangents() && am->HasNormals();
+        allColors = allColors && am->HasVertexColors(0);
     }
     if (triangles == 0) throw InputError("mesh", name, "the file contains no triangles");
     if (vertices > std::numeric_limits<std::uint32_t>::max() - 1 ||
@@ -217,16 +220,21 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
         throw InputError("mesh", name,
                          fmt::format("{} vertices / {} triangles exceed 32-bit indices", vertices, triangles));
     requireMemory(
-        saturatingMul(vertices, sizeof(Vec3) * 2 + sizeof(Vec2) + sizeof(Vec4)) + saturatingMul(triangles, 12),
+        saturatingMul(vertices, sizeof(Vec3) * 3 + sizeof(Vec2) + sizeof(Vec4)) + saturatingMul(triangles, 12),
         fmt::format("mesh '{}'", name));
     out.allNormals = allNormals;
     out.allUvs = allUvs;
     out.allTangents = allTangents;
+    out.allColors = allColors;
     if (out.subMeshes > 1) {
         std::size_t anyUv = 0;
         for (unsigned m = 0; m < scene->mNumMeshes; ++m) anyUv += scene->mMeshes[m]->HasTextureCoords(0) ? 1 : 0;
         if (!allUvs && anyUv > 0)
             out.warnings.push_back("some parts have texture coordinates and some not: all dropped");
+        std::size_t anyColor = 0;
+        for (unsigned m = 0; m < scene->mNumMeshes; ++m) anyColor += scene->mMeshes[m]->HasVertexColors(0) ? 1 : 0;
+        if (!allColors && anyColor > 0)
+            out.warnings.push_back("some parts have vertex colours and some not: all dropped");
     }
 
     Mesh& mesh = out.mesh;
@@ -235,6 +243,7 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
     if (allNormals) mesh.normals.reserve(vertices);
     if (allUvs) mesh.uvs.reserve(vertices);
     if (allTangents) mesh.tangents.reserve(vertices);
+    if (allColors) mesh.colors.reserve(vertices);
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
         const aiMesh* am = scene->mMeshes[m];
         if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE)) continue;
@@ -245,6 +254,8 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
             if (allNormals) mesh.normals.push_back({am->mNormals[v].x, am->mNormals[v].y, am->mNormals[v].z});
             // Assimp's UVs are OpenGL's (its glTF importer already flips v).
             if (allUvs) mesh.uvs.push_back({am->mTextureCoords[0][v].x, am->mTextureCoords[0][v].y});
+            // The first colour set, RGB (alpha dropped: a tint, not coverage).
+            if (allColors) mesh.colors.push_back({am->mColors[0][v].r, am->mColors[0][v].g, am->mColors[0][v].b});
             if (allTangents) {
                 const Vec3 N{am->mNormals[v].x, am->mNormals[v].y, am->mNormals[v].z};
                 const Vec3 T{am->mTangents[v].x, am->mTangents[v].y, am->mTangents[v].z};
@@ -332,6 +343,7 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     info.fileHadNormals = imported.allNormals;
     info.fileHadUvs = imported.allUvs;
     info.fileHadTangents = imported.allTangents;
+    info.fileHadColors = imported.allColors;
     info.warnings = std::move(imported.warnings);
     if (mesh.indices.empty()) throw InputError("mesh", name, "the file contains no triangles");
 
@@ -376,6 +388,22 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
         throw InputError("mesh", name,
                          fmt::format("non-finite (NaN/Inf) coordinates in millimetres at {} of {} vertices", nonFinite,
                                      mesh.positions.size()));
+
+    // Colours are a tint in 0..1 (glTF's range for COLOR_0): a NaN or a value
+    // out of range would carry into every frame, so it is clamped and counted.
+    std::size_t clampedColors = 0;
+    for (Vec3& c : mesh.colors) {
+        bool changed = false;
+        for (float& x : c) {
+            const float y = std::isfinite(x) ? std::clamp(x, 0.0f, 1.0f) : 1.0f;
+            changed = changed || y != x;
+            x = y;
+        }
+        clampedColors += changed ? 1 : 0;
+    }
+    if (clampedColors > 0)
+        info.warnings.push_back(fmt::format("vertex colours outside 0..1 (or not finite) clamped at {} of {} vertices",
+                                            clampedColors, mesh.colors.size()));
 
     // Normals: unit length, and computed where missing or unusable.
     if (mesh.hasNormals()) {

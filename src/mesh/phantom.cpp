@@ -35,11 +35,35 @@ constexpr int kMaxGenerations = 7;
 constexpr double kMajorRatio = 0.86, kMinorRatio = 0.70;
 // Length / diameter of conducting airways (Weibel 1963: about 3).
 constexpr double kLengthPerDiameter = 3.0;
-// Cartilage rings: spacing along the airway and depth as a fraction of the radius.
-constexpr double kRingSpacing = 4.5, kRingDepth = 0.045;
+// Cartilage rings (Minnich & Mathisen 2007, "Anatomy of the trachea"; the
+// bronchoscopic view in Ernst & Herth, "Principles and Practice of
+// Interventional Pulmonology", 2013): 16-20 C-shaped rings over the
+// trachea's ~11 cm, seen from the lumen as broad low whitish ridges with
+// narrower furrows (the annular ligaments) between them. Period along the
+// airway (mm; 22 rings on the trachea) and ridge height as a fraction of the
+// radius (0.35 mm on the 9 mm trachea): the steepest flank then tilts 16 deg,
+// so the distal flanks, seen at grazing angles down the tube, darken without
+// drawing black lines (0.45 mm on a 4.5 mm period tilted 22 deg and read as
+// grooves).
+constexpr double kRingSpacing = 5.0, kRingHeight = 0.039;
+// Longitudinal folds of the posterior membranous wall (elastic fibre bundles
+// under the mucosa): spacing around the wall (mm) and height as a fraction of
+// the radius (0.2 mm on the trachea); wide enough for `render`'s 1 cell/mm.
+constexpr double kFoldSpacing = 3.5, kFoldHeight = 0.022;
+// Smooth-union width between a tube and its parent (a rounded flare), and
+// between two siblings (the carina: a defined crest, Kitaoka et al. 1999),
+// as fractions of the smaller radius.
+constexpr double kJoinBlend = 0.35, kCarinaBlend = 0.08;
 
 struct Tube {
-    Vec3d a, dir;  // start, unit direction
+    Vec3d a, dir;  // start, unit direction of the chord
+    // A gentle bend off the chord (mm): centre(s) = a + dir s + bendA (1 - cos(pi s / L)) / 2
+    // + bendB sin^2(pi s / L); both leave the tangent at the ends equal to dir.
+    Vec3d bendA{0, 0, 0}, bendB{0, 0, 0};
+    // Cross-section frame: e1 anterior (the rings' C opens towards -e1), e2 = dir x e1;
+    // the lumen is an ellipse whose radius shrinks by `ellipse` along eMinor.
+    Vec3d e1{0, 0, 1}, e2{1, 0, 0}, eMinor{0, 0, 1};
+    double ellipse = 0;
     double length = 0;
     double radius = 0;     // at the start
     double endRadius = 0;  // after the taper towards the children
@@ -47,8 +71,29 @@ struct Tube {
     bool leaf = true, rings = false;
     Vec3d planeNormal{0, 0, 1};  // normal of the plane it branched in
     std::string name;
-    Vec3d end() const { return a + dir * length; }
+    bool bent() const { return dot(bendA, bendA) + dot(bendB, bendB) > 0; }
+    Vec3d centre(double s) const {
+        if (!bent()) return a + dir * s;
+        const double x = kPi * s / length, sn = std::sin(x);
+        return a + dir * s + bendA * (0.5 * (1 - std::cos(x))) + bendB * (sn * sn);
+    }
+    Vec3d tangent(double s) const {  // d centre / ds (not unit)
+        if (!bent()) return dir;
+        const double x = kPi * s / length, w = kPi / length;
+        return dir + bendA * (0.5 * w * std::sin(x)) + bendB * (w * std::sin(2 * x));
+    }
+    double bendReach() const { return detail::length(bendA) + detail::length(bendB); }
+    Vec3d end() const { return centre(length); }
 };
+
+// The cross-section frame: e1 the anterior direction (or `hint`) made
+// orthogonal to the tube, e2 = dir x e1.
+void setFrame(Tube& t, const Vec3d& hint) {
+    Vec3d e1 = hint - t.dir * dot(hint, t.dir);
+    e1 = normalizeOr(e1, normalizeOr(cross(t.dir, Vec3d{1, 0, 0}), Vec3d{0, 0, 1}));
+    t.e1 = e1;
+    t.e2 = cross(t.dir, e1);
+}
 
 Vec3d rotate(const Vec3d& v, const Vec3d& axis, double angle) {
     // Rodrigues' rotation formula.
@@ -76,27 +121,43 @@ std::vector<Tube> buildTree(const PhantomParams& p) {
     trachea.rings = p.cartilageRings;
     trachea.name = "trachea";
     trachea.planeNormal = {0, 0, 1};  // the carina divides in the coronal plane
+    // The trachea is not a straight pipe: it follows the spine backwards and
+    // the aortic arch, on its left, pushes its lower half to the right
+    // (Minnich & Mathisen 2007). Its lumen is wider than deep (coronal >
+    // sagittal in adults, Breatnach et al. 1984): 5 % shallower front to back.
+    const double scale = p.tracheaDiameter / 18.0;
+    trachea.bendA = Vec3d{-1.0, 0, -3.5} * scale;
+    trachea.bendB = Vec3d{-1.8, 0, 0} * scale;
+    setFrame(trachea, {0, 0, 1});
+    trachea.eMinor = trachea.e1;
+    trachea.ellipse = 0.05;
     tubes.push_back(trachea);
     if (p.generations < 1) return tubes;
 
     // Main bronchi (anatomical averages): the right is wider, shorter and
     // steeper (about 25 deg from the tracheal axis, 13 mm, 25 mm long), the
     // left narrower and longer (about 45 deg, 11 mm, 48 mm long).
-    const double scale = p.tracheaDiameter / 18.0;
+    // Both also run slightly backwards (posterior), the right more: the tree
+    // is not planar.
     struct Main {
         const char* name;
-        double side, angleDeg, diameter, length;
-    } mains[2] = {{"right main bronchus", -1, 25, 13, 25}, {"left main bronchus", +1, 45, 11, 48}};
+        double side, angleDeg, diameter, length, posteriorDeg, ellipseAngleDeg;
+    } mains[2] = {{"right main bronchus", -1, 25, 13, 25, 10, 20}, {"left main bronchus", +1, 45, 11, 48, 6, -15}};
     for (const Main& mb : mains) {
         Tube t;
-        t.dir = rotate({0, -1, 0}, {0, 0, 1}, mb.side * mb.angleDeg * kPi / 180);
+        const Vec3d inPlane = rotate({0, -1, 0}, {0, 0, 1}, mb.side * mb.angleDeg * kPi / 180);
+        const double tilt = mb.posteriorDeg * kPi / 180;
+        t.dir = normalizeOr(inPlane * std::cos(tilt) + Vec3d{0, 0, -1} * std::sin(tilt), inPlane);
+        setFrame(t, {0, 0, 1});
+        t.eMinor = rotate(t.e1, t.dir, mb.ellipseAngleDeg * kPi / 180);
+        t.ellipse = 0.06;
         t.radius = mb.diameter / 2 * scale;
         t.length = mb.length * scale;
         t.parent = 0;
         t.generation = 1;
         t.rings = p.cartilageRings;
         t.name = mb.name;
-        t.planeNormal = {0, 0, 1};
+        t.planeNormal = t.e1;
         tubes.push_back(t);
     }
     // Asymmetric dichotomies below (Horsfield & Cumming 1968; Kitaoka 1999):
@@ -131,7 +192,12 @@ std::vector<Tube> buildTree(const PhantomParams& p) {
                 t.length = kLengthPerDiameter * 2 * t.radius * (1 + 0.15 * jitter(rng));
                 t.parent = static_cast<int>(pi);
                 t.generation = static_cast<int>(gen + 1);
-                t.planeNormal = bestNormal;
+                t.planeNormal = normalizeOr(bestNormal - t.dir * dot(bestNormal, t.dir), bestNormal);
+                // Slightly elliptical lumens at a random orientation (CT
+                // airway morphometry: minor/major ~0.9-0.97).
+                setFrame(t, t.planeNormal);
+                t.eMinor = rotate(t.e1, t.dir, kPi * jitter(rng));
+                t.ellipse = 0.065 + 0.035 * jitter(rng);
                 t.name = fmt::format("{}.{}", parent.name, child == 0 ? "major" : "minor");
                 tubes.push_back(t);
             }
@@ -153,7 +219,8 @@ std::vector<Tube> buildTree(const PhantomParams& p) {
     for (std::size_t i = 1; i < tubes.size(); ++i) {
         Tube& t = tubes[i];
         const Tube& parent = tubes[static_cast<std::size_t>(t.parent)];
-        const Vec3d lateral = normalizeOr(t.dir - parent.dir * dot(t.dir, parent.dir), Vec3d{0, 0, 0});
+        const Vec3d endDir = normalizeOr(parent.tangent(parent.length), parent.dir);
+        const Vec3d lateral = normalizeOr(t.dir - endDir * dot(t.dir, endDir), Vec3d{0, 0, 0});
         t.a = parent.end() + lateral * std::max(0.0, 0.8 * (parent.endRadius - t.radius));
     }
     return tubes;
@@ -164,34 +231,80 @@ double smoothstep(double e0, double e1, double x) {
     return t * t * (3 - 2 * t);
 }
 
-// Signed distance-like field of one tube: < 0 inside its lumen.
-double tubeField(const Tube& t, const Vec3d& p) {
-    const Vec3d ap = p - t.a;
-    const double along = dot(ap, t.dir);
+// The axial position of the point of the tube's centre curve nearest to p
+// (unclamped): the chord's projection, refined by Gauss-Newton steps on
+// |centre(s) - p|^2 for a bent tube (the bends are gentle: two steps converge).
+double nearestS(const Tube& t, const Vec3d& p) {
+    double s = dot(p - t.a, t.dir);
+    if (!t.bent()) return s;
+    for (int it = 0; it < 2; ++it) {
+        const double sc = std::clamp(s, 0.0, t.length);
+        const Vec3d d = t.centre(sc) - p, T = t.tangent(sc);
+        s = sc - dot(d, T) / dot(T, T) + (s - sc);
+    }
+    return s;
+}
+
+// Where the surface detail sits on a tube at axial position s, radial unit rn.
+struct WallDetail {
+    double ring = 0;      // cartilage ridge, 0..1 (profile x C-shape x fade)
+    double membrane = 0;  // posterior membranous wall, 0..1 (x fade)
+    double fold = 0;      // longitudinal folds there, -1..1 (x membrane)
+};
+
+WallDetail wallDetail(const Tube& t, double s, const Vec3d& rn) {
+    WallDetail w;
+    if (!t.rings) return w;
+    const double anterior = dot(rn, t.e1);
+    // Fade near both ends: the rings' pattern stops before the junctions.
+    const double fade = smoothstep(0, 8, s) * smoothstep(0, 10, t.length - s);
+    // Ridge profile: 1 - ((1 - cos)/2)^2 of the phase (ring centres at 0):
+    // broad ridges (3.2 mm at half height) and narrower furrows between them,
+    // two harmonics only, so `render`'s 1 cell/mm grid follows it without
+    // the sawtooth a sharper profile shows.
+    const double g = 0.5 - 0.5 * std::cos(2 * kPi * s / kRingSpacing);
+    const double ridge = 1 - g * g;
+    // The C: cartilage over the anterior and lateral ~270 deg, absent on the
+    // posterior membranous wall (-e1), its ends tapering.
+    const double cShape = smoothstep(-0.8, -0.45, anterior);
+    w.ring = ridge * cShape * fade;
+    w.membrane = smoothstep(-0.55, -0.85, anterior) * fade;
+    // Folds along the airway: a cosine around the wall, each fold wandering
+    // slowly sideways along its length.
+    const double around = std::atan2(dot(rn, t.e2), -anterior) * t.radius;  // mm from the posterior midline
+    const double wobble = 0.6 * std::sin(2 * kPi * s / 37.0);
+    w.fold = std::cos(2 * kPi * (around + wobble) / kFoldSpacing) * w.membrane;
+    return w;
+}
+
+// Signed distance-like field of one tube: < 0 inside its lumen. `sOut`, `rnOut`:
+// the axial position (clamped) and radial unit direction there.
+double tubeField(const Tube& t, const Vec3d& p, double* sOut = nullptr, Vec3d* rnOut = nullptr) {
+    const double along = nearestS(t, p);
     const double s = std::clamp(along, 0.0, t.length);
-    const Vec3d c = t.a + t.dir * s;
+    const Vec3d c = t.centre(s);
     const Vec3d radial = p - c;
     const double dist = length(radial);
+    const Vec3d rn = dist > 1e-9 ? radial * (1 / dist) : t.e1;
     // Taper over the last 1.5 radii towards the children.
     const double taperStart = std::max(0.0, t.length - 1.5 * t.radius);
     double r = t.radius + (t.endRadius - t.radius) * smoothstep(taperStart, t.length, s);
+    // Elliptical lumen: shallower along eMinor.
+    const double m = dot(rn, t.eMinor);
+    r *= 1 - t.ellipse * m * m;
     if (t.rings) {
-        // C-shaped cartilage rings: ridges every kRingSpacing mm, absent on the
-        // posterior membranous wall (-Z), fading near both ends. The profile
-        // (raised cosine cubed: ~1.2 mm at half height) is wide enough for the
-        // grid of `render`'s default phantom (1 cell/mm) to follow without the
-        // sawtooth a narrower ridge (the sixth power, ~0.85 mm) showed there.
-        const Vec3d rn = dist > 1e-9 ? radial * (1 / dist) : Vec3d{0, 0, 1};
-        const double anterior = rn[2];
-        const double cShape = smoothstep(-0.85, -0.55, anterior);
-        const double ridge = std::pow(0.5 + 0.5 * std::cos(2 * kPi * s / kRingSpacing), 3);
-        const double fade = smoothstep(0, 8, s) * smoothstep(0, 10, t.length - s);
-        r *= 1 - kRingDepth * ridge * cShape * fade;
-        // The membranous wall is flatter.
-        r *= 1 - 0.07 * smoothstep(-0.5, -1.0, anterior) * fade;
+        const WallDetail w = wallDetail(t, s, rn);
+        // The ridges rise into the lumen; the membranous wall is flatter
+        // (7 %) and carries its folds.
+        r *= 1 - kRingHeight * w.ring;
+        r *= 1 - 0.07 * smoothstep(-0.5, -1.0, dot(rn, t.e1)) * smoothstep(0, 8, s) * smoothstep(0, 10, t.length - s);
+        r *= 1 - kFoldHeight * 0.5 * (w.membrane + w.fold);
     }
+    if (sOut) *sOut = s;
+    if (rnOut) *rnOut = rn;
     double d = dist - r;
-    if (!t.leaf) d = std::max(d, along - t.length);  // open end: the children continue it
+    // Open end: the children continue it (the end tangent is dir).
+    if (!t.leaf) d = std::max(d, dot(p - t.end(), t.dir));
     return d;
 }
 
@@ -210,28 +323,38 @@ struct Field {
     std::vector<std::vector<std::uint16_t>> buckets;
     double far = 1e3;
 
-    double operator()(const Vec3d& p) const {
+    const std::vector<std::uint16_t>* bucket(const Vec3d& p) const {
         const auto ix = static_cast<std::ptrdiff_t>(std::floor((p[0] - lo[0]) / cell));
         const auto iy = static_cast<std::ptrdiff_t>(std::floor((p[1] - lo[1]) / cell));
         const auto iz = static_cast<std::ptrdiff_t>(std::floor((p[2] - lo[2]) / cell));
         if (ix < 0 || iy < 0 || iz < 0 || ix >= std::ptrdiff_t(bx) || iy >= std::ptrdiff_t(by) ||
             iz >= std::ptrdiff_t(bz))
-            return far;
-        const auto& list = buckets[std::size_t(ix) + bx * (std::size_t(iy) + by * std::size_t(iz))];
+            return nullptr;
+        return &buckets[std::size_t(ix) + bx * (std::size_t(iy) + by * std::size_t(iz))];
+    }
+
+    // The smooth union of the tubes (parents before children): a flare of
+    // kJoinBlend between a tube and the one dominating so far, a crest of
+    // kCarinaBlend between siblings. `nearest`: the dominating tube.
+    double operator()(const Vec3d& p, int* nearest = nullptr) const {
+        const auto* list = bucket(p);
+        if (!list) return far;
         double f = far;
-        double kPrev = 0;
-        bool first = true;
-        for (std::uint16_t ti : list) {
+        int prev = -1;
+        for (std::uint16_t ti : *list) {
             const Tube& t = (*tubes)[ti];
             const double d = tubeField(t, p);
-            const double k = 0.35 * t.radius;
-            if (first) {
-                f = d, kPrev = k, first = false;
-            } else {
-                f = smoothMin(f, d, std::min(k, kPrev));
-                if (d < f + 1e-12) kPrev = k;
+            if (prev < 0) {
+                f = d, prev = ti;
+                continue;
             }
+            const Tube& q = (*tubes)[std::size_t(prev)];
+            const bool siblings = t.parent >= 0 && t.parent == q.parent;
+            const double k = (siblings ? kCarinaBlend : kJoinBlend) * std::min(t.radius, q.radius);
+            if (d < f) prev = ti;
+            f = smoothMin(f, d, k);
         }
+        if (nearest) *nearest = prev;
         return f;
     }
 };
@@ -246,7 +369,8 @@ Field makeField(const std::vector<Tube>& tubes, const Vec3d& lo, const Vec3d& hi
     F.buckets.resize(F.bx * F.by * F.bz);
     for (std::size_t ti = 0; ti < tubes.size(); ++ti) {
         const Tube& t = tubes[ti];
-        const double reach = std::max(t.radius, t.endRadius) * 1.4 + 2.0;  // radius + smooth-union band
+        // Radius + smooth-union band + the bend off the chord.
+        const double reach = std::max(t.radius, t.endRadius) * 1.4 + 2.0 + t.bendReach();
         Vec3d a = t.a, b = t.end();
         for (int k = 0; k < 3; ++k) {
             const double l = std::min(a[k], b[k]) - reach, h = std::max(a[k], b[k]) + reach;
@@ -267,6 +391,100 @@ Field makeField(const std::vector<Tube>& tubes, const Vec3d& lo, const Vec3d& hi
                     F.buckets[x + F.bx * (y + F.by * z)].push_back(static_cast<std::uint16_t>(ti));
     }
     return F;
+}
+
+// The mucosa's tint (multiplies the albedo): paler and slightly yellow over
+// the cartilage rings, where the thin mucosa shows the white hyaline
+// cartilage through it, redder and darker on the membranous wall, whose
+// submucosa is richer in vessels (the bronchoscopic appearance in Ernst &
+// Herth 2013, ch. 6). Values <= 1; "elsewhere" is slightly below 1 in green
+// and blue so the rings can be whiter than the rest.
+constexpr Vec3d kTintMucosa{1.0, 0.92, 0.90}, kTintCartilage{1.0, 1.0, 0.95}, kTintMembrane{0.93, 0.80, 0.79};
+
+Vec3d wallTint(const Field& F, const std::vector<Tube>& tubes, const Vec3d& p) {
+    int nearest = -1;
+    F(p, &nearest);
+    if (nearest < 0) return kTintMucosa;
+    const Tube& t = tubes[std::size_t(nearest)];
+    double s = 0;
+    Vec3d rn{};
+    tubeField(t, p, &s, &rn);
+    const WallDetail w = wallDetail(t, s, rn);
+    const Vec3d c = kTintMucosa + (kTintCartilage - kTintMucosa) * w.ring;
+    return c + (kTintMembrane - c) * w.membrane;
+}
+
+// Moves each vertex of the polygonised surface onto the implicit surface
+// (Newton steps along the gradient: p -= f grad / |grad|^2, at most half a
+// cell; the projection step of Ohtake & Belyaev 2002): the piecewise-linear
+// interpolant marching tetrahedra follows misplaces vertices by up to ~0.1
+// mm where the ring profile curves within a cell, and the error follows the
+// grid, not the rings: a sawtooth along ridges oblique to the grid. A vertex
+// whose move would flip one of its triangles keeps its old place.
+template <class Gradient>
+void projectOntoSurface(Mesh& mesh, const Field& F, const Gradient& gradient, double h, tbb::task_arena& arena) {
+    const std::size_t n = mesh.positions.size();
+    std::vector<Vec3> moved(n);
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t v = r.begin(); v != r.end(); ++v) {
+                const Vec3d p0 = toD(mesh.positions[v]);
+                Vec3d p = p0;
+                for (int it = 0; it < 2; ++it) {
+                    const Vec3d g = gradient(p);
+                    const double gg = dot(g, g);
+                    if (!(gg > 1e-12)) break;
+                    p = p - g * (F(p) / gg);
+                }
+                const Vec3d d = p - p0;
+                const double len = length(d);
+                if (!std::isfinite(len))
+                    p = p0;
+                else if (len > 0.5 * h)
+                    p = p0 + d * (0.5 * h / len);
+                moved[v] = toF(p);
+            }
+        });
+    });
+    // Keep a vertex in place where its move turns a triangle's normal by more
+    // than 60 degrees (or degenerates it); repeat until no triangle is left so.
+    std::vector<char> keep(n, 0);
+    auto faceNormal = [](const Vec3& a, const Vec3& b, const Vec3& c) {
+        return cross(toD(b) - toD(a), toD(c) - toD(a));
+    };
+    for (bool changed = true; changed;) {  // each pass keeps at least one more vertex: it ends
+        changed = false;
+        for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
+            const std::uint32_t i[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1], mesh.indices[3 * t + 2]};
+            auto at = [&](std::uint32_t v) { return keep[v] ? mesh.positions[v] : moved[v]; };
+            const Vec3d before = faceNormal(mesh.positions[i[0]], mesh.positions[i[1]], mesh.positions[i[2]]);
+            const Vec3d after = faceNormal(at(i[0]), at(i[1]), at(i[2]));
+            const double lb = length(before), la = length(after);
+            if (la > 1e-6 * lb && dot(before, after) > 0.5 * la * lb) continue;
+            for (std::uint32_t v : i)
+                if (!keep[v]) keep[v] = 1, changed = true;
+        }
+    }
+    for (std::size_t v = 0; v < n; ++v)
+        if (!keep[v]) mesh.positions[v] = moved[v];
+}
+
+// On the crest of a carina the field has a crease and its gradient is one
+// flank's: where it turns more than 60 deg from the surrounding triangles'
+// (area-weighted) normal, that normal is the vertex's. Run on the final
+// vertices (after the UV seam's copies), whose triangles are the ones shaded.
+void fixCreaseNormals(Mesh& mesh) {
+    std::vector<Vec3d> around(mesh.positions.size(), Vec3d{0, 0, 0});
+    for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
+        const std::uint32_t* i = &mesh.indices[3 * t];
+        const Vec3d a = toD(mesh.positions[i[0]]);
+        const Vec3d n = cross(toD(mesh.positions[i[1]]) - a, toD(mesh.positions[i[2]]) - a);
+        for (int k = 0; k < 3; ++k) around[i[k]] += n;
+    }
+    for (std::size_t v = 0; v < around.size(); ++v) {
+        const Vec3d w = normalizeOr(around[v], Vec3d{0, 0, 0});
+        if (dot(w, w) > 0 && dot(w, toD(mesh.normals[v])) < 0.5) mesh.normals[v] = toF(w);
+    }
 }
 
 void checkParams(const PhantomParams& p) {
@@ -293,7 +511,7 @@ Centerline toCenterline(const std::vector<Tube>& tubes) {
         const int steps = std::max(2, static_cast<int>(std::ceil(t.length)));
         for (int i = 0; i <= steps; ++i) {
             const double s = t.length * i / steps;
-            b.points.push_back(toF(t.a + t.dir * s));
+            b.points.push_back(toF(t.centre(s)));
             const double taperStart = std::max(0.0, t.length - 1.5 * t.radius);
             b.radii.push_back(
                 static_cast<float>(t.radius + (t.endRadius - t.radius) * smoothstep(taperStart, t.length, s)));
@@ -322,7 +540,7 @@ Phantom makePhantom(const PhantomParams& params, int threads, const Progress& pr
     for (const Tube& t : tubes)
         for (const Vec3d& q : {t.a, t.end()})
             for (int k = 0; k < 3; ++k) {
-                const double r = std::max(t.radius, t.endRadius);
+                const double r = std::max(t.radius, t.endRadius) + t.bendReach();
                 lo[k] = std::min(lo[k], q[k] - r), hi[k] = std::max(hi[k], q[k] + r);
             }
     const double h = 1.0 / params.resolution;
@@ -366,24 +584,39 @@ Phantom makePhantom(const PhantomParams& params, int threads, const Progress& pr
     g.values = {};
     g.values.shrink_to_fit();
 
+    report(0.6, "projection");
+    const double e = 0.25 * h;
+    auto gradient = [&](const Vec3d& p) {
+        Vec3d grad;
+        for (int k = 0; k < 3; ++k) {
+            Vec3d a = p, b = p;
+            a[k] += e;
+            b[k] -= e;
+            grad[k] = (F(a) - F(b)) / (2 * e);
+        }
+        return grad;
+    };
+    projectOntoSurface(out.mesh, F, gradient, h, arena);
+
     report(0.65, "normals");
     // N = -grad f / |grad f| (central differences): towards the lumen.
     out.mesh.normals.resize(out.mesh.positions.size());
-    const double e = 0.25 * h;
     arena.execute([&] {
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, out.mesh.positions.size(), 1024),
                           [&](const tbb::blocked_range<std::size_t>& r) {
                               for (std::size_t v = r.begin(); v != r.end(); ++v) {
-                                  const Vec3d p = toD(out.mesh.positions[v]);
-                                  Vec3d grad;
-                                  for (int k = 0; k < 3; ++k) {
-                                      Vec3d a = p, b = p;
-                                      a[k] += e;
-                                      b[k] -= e;
-                                      grad[k] = (F(a) - F(b)) / (2 * e);
-                                  }
+                                  const Vec3d grad = gradient(toD(out.mesh.positions[v]));
                                   out.mesh.normals[v] = toF(normalizeOr(grad * -1.0, Vec3d{0, 1, 0}));
                               }
+                          });
+    });
+    report(0.7, "tint");
+    out.mesh.colors.resize(out.mesh.positions.size());
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, out.mesh.positions.size(), 1024),
+                          [&](const tbb::blocked_range<std::size_t>& r) {
+                              for (std::size_t v = r.begin(); v != r.end(); ++v)
+                                  out.mesh.colors[v] = toF(wallTint(F, tubes, toD(out.mesh.positions[v])));
                           });
     });
     out.centerline = toCenterline(tubes);
@@ -393,8 +626,11 @@ Phantom makePhantom(const PhantomParams& params, int threads, const Progress& pr
         CenterlineUvOptions uo;
         uo.up = {0, 1, 0};
         computeCenterlineUvs(out.mesh, uo);
+        fixCreaseNormals(out.mesh);
         report(0.92, "tangents");
         computeTangents(out.mesh, threads);
+    } else {
+        fixCreaseNormals(out.mesh);
     }
     report(1.0, "done");
     return out;

@@ -1,6 +1,8 @@
 // PLY writer: binary little-endian, millimetres, OpenGL UVs (s, t), tangents
 // as extra properties tangent_x .. tangent_w (not tx/ty: Assimp reads
-// those as UVs); readers that do not know them skip them.
+// those as UVs); readers that do not know them skip them. Vertex colours as
+// float red, green, blue in 0..1 (lossless; Assimp and MeshLab read float
+// colours as they are, uchar ones divided by 255).
 #include <bit>
 #include <cstring>
 
@@ -21,8 +23,8 @@ void writePly(const Mesh& mesh, const std::filesystem::path& path, const SaveOpt
     if (mesh.triangleCount() == 0) throw InputError("mesh", path.string(), "nothing to write: no triangles");
     requireWritable(path);
     const std::size_t n = mesh.vertexCount(), m = mesh.triangleCount();
-    const bool N = mesh.hasNormals(), uv = mesh.hasUvs(), T = mesh.hasTangents();
-    const std::size_t stride = 12 + (N ? 12 : 0) + (uv ? 8 : 0) + (T ? 16 : 0);
+    const bool N = mesh.hasNormals(), uv = mesh.hasUvs(), T = mesh.hasTangents(), C = mesh.hasColors();
+    const std::size_t stride = 12 + (N ? 12 : 0) + (uv ? 8 : 0) + (T ? 16 : 0) + (C ? 12 : 0);
     requireMemory(saturatingMul(n, stride) + saturatingMul(m, 13), "PLY output");
 
     std::string header = "ply\nformat binary_little_endian 1.0\n";
@@ -34,6 +36,7 @@ void writePly(const Mesh& mesh, const std::filesystem::path& path, const SaveOpt
     if (T)
         header +=
             "property float tangent_x\nproperty float tangent_y\nproperty float tangent_z\nproperty float tangent_w\n";
+    if (C) header += "property float red\nproperty float green\nproperty float blue\n";
     header += fmt::format("element face {}\nproperty list uchar uint vertex_indices\nend_header\n", m);
 
     std::vector<std::byte> body(n * stride + m * 13);
@@ -47,6 +50,7 @@ void writePly(const Mesh& mesh, const std::filesystem::path& path, const SaveOpt
         if (N) put(mesh.normals[v].data(), 12);
         if (uv) put(mesh.uvs[v].data(), 8);
         if (T) put(mesh.tangents[v].data(), 16);
+        if (C) put(mesh.colors[v].data(), 12);
     }
     for (std::size_t t = 0; t < m; ++t) {
         const std::uint8_t three = 3;

@@ -18,6 +18,7 @@ namespace {
 struct WeldKey {
     std::int64_t x, y, z;
     std::uint32_t u, v;
+    std::uint32_t r, g, b;
     bool operator==(const WeldKey&) const = default;
 };
 struct WeldHash {
@@ -26,6 +27,8 @@ struct WeldHash {
         h ^= static_cast<std::uint64_t>(k.y) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
         h ^= static_cast<std::uint64_t>(k.z) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
         h ^= (std::uint64_t{k.u} << 32 | k.v) * 0x27D4EB2F165667C5ull + (h << 6) + (h >> 2);
+        h ^= (std::uint64_t{k.r} << 32 | k.g) * 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2);
+        h ^= std::uint64_t{k.b} * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
         return static_cast<std::size_t>(h ^ (h >> 31));
     }
 };
@@ -39,9 +42,10 @@ float canonical(float f) noexcept {
 std::size_t weld(Mesh& mesh, float tolerance) {
     validateIndices(mesh);
     const std::size_t n = mesh.vertexCount();
-    const bool uvs = mesh.hasUvs(), normals = mesh.hasNormals();
+    const bool uvs = mesh.hasUvs(), normals = mesh.hasNormals(), colors = mesh.hasColors();
     // Positions snap to a grid of cell `tolerance` (exact match when 0): two
-    // vertices weld when they fall in the same cell and share their UV.
+    // vertices weld when they fall in the same cell and share their UV (and
+    // their colour: a tint edge stays sharp where the file has one).
     auto key = [&](std::size_t v) {
         WeldKey k{};
         const Vec3& p = mesh.positions[v];
@@ -58,6 +62,11 @@ std::size_t weld(Mesh& mesh, float tolerance) {
             k.u = std::bit_cast<std::uint32_t>(canonical(mesh.uvs[v][0]));
             k.v = std::bit_cast<std::uint32_t>(canonical(mesh.uvs[v][1]));
         }
+        if (colors) {
+            k.r = std::bit_cast<std::uint32_t>(canonical(mesh.colors[v][0]));
+            k.g = std::bit_cast<std::uint32_t>(canonical(mesh.colors[v][1]));
+            k.b = std::bit_cast<std::uint32_t>(canonical(mesh.colors[v][2]));
+        }
         return k;
     };
     std::unordered_map<WeldKey, std::uint32_t, WeldHash> first;
@@ -70,6 +79,7 @@ std::size_t weld(Mesh& mesh, float tolerance) {
         if (inserted) {
             out.positions.push_back(mesh.positions[v]);
             if (uvs) out.uvs.push_back(mesh.uvs[v]);
+            if (colors) out.colors.push_back(mesh.colors[v]);
             if (normals) normalSum.push_back({0, 0, 0});
         }
         remap[v] = it->second;
@@ -130,6 +140,7 @@ std::size_t removeUnusedVertices(Mesh& mesh) {
     compact(mesh.normals);
     compact(mesh.uvs);
     compact(mesh.tangents);
+    compact(mesh.colors);
     return n - next;
 }
 

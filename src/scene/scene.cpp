@@ -244,11 +244,25 @@ namespace {
 struct FlightPath {
     std::vector<mesh::Vec3> points;
     float endRadius = 0;
+    std::vector<float> radii;  // one per point, or empty when a branch on the way has none
 };
 
 FlightPath pathTo(const mesh::Centerline& c, int branch) {
     const std::vector<float>& radii = c.branches[static_cast<std::size_t>(branch)].radii;
-    return {mesh::pathToBranch(c, branch), radii.empty() ? 0.0f : radii.back()};
+    FlightPath p{mesh::pathToBranch(c, branch), radii.empty() ? 0.0f : radii.back(), {}};
+    // The radii along the path, point for point as pathToBranch joins the branches.
+    std::vector<int> chain;
+    for (int b = branch; b >= 0; b = c.branches[static_cast<std::size_t>(b)].parent) chain.push_back(b);
+    std::vector<mesh::Vec3> joined;
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+        const mesh::CenterlineBranch& br = c.branches[static_cast<std::size_t>(*it)];
+        if (br.radii.size() != br.points.size()) return p;
+        for (std::size_t i = 0; i < br.points.size(); ++i)
+            if (joined.empty() || joined.back() != br.points[i])
+                joined.push_back(br.points[i]), p.radii.push_back(br.radii[i]);
+    }
+    if (p.radii.size() != p.points.size()) p.radii.clear();
+    return p;
 }
 
 FlightPath longestPath(const mesh::Centerline& c, int branch, const std::string& file) {
@@ -443,7 +457,8 @@ void readOutput(const Parser& P, const json& j, Scene& s) {
 void readPath(const Parser& P, const json& p, Scene& s) {
     P.object(p, "camera.path");
     P.known(p, "camera.path.",
-            {"poses", "centerline", "centreline", "branch", "speed_mm", "start_mm", "stop_mm", "look_ahead_mm"});
+            {"poses", "centerline", "centreline", "branch", "speed_mm", "start_mm", "stop_mm", "look_ahead_mm",
+             "wander", "look_around_deg", "wall_clearance_mm", "wander_period_mm", "seed"});
     // "centreline": the British spelling, accepted for one release.
     if (p.contains("centreline")) {
         if (p.contains("centerline"))
@@ -478,6 +493,22 @@ void readPath(const Parser& P, const json& p, Scene& s) {
     }
     if (p.contains("look_ahead_mm"))
         s.path.fly.lookAheadMm = P.positive(p["look_ahead_mm"], "camera.path.look_ahead_mm");
+    // The bronchoscopist's wandering (camera::FlyThrough): ranges checked there.
+    if (p.contains("wander")) s.path.fly.wander = static_cast<float>(P.number(p["wander"], "camera.path.wander"));
+    if (p.contains("look_around_deg"))
+        s.path.fly.lookAroundDeg = static_cast<float>(P.number(p["look_around_deg"], "camera.path.look_around_deg"));
+    if (p.contains("wall_clearance_mm"))
+        s.path.fly.wallClearanceMm =
+            static_cast<float>(P.number(p["wall_clearance_mm"], "camera.path.wall_clearance_mm"));
+    if (p.contains("wander_period_mm"))
+        s.path.fly.wanderPeriodMm = P.positive(p["wander_period_mm"], "camera.path.wander_period_mm");
+    if (p.contains("seed"))
+        s.path.fly.seed = static_cast<std::uint64_t>(P.integer(p["seed"], "camera.path.seed", 0, 1 << 30));
+    try {
+        camera::validate(s.path.fly);
+    } catch (const InputError& e) {
+        P.fail(e.subject(), e.reason());
+    }
 }
 
 // "camera": the lens, a fixed pose, a path.
@@ -531,6 +562,10 @@ Scene defaultScene() {
     s.mapParams.bits = 8;
     s.path.kind = PathKind::Centerline;
     s.path.fly.frames = 120;
+    // A bronchoscopist's flight: off the centre by up to a third of the lumen's
+    // radius, the view turning up to 20 degrees to the walls and openings.
+    s.path.fly.wander = 0.35f;
+    s.path.fly.lookAroundDeg = 20.0f;
     s.generatedDiffuse = true;
     // The generated texture carries the tissue colour (docs/theory.md,
     // "Tissue texture"): base_color would tint it a second time.
@@ -691,11 +726,13 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         const FlightPath p = longestPath(ph.centerline, scene.path.branch, file);
         a.centerline = p.points;
         a.centerlineEndRadius = p.endRadius;
+        a.centerlineRadii = p.radii;
         a.notes.push_back(fmt::format("phantom: {} generations, {} triangles", pp.generations, a.mesh.triangleCount()));
     } else if (scene.mesh.kind == MeshKind::Tube) {
         a.mesh = mesh::makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
         a.centerline = mesh::tubeCenterline(kTubeLength, 64);
         a.centerlineEndRadius = kTubeRadius;
+        a.centerlineRadii.assign(a.centerline.size(), kTubeRadius);
         a.notes.push_back(fmt::format("tube: radius {} mm, length {} mm, {} triangles", kTubeRadius, kTubeLength,
                                       a.mesh.triangleCount()));
     } else {
@@ -728,6 +765,7 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
             const FlightPath p = meshFileCenterline(scene, a.mesh, a.notes);
             a.centerline = p.points;
             a.centerlineEndRadius = p.endRadius;
+            a.centerlineRadii = p.radii;
         }
     }
     if (scene.path.kind == PathKind::Centerline && !scene.path.centerlineFile.empty()) {
@@ -736,6 +774,7 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
                                          scene.path.centerlineFile.string());
         a.centerline = p.points;
         a.centerlineEndRadius = p.endRadius;
+        a.centerlineRadii = p.radii;
     }
     if (scene.diffuse) {
         requireFile(scene, "diffuse", *scene.diffuse);
@@ -784,7 +823,8 @@ std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& ass
     // Stop short of the distal end, where a blind bronchus closes: the near
     // plane, the lumen's radius there (the cap's depth) and a margin.
     fly.stopMm = scene.path.stopMm.value_or(scene.lens.nearMm + assets.centerlineEndRadius + kStopMarginMm);
-    return camera::flyThrough(assets.centerline, fly);
+    // Off-centre wandering needs the lumen's radius along the path (none: on the line).
+    return camera::flyThrough(assets.centerline, fly, assets.centerlineRadii);
 }
 
 shading::FrameSetup frameSetup(const Scene& scene, const camera::Pose& pose, int width, int height) {

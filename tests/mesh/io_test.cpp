@@ -85,6 +85,81 @@ TEST(MeshIo, RoundTripsGlbPlyObj) {
     }
 }
 
+// A tint that differs at every vertex (and is not a function of the position
+// alone: a reordering or a mix-up of vertices shows).
+Mesh withColors(Mesh m) {
+    m.colors.resize(m.vertexCount());
+    for (std::size_t v = 0; v < m.vertexCount(); ++v) {
+        const float t = static_cast<float>(v) / static_cast<float>(m.vertexCount());
+        m.colors[v] = {0.25f + 0.75f * t, 1.0f - 0.5f * t, 0.125f + 0.5f * float((v * 7) % 13) / 13.0f};
+    }
+    return m;
+}
+
+// Vertex colours survive every writer and the importer: glTF COLOR_0 (float
+// VEC3), PLY float red/green/blue, OBJ `v x y z r g b`; bit-exact (all three
+// keep floats exactly), on every corner.
+TEST(MeshIo, ColorsRoundTripGlbPlyObj) {
+    TempDir dir;
+    const Mesh m = withColors(texturedAirway());
+    for (const char* name : {"c.glb", "c.gltf", "c.ply", "c.obj"}) {
+        SCOPED_TRACE(name);
+        mesh::save(m, dir / name);
+        mesh::LoadOptions o;
+        o.unit = mesh::Unit::Auto;
+        mesh::LoadInfo info;
+        const Mesh back = mesh::load(dir / name, o, &info);
+        EXPECT_TRUE(info.fileHadColors);
+        ASSERT_TRUE(back.hasColors());
+        ASSERT_EQ(back.triangleCount(), m.triangleCount());
+        for (std::size_t c = 0; c < m.indices.size(); ++c)
+            for (int k = 0; k < 3; ++k)
+                ASSERT_EQ(m.colors[m.indices[c]][k], back.colors[back.indices[c]][k]) << "corner " << c;
+        expectRoundTrip(m, back, std::string(name).find(".gl") != std::string::npos);
+    }
+    // Without colours nothing is invented.
+    mesh::save(texturedAirway(), dir / "plain.ply");
+    mesh::LoadInfo info;
+    EXPECT_FALSE(mesh::load(dir / "plain.ply", {}, &info).hasColors());
+    EXPECT_FALSE(info.fileHadColors);
+    const Glb g = parseGlb(readBytes(dir / "c.glb"));
+    const auto& accessor =
+        g.json["accessors"][g.json["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"].get<int>()];
+    EXPECT_EQ(accessor["type"], "VEC3");
+    EXPECT_EQ(accessor["componentType"], 5126);  // FLOAT
+}
+
+// Colours from other tools: a PLY with uchar red/green/blue reads as /255; out
+// of range values in an OBJ are clamped to 0..1 with a warning.
+TEST(MeshIo, ColorsFromOtherToolsAreNormalisedAndClamped) {
+    TempDir dir;
+    std::string ply =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
+        "property list uchar int vertex_indices\nend_header\n0 0 0 255 0 51\n10 0 0 0 255 102\n0 10 0 255 255 255\n"
+        "3 0 1 2\n";
+    std::ofstream(dir / "u8.ply", std::ios::binary) << ply;
+    const Mesh a = mesh::load(dir / "u8.ply");
+    ASSERT_TRUE(a.hasColors());
+    EXPECT_NEAR(a.colors[0][0], 1.0f, 1e-6f);
+    EXPECT_NEAR(a.colors[0][2], 0.2f, 1e-6f);
+    EXPECT_NEAR(a.colors[1][2], 0.4f, 1e-6f);
+    std::ofstream(dir / "hot.obj", std::ios::binary)
+        << "v 0 0 0 2 0.5 -1\nv 10 0 0 0.1 0.2 0.3\nv 0 10 0 1 1 1\nf 1 2 3\n";
+    mesh::LoadInfo info;
+    const Mesh b = mesh::load(dir / "hot.obj", {}, &info);
+    ASSERT_TRUE(b.hasColors());
+    bool warned = false;
+    for (const std::string& w : info.warnings) warned = warned || w.find("clamped at 1 of 3") != std::string::npos;
+    EXPECT_TRUE(warned);
+    for (const Vec3& c : b.colors)
+        for (float x : c) EXPECT_TRUE(x >= 0.0f && x <= 1.0f);
+    // The in-range vertex keeps its colour.
+    bool found = false;
+    for (const Vec3& c : b.colors) found = found || (std::abs(c[0] - 0.1f) < 1e-6f && std::abs(c[2] - 0.3f) < 1e-6f);
+    EXPECT_TRUE(found);
+}
+
 TEST(MeshIo, AirwayLoadsInMillimetres) {
     mesh::LoadInfo info;
     const Mesh m = mesh::load(testdata("airway/vh_m_airway_lumen.obj"), {}, &info);

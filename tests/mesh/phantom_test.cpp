@@ -1,4 +1,6 @@
+#include <algorithm>
 #include <cmath>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -36,17 +38,155 @@ TEST(Phantom, IsWatertightManifoldAndFacesTheLumen) {
     ASSERT_TRUE(r.hasUvs && r.hasTangents);
 }
 
+// A vertex of the trachea in the trachea's own frame: s along its axis (mm
+// from the top, as the rings are spaced), its distance from the centerline,
+// and its angle from the anterior midline (degrees, 0 anterior, 180 posterior;
+// positive towards the patient's left, +X).
+struct TracheaSample {
+    double s, radius, angleDeg;
+    std::size_t vertex;
+};
+
+std::vector<TracheaSample> tracheaSamples(const mesh::Phantom& ph, double sLo, double sHi) {
+    const auto& pts = ph.centerline.branches[0].points;
+    const double L = 110.0;
+    const std::size_t steps = pts.size() - 1;
+    std::vector<TracheaSample> out;
+    for (std::size_t v = 0; v < ph.mesh.vertexCount(); ++v) {
+        const auto& P = ph.mesh.positions[v];
+        if (P[1] > 5 || P[1] < -115) continue;
+        double best = 1e30, bs = 0;
+        std::array<double, 3> bestR{}, bestT{};
+        for (std::size_t i = 0; i < steps; ++i) {
+            std::array<double, 3> a{pts[i][0], pts[i][1], pts[i][2]}, ab{}, ap{};
+            for (int k = 0; k < 3; ++k) ab[k] = pts[i + 1][k] - a[k], ap[k] = P[k] - a[k];
+            const double abab = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+            const double t = std::clamp((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / abab, 0.0, 1.0);
+            std::array<double, 3> r{};
+            for (int k = 0; k < 3; ++k) r[k] = ap[k] - t * ab[k];
+            const double d = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+            if (d < best) best = d, bs = L * (double(i) + t) / double(steps), bestR = r, bestT = ab;
+        }
+        if (bs < sLo || bs > sHi || best > 12) continue;
+        // Anterior (+Z) and left (+X) made orthogonal to the local axis.
+        const double tl = std::sqrt(bestT[0] * bestT[0] + bestT[1] * bestT[1] + bestT[2] * bestT[2]);
+        for (double& c : bestT) c /= tl;
+        auto ortho = [&](std::array<double, 3> e) {
+            const double d = e[0] * bestT[0] + e[1] * bestT[1] + e[2] * bestT[2];
+            for (int k = 0; k < 3; ++k) e[k] -= d * bestT[k];
+            return e;
+        };
+        const auto ant = ortho({0, 0, 1}), left = ortho({1, 0, 0});
+        const double a = bestR[0] * ant[0] + bestR[1] * ant[1] + bestR[2] * ant[2];
+        const double l = bestR[0] * left[0] + bestR[1] * left[1] + bestR[2] * left[2];
+        out.push_back({bs, best, std::atan2(l, a) * 180.0 / M_PI, v});
+    }
+    return out;
+}
+
+// Ring phase of s: 0 on a ring's crest, 0.5 in the furrow between two.
+double ringPhase(double s) {
+    const double f = s / 5.0 - std::floor(s / 5.0);
+    return f > 0.5 ? 1 - f : f;
+}
+
+struct RingProfile {
+    double crest = 0, furrow = 0;                     // mean radius (mm)
+    double height() const { return furrow - crest; }  // the ridge rises into the lumen: smaller radius
+};
+
+// Mean radius on crests and in furrows, within an angular window; radii are
+// taken relative to each vertex's neighbours in angle (the lumen's ellipse
+// and the flatter posterior wall cancel) by pairing crest and furrow samples
+// in 5-degree bins.
+RingProfile ringProfile(const std::vector<TracheaSample>& samples, double angleLo, double angleHi) {
+    std::map<int, std::pair<std::vector<double>, std::vector<double>>> bins;
+    for (const auto& t : samples) {
+        if (t.angleDeg < angleLo || t.angleDeg > angleHi) continue;
+        const double ph = ringPhase(t.s);
+        const int b = int(std::floor(t.angleDeg / 5));
+        if (ph < 0.06) bins[b].first.push_back(t.radius);
+        if (ph > 0.44) bins[b].second.push_back(t.radius);
+    }
+    RingProfile r;
+    int n = 0;
+    for (const auto& [b, v] : bins) {
+        if (v.first.empty() || v.second.empty()) continue;
+        double c = 0, f = 0;
+        for (double x : v.first) c += x;
+        for (double x : v.second) f += x;
+        r.crest += c / double(v.first.size());
+        r.furrow += f / double(v.second.size());
+        ++n;
+    }
+    if (n > 0) r.crest /= n, r.furrow /= n;
+    return r;
+}
+
+// Scatter of the radius about its mean per (ring phase, angle) cell, on the
+// anterior wall: the sawtooth a grid-aligned error would add.
+double ringScatter(const std::vector<TracheaSample>& samples) {
+    std::map<std::pair<int, int>, std::vector<double>> cells;
+    for (const auto& t : samples) {
+        if (std::abs(t.angleDeg) > 40) continue;
+        const double f = t.s / 5.0 - std::floor(t.s / 5.0);
+        cells[{int(f * 24), int(std::floor(t.angleDeg / 4))}].push_back(t.radius);
+    }
+    double ss = 0;
+    std::size_t n = 0;
+    for (const auto& [k, v] : cells) {
+        if (v.size() < 3) continue;
+        double m = 0;
+        for (double x : v) m += x;
+        m /= double(v.size());
+        for (double x : v) ss += (x - m) * (x - m), ++n;
+    }
+    return std::sqrt(ss / double(std::max<std::size_t>(n, 1)));
+}
+
+// Cartilage rings are low ridges (0.3-0.6 mm on the 18 mm trachea, every 5 mm) over the
+// anterior and lateral wall, absent on the posterior membranous wall, and
+// smooth: at the test's 2 cells/mm and at render's 1 cell/mm.
+TEST(Phantom, RingsAreLowSmoothRidgesAbsentOnTheMembranousWall) {
+    mesh::PhantomParams coarse;
+    coarse.generations = 1;
+    coarse.resolution = 1.0;
+    const mesh::Phantom render = mesh::makePhantom(coarse);
+    for (const mesh::Phantom* ph : {&defaultPhantom(), &render}) {
+        const auto samples = tracheaSamples(*ph, 15, 95);
+        const RingProfile front = ringProfile(samples, -60, 60);
+        const RingProfile sides = ringProfile(samples, 60, 110);
+        const RingProfile back = ringProfile(samples, 160, 180);
+        const double scatter = ringScatter(samples);
+        std::printf(
+            "rings (%zu samples): ridge height anterior %.3f mm, lateral %.3f mm, posterior %.3f mm; "
+            "scatter %.3f mm\n",
+            samples.size(), front.height(), sides.height(), back.height(), scatter);
+        EXPECT_GT(front.height(), 0.3);
+        EXPECT_LT(front.height(), 0.6);
+        EXPECT_GT(sides.height(), 0.2);
+        EXPECT_LT(std::abs(back.height()), 0.05) << "no rings on the membranous wall";
+        EXPECT_LT(scatter, 0.05) << "no sawtooth along the ridges";
+    }
+}
+
 TEST(Phantom, HasTheDocumentedDimensions) {
     const auto& ph = defaultPhantom();
     const auto r = mesh::analyze(ph.mesh);
     // The trachea's top cap reaches its radius above the origin.
     EXPECT_NEAR(r.boundsMax[1], 9.0, 0.6);
     // Trachea cross-section halfway down: about 18 mm across (rings make it
-    // up to 4.5 % narrower, the flatter posterior wall 7 %).
+    // up to 4 % narrower, the ellipse 5 % shallower front to back, the
+    // flatter posterior wall 7 %). Measured about the centerline (points
+    // every 1 mm of y): the trachea curves (backwards and to the right), so
+    // not about the Y axis; over one ring period (5 mm), crest and furrow.
+    const auto& trachea = ph.centerline.branches[0].points;
+    ASSERT_NEAR(trachea[55][1], -55.0f, 0.01f);
     double maxR = 0, minR = 1e9;
     for (const auto& p : ph.mesh.positions)
-        if (std::abs(p[1] + 55) < 0.5) {
-            const double rr = std::hypot(p[0], p[2]);
+        if (std::abs(p[1] + 55) < 2.5) {
+            const auto& mid = trachea[static_cast<std::size_t>(std::lround(-p[1]))];
+            const double rr = std::hypot(p[0] - mid[0], p[2] - mid[2]);
             maxR = std::max(maxR, rr);
             minR = std::min(minR, rr);
         }
@@ -73,6 +213,131 @@ TEST(Phantom, HasTheDocumentedDimensions) {
     }
 }
 
+// The posterior membranous wall carries fine longitudinal folds: across the
+// wall the radius ripples (about every 3.5 mm, ~0.2 mm deep) where the
+// anterior wall, between the same rings, is smooth.
+TEST(Phantom, MembranousWallHasLongitudinalFolds) {
+    const auto samples = tracheaSamples(defaultPhantom(), 20, 90);
+    // Radius against arc length around the wall in 0.5 mm bins, detrended by a
+    // 4 mm running mean: the ripple's RMS.
+    auto ripple = [&](double centreDeg) {
+        std::map<int, std::pair<double, int>> bins;
+        for (const auto& t : samples) {
+            double a = t.angleDeg - centreDeg;
+            a = a - 360 * std::round(a / 360);
+            if (std::abs(a) > 45) continue;
+            auto& b = bins[int(std::floor(a * M_PI / 180 * 8.5 / 0.5))];
+            b.first += t.radius, ++b.second;
+        }
+        std::vector<double> r;
+        for (const auto& [k, v] : bins) r.push_back(v.first / v.second);
+        double ss = 0;
+        int n = 0;
+        for (std::size_t i = 4; i + 4 < r.size(); ++i) {
+            double m = 0;
+            for (std::size_t j = i - 4; j <= i + 4; ++j) m += r[j];
+            m /= 9;
+            ss += (r[i] - m) * (r[i] - m), ++n;
+        }
+        return std::sqrt(ss / std::max(n, 1));
+    };
+    const double back = ripple(180), front = ripple(0);
+    std::printf("membranous wall: fold ripple %.3f mm RMS (anterior wall %.3f mm)\n", back, front);
+    EXPECT_GT(back, 0.04);
+    EXPECT_LT(front, 0.5 * back);
+}
+
+// The tint: whiter (more green and blue for the red) on the ring crests than
+// in the furrows, redder on the membranous wall, 1 or below everywhere.
+TEST(Phantom, TintIsPaleOnCartilageAndRedderOnTheMembranousWall) {
+    const auto& ph = defaultPhantom();
+    ASSERT_TRUE(ph.mesh.hasColors());
+    for (const Vec3& c : ph.mesh.colors)
+        for (float x : c) ASSERT_TRUE(x > 0.5f && x <= 1.0f) << x;
+    const auto samples = tracheaSamples(ph, 15, 95);
+    double crest = 0, furrow = 0, membrane = 0;
+    int nc = 0, nf = 0, nm = 0;
+    for (const auto& t : samples) {
+        const Vec3& c = ph.mesh.colors[t.vertex];
+        const double gr = c[1] / c[0];
+        if (std::abs(t.angleDeg) < 60 && ringPhase(t.s) < 0.06) crest += gr, ++nc;
+        if (std::abs(t.angleDeg) < 60 && ringPhase(t.s) > 0.44) furrow += gr, ++nf;
+        if (std::abs(t.angleDeg) > 165) membrane += gr, ++nm;
+    }
+    ASSERT_GT(nc * nf * nm, 0);
+    crest /= nc, furrow /= nf, membrane /= nm;
+    std::printf("tint green/red: crests %.3f, furrows %.3f, membranous wall %.3f\n", crest, furrow, membrane);
+    EXPECT_GT(crest, furrow + 0.05);
+    EXPECT_LT(membrane, furrow - 0.02);
+}
+
+// The tree is not planar and the trachea is not a straight pipe: the trachea's
+// centerline bows off its chord, the main bronchi leave the coronal plane.
+TEST(Phantom, TracheaCurvesAndBranchesAreNotCoplanar) {
+    const auto& c = defaultPhantom().centerline;
+    const auto& t = c.branches[0].points;
+    double bow = 0;
+    for (const auto& p : t) {
+        const double f = (p[1] - t.front()[1]) / (t.back()[1] - t.front()[1]);
+        const double dx = p[0] - (t.front()[0] + f * (t.back()[0] - t.front()[0]));
+        const double dz = p[2] - (t.front()[2] + f * (t.back()[2] - t.front()[2]));
+        bow = std::max(bow, std::hypot(dx, dz));
+    }
+    EXPECT_GT(bow, 1.0);
+    EXPECT_LT(bow, 4.0);
+    for (int b : {1, 2}) {
+        const auto& pts = c.branches[std::size_t(b)].points;
+        const double dz = pts.back()[2] - pts.front()[2];
+        const double len = std::hypot(pts.back()[0] - pts.front()[0], pts.back()[1] - pts.front()[1], dz);
+        EXPECT_LT(dz / len, -0.05) << "main bronchus " << b << " runs slightly backwards";
+    }
+}
+
+// The main carina is a defined crest: around its top (the highest vertex on
+// both main bronchi's walls, midway front to back), the wall turns through a wide angle within 2 mm
+// (the normals on its two flanks diverge).
+TEST(Phantom, MainCarinaHasADefinedCrest) {
+    const auto& ph = defaultPhantom();
+    const auto& c = ph.centerline;
+    auto distanceTo = [](const mesh::CenterlineBranch& b, const Vec3& p) {
+        double best = 1e30;
+        for (std::size_t i = 0; i + 1 < b.points.size(); ++i) {
+            double ab[3], ap[3];
+            for (int k = 0; k < 3; ++k) ab[k] = b.points[i + 1][k] - b.points[i][k], ap[k] = p[k] - b.points[i][k];
+            const double t = std::clamp(
+                (ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]), 0.0,
+                1.0);
+            best = std::min(best, std::hypot(ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]));
+        }
+        return best;
+    };
+    std::size_t top = 0;
+    float topY = -1e9f;
+    for (std::size_t v = 0; v < ph.mesh.vertexCount(); ++v) {
+        const auto& p = ph.mesh.positions[v];
+        const auto& end = c.branches[0].points.back();
+        if (p[1] > end[1] || p[1] < topY || std::abs(p[2] - end[2]) > 2.0f) continue;  // mid-septum
+        if (std::abs(distanceTo(c.branches[1], p) - c.branches[1].radii[0]) < 0.8 &&
+            std::abs(distanceTo(c.branches[2], p) - c.branches[2].radii[0]) < 0.8)
+            topY = p[1], top = v;
+    }
+    ASSERT_GT(topY, -1e8f);
+    // The spread of the normals' component across the crest (the direction
+    // between the two bronchi's axes, about X).
+    float lo = 1, hi = -1;
+    const auto& q = ph.mesh.positions[top];
+    for (std::size_t v = 0; v < ph.mesh.vertexCount(); ++v) {
+        const auto& p = ph.mesh.positions[v];
+        if (std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) > 2.0f) continue;
+        lo = std::min(lo, ph.mesh.normals[v][0]), hi = std::max(hi, ph.mesh.normals[v][0]);
+    }
+    std::printf(
+        "main carina: crest at (%.1f, %.1f, %.1f) mm (trachea ends at y %.1f), normals' x within 2 mm: "
+        "%.2f .. %.2f\n",
+        q[0], q[1], q[2], c.branches[0].points.back()[1], lo, hi);
+    EXPECT_GT(hi - lo, 1.2f);
+}
+
 TEST(Phantom, CenterlineUvsStayNearSquare) {
     const auto s = mesh::measureUvStretch(defaultPhantom().mesh);
     std::printf("phantom uv stretch: area ratio p5 %.2f p50 %.2f p95 %.2f; anisotropy p50 %.3f p95 %.2f; flipped %zu\n",
@@ -82,7 +347,7 @@ TEST(Phantom, CenterlineUvsStayNearSquare) {
     EXPECT_EQ(s.zeroUvAreaTriangles, 0u);
     EXPECT_LT(double(s.flippedTriangles), 0.03 * double(defaultPhantom().mesh.triangleCount()));
     // Triangles spanning more than a quarter turn of u: only at the poles of
-    // the closed caps (112 of 595 480 at the defaults), never at the seam.
+    // the closed caps (99 of 567 936 at the defaults), never at the seam.
     const Mesh& m = defaultPhantom().mesh;
     std::size_t wide = 0, mirrored = 0;
     for (std::size_t t = 0; t < m.triangleCount(); ++t) {

@@ -95,6 +95,38 @@ TEST(Repair, WeldKeepsUvSeams) {
     EXPECT_EQ(mesh::analyze(m).boundaryEdges, 4u) << "a UV seam is not a boundary";
 }
 
+// Welding carries each kept vertex's colour; two corners at one position with
+// different colours stay apart (a sharp tint edge), like a UV seam.
+TEST(Repair, WeldCarriesColorsAndKeepsColorEdges) {
+    Mesh m = soupCube();
+    m.colors.resize(m.vertexCount());
+    for (std::size_t v = 0; v < m.vertexCount(); ++v)
+        m.colors[v] = {m.positions[v][0], 0.5f * m.positions[v][1], 0.25f + 0.5f * m.positions[v][2]};
+    EXPECT_EQ(mesh::weld(m), 36u - 8u);
+    ASSERT_TRUE(m.hasColors());
+    for (std::size_t v = 0; v < m.vertexCount(); ++v) {
+        EXPECT_EQ(m.colors[v][0], m.positions[v][0]);
+        EXPECT_EQ(m.colors[v][1], 0.5f * m.positions[v][1]);
+        EXPECT_EQ(m.colors[v][2], 0.25f + 0.5f * m.positions[v][2]);
+    }
+    Mesh edge = soupCube();
+    edge.colors.assign(edge.vertexCount(), Vec3{1, 1, 1});
+    for (std::size_t c = 0; c < 6; ++c) edge.colors[c] = {1, 0, 0};  // the two z = 0 triangles are red
+    EXPECT_EQ(mesh::weld(edge), 36u - 8u - 4u) << "the bottom face's 4 corners stay separate";
+    // Dropping unused vertices keeps colours aligned with positions.
+    Mesh g = grid(2);
+    g.colors.resize(g.vertexCount());
+    for (std::size_t v = 0; v < g.vertexCount(); ++v) g.colors[v] = {float(v) / 10.0f, 0, 0};
+    g.positions.insert(g.positions.begin(), Vec3{9, 9, 9});
+    g.normals.insert(g.normals.begin(), Vec3{0, 0, 1});
+    g.uvs.insert(g.uvs.begin(), Vec2{0, 0});
+    g.colors.insert(g.colors.begin(), Vec3{1, 1, 1});
+    for (auto& i : g.indices) ++i;
+    EXPECT_EQ(mesh::removeUnusedVertices(g), 1u);
+    ASSERT_TRUE(g.hasColors());
+    for (std::size_t v = 0; v < g.vertexCount(); ++v) EXPECT_EQ(g.colors[v][0], float(v) / 10.0f);
+}
+
 TEST(Repair, OpenSurfaceVolumeCapsItsEndsSoFarFromTheOriginItKeepsItsSign) {
     // The cube without its top: an open box (one boundary loop). Capped, its
     // volume is the cube's, wherever it is; uncapped, the sum would depend on

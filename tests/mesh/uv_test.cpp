@@ -77,6 +77,18 @@ TEST(CenterlineUv, CylinderGetsSquareTexelsAndASeamlessWrap) {
     EXPECT_EQ(t.mirroredVertices, 0u);
 }
 
+// The seam duplicates vertices: each copy keeps its original's colour.
+TEST(CenterlineUv, SeamCopiesCarryTheirColors) {
+    Mesh m = cylinder(9, 100, 48, 60);
+    auto tint = [](const Vec3& p) { return Vec3{0.5f + 0.05f * p[0], 0.5f + 0.05f * p[2], 0.01f * p[1]}; };
+    for (const Vec3& p : m.positions) m.colors.push_back(tint(p));
+    const std::size_t before = m.vertexCount();
+    mesh::computeCenterlineUvs(m);
+    ASSERT_GT(m.vertexCount(), before);
+    ASSERT_TRUE(m.hasColors());
+    for (std::size_t v = 0; v < m.vertexCount(); ++v) ASSERT_EQ(m.colors[v], tint(m.positions[v])) << v;
+}
+
 TEST(CenterlineUv, InsideOutCylinderKeepsTheWindingOrientation) {
     Mesh m = cylinder(5, 40, 32, 20);
     mesh::flipOrientation(m);

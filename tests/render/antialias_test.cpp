@@ -26,6 +26,9 @@ TEST(SpecularAntiAliasing, FlickerDropsAndStillFramesConvergeTowardsSupersamplin
     // The paper's material and a camera that only exposes: sensor noise
     // would read as flicker, and the figures are of the highlights.
     test::paperLook(scene.params);
+    // On the centerline, looking ahead (not the default bronchoscopist's wandering).
+    scene.path.fly.wander = 0.0f;
+    scene.path.fly.lookAroundDeg = 0.0f;
     const scene::SceneAssets assets = scene::loadAssets(scene);
     const int w = 320, h = 240;
     render::OffscreenSession session(scene, assets, w, h);

@@ -58,6 +58,9 @@ TEST(RenderHighlights, ProceduralTextureSpaceNoiseLooksLikeTheMap) {
     scene.noiseSpace = shading::NoiseSpace::Uv;
     scene.specularAA = false;
     test::paperLook(scene.params);
+    // Views on the centerline, looking ahead (not the default bronchoscopist's wandering).
+    scene.path.fly.wander = 0.0f;
+    scene.path.fly.lookAroundDeg = 0.0f;
     const scene::SceneAssets assets = scene::loadAssets(scene);
     render::OffscreenSession s(scene, assets, 640, 480);
     const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, 9);

@@ -4,6 +4,7 @@
 // (DESIGN.md, "Endoscope"), plus camera paths: a list of poses, or a
 // fly-through along a centerline with smooth orientation.
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include <mucosa/mesh/mesh.hpp>
@@ -52,12 +53,29 @@ struct FlyThrough {
     float stopMm = 0.0f;       // arc length before the end where it stops (frames spread up to there)
     float lookAheadMm = 8.0f;  // the camera looks at the centerline this far ahead (smooth turns)
     Vec3 up{0, 1, 0};          // initial up; then transported without twist
+    // Like a bronchoscopist, who keeps the tip off the centre and turns it to
+    // inspect the walls and the openings ahead. Both 0: on the centerline,
+    // looking ahead (exactly the centred path).
+    float wander = 0.0f;           // off-centre offset, a fraction (0..0.9) of the local lumen radius
+    float lookAroundDeg = 0.0f;    // how far the view turns from ahead (degrees, 0..60)
+    float wallClearanceMm = 1.5f;  // the offset keeps the eye this far inside the (nominal) wall
+    float wanderPeriodMm = 40.0f;  // shortest period of the wandering along the path (mm): its smoothness
+    std::uint64_t seed = 1;        // the wandering's pattern (deterministic)
 };
 
-// Poses along a polyline (a centerline, mm): position on the line, looking
-// ahead along it, up vector parallel-transported (rotation-minimising: no
-// sudden rolls). Throws InputError if the path has fewer than two distinct points.
-std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrough& options);
+// Poses along a polyline (a centerline, mm): looking ahead along it, up vector
+// parallel-transported (rotation-minimising: no sudden rolls). With wander > 0
+// and `radii` (the lumen radius at each point, mm; the centerline JSON's
+// "radii"), the eye moves off the line by a smooth seeded offset of at most
+// wander x the smallest radius within 6 mm along the path, and never closer
+// than wallClearanceMm to that radius; without radii it stays on the line.
+// With lookAroundDeg > 0 the view turns smoothly (yaw and pitch, each within
+// +-lookAroundDeg) away from the look-ahead direction. Throws InputError if
+// the path has fewer than two distinct points or an option is out of range.
+// Throws InputError naming the scene key ("camera.path.wander", ...) for an option out of range.
+void validate(const FlyThrough& options);
+std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrough& options,
+                             const std::vector<float>& radii = {});
 
 // Length of a polyline (mm).
 float pathLength(const std::vector<Vec3>& polyline);

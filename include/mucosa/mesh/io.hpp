@@ -48,6 +48,7 @@ struct LoadInfo {
     std::string unitReason;  // "glTF is in metres", "assumed millimetres: ..."
     std::string upAxis;      // "+Y (glTF)" or "as stored in the file"
     bool fileHadNormals = false, fileHadUvs = false, fileHadTangents = false;
+    bool fileHadColors = false;  // vertex colours (the first set: glTF COLOR_0, PLY red/green/blue, OBJ v x y z r g b)
     std::size_t repairedNormals = 0;  // zero/non-finite normals recomputed
     std::vector<std::string> warnings;
 };

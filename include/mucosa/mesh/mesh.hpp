@@ -8,7 +8,9 @@
 //    glTF importer/exporter flips v; OBJ/PLY/Assimp's convention already is this);
 //  - tangents: xyz = dP/du orthonormalised against N, w = +-1 with
 //    B = w * cross(N, T) = dP/dv direction (glTF's TANGENT definition);
-//  - triangles wind counter-clockwise seen from the side the normals face.
+//  - triangles wind counter-clockwise seen from the side the normals face;
+//  - colors: linear RGB in 0..1, a tint the renderer multiplies the albedo by
+//    (1 = the albedo unchanged); glTF COLOR_0, PLY red/green/blue, OBJ `v x y z r g b`.
 #include <array>
 #include <cstdint>
 #include <string>
@@ -25,6 +27,7 @@ struct Mesh {
     std::vector<Vec3> normals;    // per vertex, unit; empty if absent
     std::vector<Vec2> uvs;        // per vertex; empty if absent
     std::vector<Vec4> tangents;   // per vertex, xyz unit, w = +-1; empty if absent
+    std::vector<Vec3> colors;     // per vertex linear RGB tint multiplying the albedo; empty if absent
     std::vector<std::uint32_t> indices;  // 3 per triangle
 
     std::size_t vertexCount() const noexcept { return positions.size(); }
@@ -32,6 +35,7 @@ struct Mesh {
     bool hasNormals() const noexcept { return !normals.empty() && normals.size() == positions.size(); }
     bool hasUvs() const noexcept { return !uvs.empty() && uvs.size() == positions.size(); }
     bool hasTangents() const noexcept { return !tangents.empty() && tangents.size() == positions.size(); }
+    bool hasColors() const noexcept { return !colors.empty() && colors.size() == positions.size(); }
 };
 
 }  // namespace mucosa::mesh

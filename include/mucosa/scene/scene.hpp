@@ -133,6 +133,7 @@ struct SceneAssets {
     mesh::Mesh mesh;                     // with normals, uvs and tangents
     std::vector<mesh::Vec3> centerline;  // the fly-through polyline (mm); may be empty
     float centerlineEndRadius = 0;       // lumen radius at its distal end (mm); 0 = unknown
+    std::vector<float> centerlineRadii;  // lumen radius at each centerline point (mm); empty = unknown
     image::Image8 diffuse;               // empty: none
     image::Image8 reflectanceMap;        // empty: not generated (loadAssets(..., false))
     // The multitexture baseline's highlight texture for the scene's shininess
