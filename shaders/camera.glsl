@@ -13,7 +13,9 @@
 //   3. the sensor: Poisson-Gaussian noise (shot noise with variance
 //      signal / full well, read noise with a fixed deviation), then clipping
 //      at saturation, per channel, as a sensor clips;
-//   4. the camera's response (tone curve): linear, BT.709 or sRGB;
+//   4. the camera's processing: the response (tone curve: linear, BT.709 or
+//      sRGB), then the colour enhancement of endoscopy video processors (a
+//      saturation gain about the Rec. 709 luma);
 //   5. the scope's field-of-view mask: a circle or an octagon, black outside.
 
 // Tone curves (shading::ToneCurve, the registry's camera.tone_curve).
@@ -42,6 +44,7 @@ struct Camera {
     float readNoise;         // deviation of the read noise, in units of the full signal
     int toneCurve;           // kToneLinear, kToneBt709, kToneSrgb
     int frameSeed;           // the noise pattern of this frame
+    float saturation;        // colour gain about the luma after the tone curve; 1 = none
 };
 
 // Weight of the tap (dx, dy) of the PSF, unnormalised: exp(-r^2 / (2 sigma^2)).
@@ -132,6 +135,13 @@ vec3 srgbToLinear3(vec3 v) {
     return vec3(srgbToLinear(v.x), srgbToLinear(v.y), srgbToLinear(v.z));
 }
 
+// Colour enhancement: v' = luma + g (v - luma), clamped (g = 1: unchanged;
+// white and greys stay).
+vec3 enhanceColour(vec3 v, float g) {
+    float luma = 0.2126f * v.x + 0.7152f * v.y + 0.0722f * v.z;
+    return clamp(vec3(luma) + (v - vec3(luma)) * g, 0.0f, 1.0f);
+}
+
 // Steps 1 (vignetting) to 5 for pixel (ix, iy) whose PSF-filtered radiance
 // is `radiance`: the displayed value in [0, 1].
 vec3 cameraPixel(vec3 radiance, int ix, int iy, Camera c) {
@@ -141,5 +151,6 @@ vec3 cameraPixel(vec3 radiance, int ix, int iy, Camera c) {
     s = vec3(sensorNoise(s.x, ix, iy, 0, c), sensorNoise(s.y, ix, iy, 1, c), sensorNoise(s.z, ix, iy, 2, c));
     s = clamp(s, 0.0f, 1.0f);
     vec3 v = vec3(toneCurve(s.x, c.toneCurve), toneCurve(s.y, c.toneCurve), toneCurve(s.z, c.toneCurve));
+    v = enhanceColour(v, c.saturation);
     return v * fovMask(px, py, c);
 }

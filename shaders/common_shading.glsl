@@ -137,6 +137,7 @@ struct Varyings {
     float irradiance;    // E: the lamp's irradiance, lampIrradiance (the sheen's, per pixel)
     vec2 sphereUv;       // multitexture: highlight-texture coordinates (highlightCoord)
     vec3 P;              // world position (mm): procedural noise in object space, per-pixel L and V
+    vec3 tint;           // the mesh's per-vertex tint (linear RGB; 1 without colours): multiplies the albedo
 };
 
 // Paper eq. 1-2 inverted: rgb = 0.5 N + 0.5 -> N; the bump scale tilts the
@@ -288,7 +289,8 @@ vec4 tissueClipPosition(vec3 P, Frame f) {
 
 // Vertex stage. N0 = vertex normal, T0 = tangent (xyz, w = handedness with
 // B = w cross(N, T), glTF's convention), P in world space (mm).
-Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, int mode) {
+// tint: the vertex's colour (mesh::Mesh::colors; white without).
+Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, vec3 tint, Frame f, Material m, int mode) {
     Varyings o;
     vec3 Ng = normalize(N0);
     vec3 T = normalize(vec3(T0));
@@ -307,6 +309,7 @@ Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, Frame f, Material m, in
     o.irradiance = 0.0f;
     o.sphereUv = vec2(0.0f);
     o.P = P;
+    o.tint = tint;
     // The diffuse term (paper eq. 11, with wrap lighting) and the lamp's
     // irradiance are per vertex in every mode: the modes differ only in how
     // the highlight is made, and the per-pixel work of the method is its
@@ -388,7 +391,7 @@ float wetSheen(Varyings v, Material m) {
 // camera.glsl, comes next), display values in [0, 1] for the others.
 vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight, float footprint, Material m,
                     Procedural pr, Frame f, int mode) {
-    vec3 albedo = mucusAlbedo(srgbToLinear3(albedoTex) * m.baseColor, m);
+    vec3 albedo = mucusAlbedo(srgbToLinear3(albedoTex) * m.baseColor * v.tint, m);
     float ambientE = ambientIrradiance(m);
     vec3 mapRgb = vec3(mapSample);
     if (mode == kModeNoise) {

@@ -120,6 +120,7 @@ int main(int argc, char** argv) try {
                         for (P p : {P::AutoExposure, P::Vignetting, P::Mask, P::Softness, P::FullWell, P::ReadNoise,
                                     P::ToneCurve, P::SheenStrength, P::Wrap})
                             f.params.set(p, 0.0f);
+                        f.params.set(P::Saturation, 1.0f);
                     }
                     return f;
                 };

@@ -359,7 +359,7 @@ void Renderer::setMesh(const mesh::Mesh& mesh) {
     // Without texture coordinates (a raw CT surface) the modes that read none
     // still render; draw() refuses the others (shading::modeNeedsUvs).
     const bool uvs = mesh.hasUvs() && mesh.hasTangents();
-    constexpr int kStride = 12;  // position 3, normal 3, tangent 4, uv 2
+    constexpr int kStride = 15;  // position 3, normal 3, tangent 4, uv 2, tint 3
     std::vector<float> data(mesh.vertexCount() * kStride);
     for (std::size_t i = 0; i < mesh.vertexCount(); ++i) {
         float* d = data.data() + i * kStride;
@@ -368,6 +368,8 @@ void Renderer::setMesh(const mesh::Mesh& mesh) {
         const mesh::Vec4 t = uvs ? mesh.tangents[i] : mesh::fallbackTangent(mesh.normals[i]);
         std::copy(t.begin(), t.end(), d + 6);
         if (uvs) std::copy(mesh.uvs[i].begin(), mesh.uvs[i].end(), d + 10);
+        const mesh::Vec3 tint = mesh.hasColors() ? mesh.colors[i] : mesh::Vec3{1, 1, 1};
+        std::copy(tint.begin(), tint.end(), d + 12);
     }
     glBindVertexArray(impl_->vao);
     glBindBuffer(GL_ARRAY_BUFFER, impl_->vbo);
@@ -378,8 +380,8 @@ void Renderer::setMesh(const mesh::Mesh& mesh) {
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(sorted.size() * sizeof(std::uint32_t)), sorted.data(),
                  GL_STATIC_DRAW);
     const GLsizei stride = kStride * sizeof(float);
-    const int sizes[] = {3, 3, 4, 2}, offsets[] = {0, 3, 6, 10};
-    for (GLuint a = 0; a < 4; ++a) {
+    const int sizes[] = {3, 3, 4, 2, 3}, offsets[] = {0, 3, 6, 10, 12};
+    for (GLuint a = 0; a < 5; ++a) {
         glEnableVertexAttribArray(a);
         glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, stride,
                               reinterpret_cast<const void*>(static_cast<std::uintptr_t>(offsets[a] * sizeof(float))));

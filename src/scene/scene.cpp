@@ -538,6 +538,7 @@ void readCamera(const Parser& P, const json& j, Scene& s) {
 
 void applyVariation(Scene& scene, std::uint64_t seed) {
     scene.variation = seed;
+    const double previousEv = scene.appearance.exposureEv;  // a seed applied before: replaced, not compounded
     scene.appearance = reflectance::drawAppearance(seed);
     const shading::ParamSet defaults;
     const auto scale = [&](shading::Param p, double factor) {
@@ -550,10 +551,10 @@ void applyVariation(Scene& scene, std::uint64_t seed) {
     // The patient's exposure offset: auto-exposure's compensation (or the
     // fixed exposure), on top of what the scene sets.
     const shading::ParamInfo& ev = shading::info(shading::Param::ExposureEv);
+    const float base = scene.params[shading::Param::ExposureEv] - static_cast<float>(previousEv);
     scene.params.set(shading::Param::ExposureEv,
-                     std::clamp(scene.params[shading::Param::ExposureEv] + static_cast<float>(scene.appearance.exposureEv),
-                                ev.min, ev.max),
-                     "", "variation");
+                     std::clamp(base + static_cast<float>(scene.appearance.exposureEv), ev.min, ev.max), "",
+                     "variation");
 }
 
 Scene defaultScene() {

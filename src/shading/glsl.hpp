@@ -93,6 +93,7 @@ inline Camera packCamera(const FrameSetup& f, float exposure) {
     c.readNoise = p[Param::ReadNoise];
     c.toneCurve = static_cast<int>(p[Param::ToneCurve]);
     c.frameSeed = f.frameIndex;
+    c.saturation = p[Param::Saturation];
     return c;
 }
 

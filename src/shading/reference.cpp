@@ -21,7 +21,7 @@ namespace {
 
 using glsl::Varyings;
 constexpr int kVaryingFloats = static_cast<int>(sizeof(Varyings) / sizeof(float));
-static_assert(sizeof(Varyings) == 25 * sizeof(float), "Varyings must be tightly packed floats");
+static_assert(sizeof(Varyings) == 28 * sizeof(float), "Varyings must be tightly packed floats");
 
 struct ClipVertex {
     glm::vec4 clip;
@@ -262,7 +262,7 @@ bool modeNeedsUvs(const FrameSetup& f) noexcept {
 bool cameraIsIdentity(const ParamSet& p) noexcept {
     return p[Param::AutoExposure] == 0.0f && p[Param::ExposureEv] == 0.0f && p[Param::Vignetting] == 0.0f &&
            p[Param::Mask] == 0.0f && p[Param::Softness] == 0.0f && p[Param::FullWell] == 0.0f &&
-           p[Param::ReadNoise] == 0.0f && p[Param::ToneCurve] == 0.0f;
+           p[Param::ReadNoise] == 0.0f && p[Param::ToneCurve] == 0.0f && p[Param::Saturation] == 1.0f;
 }
 
 int meterPixel(int i, int size) noexcept {
@@ -344,8 +344,10 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         const auto& tg = mesh.hasTangents() ? mesh.tangents[i] : mesh::fallbackTangent(n);
         const mesh::Vec2 uv = mesh.hasUvs() ? mesh.uvs[i] : mesh::Vec2{0, 0};
         const glm::vec3 P(p[0], p[1], p[2]);
-        const Varyings v = glsl::tissueVertex(P, glm::vec3(n[0], n[1], n[2]), glm::vec4(tg[0], tg[1], tg[2], tg[3]),
-                                              glm::vec2(uv[0], uv[1]), f, m, mode);
+        const mesh::Vec3 tint = mesh.hasColors() ? mesh.colors[i] : mesh::Vec3{1, 1, 1};
+        const Varyings v =
+            glsl::tissueVertex(P, glm::vec3(n[0], n[1], n[2]), glm::vec4(tg[0], tg[1], tg[2], tg[3]),
+                               glm::vec2(uv[0], uv[1]), glm::vec3(tint[0], tint[1], tint[2]), f, m, mode);
         verts[i].clip = glsl::tissueClipPosition(P, f);
         std::memcpy(verts[i].var, &v, sizeof v);
     }

@@ -144,6 +144,7 @@ scene::Scene smallScene() {
     scene::Scene s = scene::defaultScene();
     s.mapParams.size = 256;
     s.params.set(shading::Param::SpecularStrength, 2.5f);
+    s.params.set(shading::Param::Shininess, 40.0f);  // the start of the recovery below
     return s;
 }
 

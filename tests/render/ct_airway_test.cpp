@@ -48,7 +48,7 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
                           "base_color": [0.8, 0.45, 0.4]}},
             "light": {{"spread": 0}},
             "camera": {{"fov_deg": 100, "near_mm": 0.5, "far_mm": 200, "auto_peak": 0, "auto_key": 0.4,
-                        "tone_curve": 0, "full_well": 0, "read_noise": 0, "softness_px": 0, "vignetting": 0, "mask": 0,
+                        "tone_curve": 0, "full_well": 0, "read_noise": 0, "softness_px": 0, "vignetting": 0, "mask": 0, "saturation": 1,
                         "pose": {{"position": [{}, {}, {}], "look_at": [{}, {}, {}], "up": [0, 0, 1]}}}}}})",
         ct.string(), eye[0], eye[1], eye[2], target[0], target[1], target[2]);
     std::ofstream(dir / "ct.json") << scene;

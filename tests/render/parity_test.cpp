@@ -132,6 +132,7 @@ TEST(RenderParity, TheCameraOffAndItsVariantsMatchReference) {
         f.params.set(P::MapTiling, 1.5f);
         for (P p : {P::AutoExposure, P::Vignetting, P::Mask, P::Softness, P::FullWell, P::ReadNoise, P::ToneCurve})
             f.params.set(p, 0.0f);
+        f.params.set(P::Saturation, 1.0f);
         ASSERT_TRUE(shading::cameraIsIdentity(f.params));
         expectParity(renderBoth(quad, f, map, diffuse), "parity_camera_off_" + std::string(shading::modeName(mode)));
         f.params.set(P::ExposureEv, 3.0f);
@@ -145,6 +146,26 @@ TEST(RenderParity, TheCameraOffAndItsVariantsMatchReference) {
         f.frameIndex = 5;
         expectParity(renderBoth(quad, f, map, diffuse),
                      "parity_camera_variant_" + std::string(shading::modeName(mode)));
+    }
+}
+
+// The mesh's per-vertex tint (mesh::Mesh::colors, the phantom's paler
+// cartilage) multiplies the albedo alike on both paths, and shows.
+TEST(RenderParity, PerVertexTintMatchesReferenceAndShows) {
+    mesh::Mesh quad = mesh::makeQuad(40.0f, 8);
+    const image::Image8 map = testMap(256, "bronchial");
+    const image::Image8 diffuse = testDiffuse(64);
+    for (const auto& p : quad.positions)
+        quad.colors.push_back({1.0f, 0.5f + p[0] / 80.0f, 0.5f - p[1] / 80.0f});  // 0..1 across the quad
+    ASSERT_TRUE(quad.hasColors());
+    mesh::Mesh plain = quad;
+    plain.colors.clear();
+    for (Mode mode : {Mode::Noise, Mode::Diffuse}) {
+        const shading::FrameSetup f = frameFor(camera::lookAt({6.0f, -14.0f, 22.0f}, {0, 0, 0}), 320, 240, mode);
+        const Parity tinted = renderBoth(quad, f, map, diffuse);
+        expectParity(tinted, "parity_tint_" + std::string(shading::modeName(mode)));
+        const Parity untinted = renderBoth(plain, f, map, diffuse);
+        EXPECT_GT(test::diff(tinted.gl, untinted.gl, 8).fractionOver, 0.3) << "the tint must change the picture";
     }
 }
 

@@ -38,6 +38,7 @@ inline void paperLook(shading::ParamSet& p) {
     p.set(Param::Softness, 0.0f);
     p.set(Param::Vignetting, 0.0f);
     p.set(Param::Mask, 0.0f);
+    p.set(Param::Saturation, 1.0f);
 }
 
 inline render::HeadlessContext& glContext() {

@@ -29,6 +29,7 @@ void neutralCamera(shading::ParamSet& p) {
     p.set(Param::ExposureEv, 0);
     p.set(Param::Vignetting, 0);
     p.set(Param::Mask, 0);
+    p.set(Param::Saturation, 1);
     p.set(Param::Softness, 0);
     p.set(Param::FullWell, 0);
     p.set(Param::ReadNoise, 0);
@@ -114,7 +115,21 @@ Camera testCamera() {
     c.tanHalfFovY = c.tanHalfFovX * 480.0f / 640.0f;
     c.toneCurve = kToneLinear;
     c.mask = kMaskNone;
+    c.saturation = 1.0f;
     return c;
+}
+
+TEST(CameraModel, ColourEnhancementScalesChromaAndKeepsGreys) {
+    const vec3 grey = enhanceColour(vec3(0.4f, 0.4f, 0.4f), 1.8f);
+    EXPECT_NEAR(grey.x, 0.4f, 1e-6f);
+    EXPECT_NEAR(grey.z, 0.4f, 1e-6f);
+    const vec3 v(0.6f, 0.4f, 0.3f);
+    const vec3 e = enhanceColour(v, 1.5f);
+    const float luma = 0.2126f * 0.6f + 0.7152f * 0.4f + 0.0722f * 0.3f;
+    EXPECT_NEAR(0.2126f * e.x + 0.7152f * e.y + 0.0722f * e.z, luma, 1e-6f);  // the luma stays
+    EXPECT_NEAR(e.x - e.y, 1.5f * (v.x - v.y), 1e-6f);                        // differences scale
+    const vec3 same = enhanceColour(v, 1.0f);
+    EXPECT_NEAR(same.x, v.x, 1e-6f);
 }
 
 TEST(CameraModel, ExposureScalesAndTheSensorClipsToWhite) {

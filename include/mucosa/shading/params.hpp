@@ -107,8 +107,9 @@ enum class Param : int {
     ReadNoise,
     ToneCurve,
     AutoPeak,
+    Saturation,
 };
-inline constexpr std::size_t kParamCount = 38;
+inline constexpr std::size_t kParamCount = 39;
 
 struct ParamInfo {
     Param id;
