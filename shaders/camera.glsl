@@ -26,9 +26,12 @@ const int kToneSrgb = 2;
 const int kMaskNone = 0;
 const int kMaskCircle = 1;
 const int kMaskOctagon = 2;
-// The softness kernel reaches this many pixels each side (5 x 5 taps):
-// enough for sigma <= 1 px (the weight at 2.5 sigma is 4 % of the centre's).
-const int kSoftRadius = 2;
+// The softness kernel is 3 x 3 taps: enough for sigma <= kSoftMax px (a tap 2
+// px away would weigh at most exp(-2 / 0.49) = 1.7 % of the centre).
+const float kSoftMax = 0.7f;
+// The renderer skips shading the pixels further than this outside the mask
+// (camera_mask.frag): more than the PSF's reach, so no visible pixel changes.
+const float kMaskMarginPx = 3.0f;
 
 struct Camera {
     float exposure;          // 2^EV: sensor signal per unit of radiance (after auto-exposure)
@@ -47,12 +50,19 @@ struct Camera {
     float saturation;        // colour gain about the luma after the tone curve; 1 = none
 };
 
-// Weight of the tap (dx, dy) of the PSF, unnormalised: exp(-r^2 / (2 sigma^2)).
-// sigma = 0 gives the centre alone.
-float psfWeight(int dx, int dy, float sigma) {
-    if (sigma <= 0.0f) return (dx == 0 && dy == 0) ? 1.0f : 0.0f;
-    float r2 = float(dx * dx + dy * dy);
-    return exp(-r2 / (2.0f * sigma * sigma));
+// The PSF's weights, unnormalised, exp(-r^2 / (2 sigma^2)): x for the four
+// neighbours at r = 1, y = x^2 for the four diagonals (r^2 = 2); the centre
+// weighs 1. sigma = 0 gives the centre alone.
+vec2 psfWeights(float sigma) {
+    if (sigma <= 0.0f) return vec2(0.0f, 0.0f);
+    float w1 = exp(-1.0f / (2.0f * sigma * sigma));
+    return vec2(w1, w1 * w1);
+}
+
+// The PSF-filtered radiance from the 3 x 3 neighbourhood: c centre, a the
+// sum of the four axis neighbours, d the sum of the four diagonals.
+vec3 psfFilter(vec3 c, vec3 a, vec3 d, vec2 w) {
+    return (c + a * w.x + d * w.y) / (1.0f + 4.0f * w.x + 4.0f * w.y);
 }
 
 // Natural vignetting at pixel centre (px, py) (pixels from the bottom-left
@@ -94,22 +104,28 @@ float hashUniform(uint h) {
     return (float(h >> 8u) + 0.5f) * (1.0f / 16777216.0f);
 }
 
-// A standard normal deviate for channel k of pixel (ix, iy) in frame `seed`
-// (Box-Muller on two hashed uniforms).
-float pixelGaussian(int ix, int iy, int k, int seed) {
-    uint h = pcgHash(uint(ix) + pcgHash(uint(iy) + pcgHash(uint(k) + pcgHash(uint(seed)))));
-    float u1 = hashUniform(h);
-    float u2 = hashUniform(pcgHash(h));
-    return sqrt(-2.0f * log(u1)) * cos(6.2831853f * u2);
+// Three independent standard normal deviates for pixel (ix, iy) in frame
+// `seed`, one per channel: Box-Muller on four hashed uniforms (two pairs, each
+// giving a cosine and a sine deviate; the fourth is not used).
+vec3 pixelGaussians(int ix, int iy, int seed) {
+    uint h = pcgHash(uint(ix) + pcgHash(uint(iy) + pcgHash(uint(seed))));
+    uint h2 = pcgHash(h);
+    uint h3 = pcgHash(h2);
+    uint h4 = pcgHash(h3);
+    float r1 = sqrt(-2.0f * log(hashUniform(h)));
+    float a1 = 6.2831853f * hashUniform(h2);
+    float r2 = sqrt(-2.0f * log(hashUniform(h3)));
+    float a2 = 6.2831853f * hashUniform(h4);
+    return vec3(r1 * cos(a1), r1 * sin(a1), r2 * cos(a2));
 }
 
 // Poisson-Gaussian sensor noise (Foi et al. 2008): the variance of a pixel
 // with mean signal s is s / fullWell + readNoise^2 (the mean-variance line),
 // drawn as a Gaussian (the Poisson's normal limit at the counts of a sensor).
-float sensorNoise(float s, int ix, int iy, int k, Camera c) {
-    if (c.fullWell <= 0.0f && c.readNoise <= 0.0f) return s;
+// g: the pixel's standard normal deviate for this channel.
+float sensorNoise(float s, float g, Camera c) {
     float shot = c.fullWell > 0.0f ? max(s, 0.0f) / c.fullWell : 0.0f;
-    return s + sqrt(shot + c.readNoise * c.readNoise) * pixelGaussian(ix, iy, k, c.frameSeed);
+    return s + sqrt(shot + c.readNoise * c.readNoise) * g;
 }
 
 // The camera's response to a clipped sensor signal s in [0, 1].
@@ -148,7 +164,10 @@ vec3 cameraPixel(vec3 radiance, int ix, int iy, Camera c) {
     float px = float(ix) + 0.5f;
     float py = float(iy) + 0.5f;
     vec3 s = radiance * (c.exposure * vignetting(px, py, c));
-    s = vec3(sensorNoise(s.x, ix, iy, 0, c), sensorNoise(s.y, ix, iy, 1, c), sensorNoise(s.z, ix, iy, 2, c));
+    if (c.fullWell > 0.0f || c.readNoise > 0.0f) {
+        vec3 g = pixelGaussians(ix, iy, c.frameSeed);
+        s = vec3(sensorNoise(s.x, g.x, c), sensorNoise(s.y, g.y, c), sensorNoise(s.z, g.z, c));
+    }
     s = clamp(s, 0.0f, 1.0f);
     vec3 v = vec3(toneCurve(s.x, c.toneCurve), toneCurve(s.y, c.toneCurve), toneCurve(s.z, c.toneCurve));
     v = enhanceColour(v, c.saturation);

@@ -64,6 +64,17 @@ struct PostProgram {
     UniformBlock camera;
 };
 
+// The mask pass (camera_mask.frag): the field stop as a depth occluder.
+PostProgram linkMask() {
+    const std::string header = "#version 330 core\n" + std::string(shaderSource("camera.glsl"));
+    PostProgram p;
+    p.id = linkProgram("#version 330 core\n" + std::string(shaderSource("camera_post.vert")),
+                       header + std::string(shaderSource("camera_mask.frag")), "camera_mask");
+    checkActiveUniforms(p.id, "camera_mask");
+    p.camera = UniformBlock(p.id, cameraUniforms());
+    return p;
+}
+
 PostProgram linkPost() {
     const std::string header = "#version 330 core\n" + std::string(shaderSource("camera.glsl"));
     PostProgram p;
@@ -303,7 +314,7 @@ struct Renderer::Impl {
     float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
     // The camera: the post pass, its HDR target, and auto-exposure's state
     // along the current camera path (frame 0 starts it afresh).
-    PostProgram post;
+    PostProgram post, mask;
     GLuint postVao = 0;
     HdrTarget hdr;
     shading::ExposureState exposure;
@@ -316,6 +327,7 @@ struct Renderer::Impl {
     void bindTextures(bool specularAA);
     void drawVisibleChunks(const glm::mat4& viewProj);
     void developFrame(const shading::FrameSetup& frame, GLint target, const GLint viewport[4]);
+    void occludeOutsideMask(const shading::FrameSetup& frame);
 };
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
@@ -324,6 +336,7 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
         if (m.headlight && !m.procedural)
             impl_->headlight[static_cast<std::size_t>(m.id)] = link(static_cast<int>(m.id), "#define MUCOSA_HEADLIGHT 1\n");
     impl_->post = linkPost();
+    impl_->mask = linkMask();
     glGenVertexArrays(1, &impl_->postVao);
     glGenVertexArrays(1, &impl_->vao);
     glGenBuffers(1, &impl_->vbo);
@@ -339,6 +352,7 @@ Renderer::~Renderer() {
     for (Program& p : impl_->headlight) glDeleteProgram(p.id);
     for (auto& [key, p] : impl_->procedural) glDeleteProgram(p.id);
     glDeleteProgram(impl_->post.id);
+    glDeleteProgram(impl_->mask.id);
     glDeleteVertexArrays(1, &impl_->postVao);
     impl_->hdr.release();
     glDeleteVertexArrays(1, &impl_->vao);
@@ -570,10 +584,28 @@ void Renderer::draw(const shading::FrameSetup& frame) {
         glViewport(0, 0, viewport[2], viewport[3]);
     }
     setPipelineState(frame);
+    if (develop && frame.params[shading::Param::Mask] != 0.0f) impl_->occludeOutsideMask(frame);
     impl_->uploadUniforms(program, frame, f, m, info);
     impl_->bindTextures(frame.specularAA);
     impl_->drawVisibleChunks(f.viewProj);
     if (develop) impl_->developFrame(frame, target, viewport);
+}
+
+// The pixels outside the scope's mask are black whatever the surface there:
+// fill the depth buffer at the near plane over them, so the surface pass's
+// fragments there fail the depth test before they are shaded (on llvmpipe
+// a circle in a 640x480 frame leaves 41 % of the pixels unshaded).
+void Renderer::Impl::occludeOutsideMask(const shading::FrameSetup& frame) {
+    const shading::glsl::Camera cam = shading::glsl::packCamera(frame, 1.0f);
+    glUseProgram(mask.id);
+    mask.camera.upload(&cam);
+    glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+    glDisable(GL_CULL_FACE);
+    glBindVertexArray(postVao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glBindVertexArray(0);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    if (frame.cullBackFaces) glEnable(GL_CULL_FACE);
 }
 
 // The camera (camera.glsl): meter the HDR frame on a kMeterGrid^2 grid (a

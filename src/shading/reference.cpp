@@ -155,7 +155,7 @@ int wrapIndex(int i, int n, Wrap w) {
 
 // The camera (camera.glsl) on the linear radiance `hdr` (rows bottom-up), as
 // the GPU's post pass does it: meter, expose, then per pixel the PSF over
-// the kSoftRadius neighbourhood (clamped at the edges) and cameraPixel.
+// the 3 x 3 neighbourhood (clamped at the edges) and cameraPixel.
 std::vector<glm::vec3> applyCamera(const std::vector<glm::vec3>& hdr, const FrameSetup& frame, ExposureState* state) {
     const int w = frame.width, h = frame.height;
     std::vector<float> grid(3 * static_cast<std::size_t>(kMeterGrid) * kMeterGrid);
@@ -176,20 +176,18 @@ std::vector<glm::vec3> applyCamera(const std::vector<glm::vec3>& hdr, const Fram
     std::vector<glm::vec3> out(hdr.size());
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
-            glm::vec3 sum(0.0f);
-            float weights = 0.0f;
-            for (int dy = -glsl::kSoftRadius; dy <= glsl::kSoftRadius; ++dy)
-                for (int dx = -glsl::kSoftRadius; dx <= glsl::kSoftRadius; ++dx) {
-                    const float wt = glsl::psfWeight(dx, dy, c.softness);
-                    if (wt <= 0.0f) continue;
-                    const int qx = std::clamp(x + dx, 0, w - 1), qy = std::clamp(y + dy, 0, h - 1);
-                    sum +=
-                        wt *
-                        hdr[static_cast<std::size_t>(qy) * static_cast<std::size_t>(w) + static_cast<std::size_t>(qx)];
-                    weights += wt;
-                }
+            auto at = [&](int qx, int qy) {
+                return hdr[static_cast<std::size_t>(std::clamp(qy, 0, h - 1)) * static_cast<std::size_t>(w) +
+                           static_cast<std::size_t>(std::clamp(qx, 0, w - 1))];
+            };
+            glm::vec3 radiance = at(x, y);
+            if (c.softness > 0.0f) {
+                const glm::vec3 a = at(x - 1, y) + at(x + 1, y) + at(x, y - 1) + at(x, y + 1);
+                const glm::vec3 d = at(x - 1, y - 1) + at(x + 1, y - 1) + at(x - 1, y + 1) + at(x + 1, y + 1);
+                radiance = glsl::psfFilter(radiance, a, d, glsl::psfWeights(c.softness));
+            }
             out[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] =
-                glsl::cameraPixel(sum / weights, x, y, c);
+                glsl::cameraPixel(radiance, x, y, c);
         }
     return out;
 }

@@ -140,7 +140,7 @@ TEST(RenderParity, TheCameraOffAndItsVariantsMatchReference) {
         f.params.set(P::MaskRadius, 0.8f);
         f.params.set(P::ToneCurve, 2.0f);
         f.params.set(P::Vignetting, 4.0f);
-        f.params.set(P::Softness, 1.0f);
+        f.params.set(P::Softness, 0.7f);
         f.params.set(P::FullWell, 300.0f);
         f.params.set(P::ReadNoise, 0.02f);
         f.frameIndex = 5;

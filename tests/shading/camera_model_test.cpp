@@ -197,7 +197,7 @@ TEST(CameraModel, SensorNoiseLiesOnItsMeanVarianceLine) {
         const int n = 200 * 200;
         for (int y = 0; y < 200; ++y)
             for (int x = 0; x < 200; ++x) {
-                const double v = sensorNoise(s, x, y, 1, c);
+                const double v = sensorNoise(s, pixelGaussians(x, y, c.frameSeed).y, c);
                 sum += v;
                 sum2 += v * v;
             }
@@ -220,8 +220,19 @@ TEST(CameraModel, SensorNoiseLiesOnItsMeanVarianceLine) {
     // Different frames, different patterns; the same frame, the same pattern.
     Camera d = c;
     d.frameSeed = 8;
-    EXPECT_NE(sensorNoise(0.3f, 5, 5, 0, c), sensorNoise(0.3f, 5, 5, 0, d));
-    EXPECT_EQ(sensorNoise(0.3f, 5, 5, 0, c), sensorNoise(0.3f, 5, 5, 0, c));
+    EXPECT_NE(pixelGaussians(5, 5, c.frameSeed).x, pixelGaussians(5, 5, d.frameSeed).x);
+    EXPECT_EQ(pixelGaussians(5, 5, c.frameSeed).x, pixelGaussians(5, 5, c.frameSeed).x);
+    // The three channels' deviates are independent: their correlation over
+    // the frame is near 0, each channel's variance near 1.
+    double cxy = 0, cxz = 0, cxx = 0;
+    for (int y = 0; y < 200; ++y)
+        for (int x = 0; x < 200; ++x) {
+            const vec3 g = pixelGaussians(x, y, 3);
+            cxy += g.x * g.y, cxz += g.x * g.z, cxx += g.x * g.x;
+        }
+    EXPECT_NEAR(cxx / 40000.0, 1.0, 0.03);
+    EXPECT_NEAR(cxy / 40000.0, 0.0, 0.02);
+    EXPECT_NEAR(cxz / 40000.0, 0.0, 0.02);
 }
 
 TEST(WetFilm, FresnelIsF0AtNormalIncidenceAndOneAtGrazing) {
