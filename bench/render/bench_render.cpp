@@ -117,10 +117,9 @@ int main(int argc, char** argv) try {
                     f.frameIndex = i;
                     if (bare) {
                         using P = shading::Param;
-                        for (P p : {P::AutoExposure, P::Vignetting, P::Mask, P::Softness, P::FullWell, P::ReadNoise,
-                                    P::ToneCurve, P::SheenStrength, P::Wrap})
-                            f.params.set(p, 0.0f);
-                        f.params.set(P::Saturation, 1.0f);
+                        shading::setCameraIdentity(f.params);
+                        f.params.set(P::SheenStrength, 0.0f);
+                        f.params.set(P::Wrap, 0.0f);
                     }
                     return f;
                 };

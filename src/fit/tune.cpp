@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/text.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/render/offscreen.hpp>
@@ -377,29 +378,6 @@ std::string sweepJson(const SweepResult& r, const HighlightSummary* target) {
 }
 
 namespace {
-
-std::string escapeXml(std::string_view s) {
-    std::string o;
-    for (char c : s) {
-        switch (c) {
-            case '<':
-                o += "&lt;";
-                break;
-            case '>':
-                o += "&gt;";
-                break;
-            case '&':
-                o += "&amp;";
-                break;
-            case '"':
-                o += "&quot;";
-                break;
-            default:
-                o += c;
-        }
-    }
-    return o;
-}
 
 // A "nice" tick label: 3 significant digits, no trailing zeros.
 std::string tickLabel(double v) {

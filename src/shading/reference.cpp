@@ -263,6 +263,13 @@ bool cameraIsIdentity(const ParamSet& p) noexcept {
            p[Param::ReadNoise] == 0.0f && p[Param::ToneCurve] == 0.0f && p[Param::Saturation] == 1.0f;
 }
 
+void setCameraIdentity(ParamSet& p) {
+    for (Param q : {Param::AutoExposure, Param::ExposureEv, Param::Vignetting, Param::Mask, Param::Softness,
+                    Param::FullWell, Param::ReadNoise, Param::ToneCurve})
+        p.set(q, 0.0f);
+    p.set(Param::Saturation, 1.0f);
+}
+
 int meterPixel(int i, int size) noexcept {
     return std::min(size - 1, static_cast<int>(std::floor((static_cast<float>(i) + 0.5f) * static_cast<float>(size) /
                                                           static_cast<float>(kMeterGrid))));

@@ -10,6 +10,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/core/text.hpp>
 #include <mucosa/study/plan.hpp>
 
 namespace mucosa::study {
@@ -137,26 +138,7 @@ ordered_json groupJson(const GroupAnalysis& g) {
 }
 
 std::string esc(const std::string& s) {
-    std::string o;
-    for (char c : s) {
-        switch (c) {
-            case '<':
-                o += "&lt;";
-                break;
-            case '>':
-                o += "&gt;";
-                break;
-            case '&':
-                o += "&amp;";
-                break;
-            case '"':
-                o += "&quot;";
-                break;
-            default:
-                o += c;
-        }
-    }
-    return o;
+    return escapeXml(s);
 }
 
 const char* groupColour(const std::string& g) {

@@ -130,9 +130,7 @@ TEST(RenderParity, TheCameraOffAndItsVariantsMatchReference) {
     for (Mode mode : {Mode::Noise, Mode::VertexPhong, Mode::Diffuse}) {
         shading::FrameSetup f = frameFor(camera::lookAt({6.0f, -14.0f, 22.0f}, {0, 0, 0}), 640, 480, mode);
         f.params.set(P::MapTiling, 1.5f);
-        for (P p : {P::AutoExposure, P::Vignetting, P::Mask, P::Softness, P::FullWell, P::ReadNoise, P::ToneCurve})
-            f.params.set(p, 0.0f);
-        f.params.set(P::Saturation, 1.0f);
+        shading::setCameraIdentity(f.params);
         ASSERT_TRUE(shading::cameraIsIdentity(f.params));
         expectParity(renderBoth(quad, f, map, diffuse), "parity_camera_off_" + std::string(shading::modeName(mode)));
         f.params.set(P::ExposureEv, 3.0f);

@@ -14,6 +14,7 @@
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/context.hpp>
 #include <mucosa/shading/params.hpp>
+#include <mucosa/shading/reference.hpp>
 
 namespace mucosa::test {
 
@@ -30,15 +31,10 @@ inline void paperLook(shading::ParamSet& p) {
     p.set(Param::SheenStrength, 0.0f);
     p.set(Param::Wrap, 0.0f);
     p.set(Param::LightSpread, 0.0f);
+    shading::setCameraIdentity(p);
+    p.set(Param::AutoExposure, 1.0f);
     p.set(Param::AutoPeak, 0.0f);  // mean metering: glints barely move it
     p.set(Param::AutoKey, 0.4f);
-    p.set(Param::ToneCurve, 0.0f);
-    p.set(Param::FullWell, 0.0f);
-    p.set(Param::ReadNoise, 0.0f);
-    p.set(Param::Softness, 0.0f);
-    p.set(Param::Vignetting, 0.0f);
-    p.set(Param::Mask, 0.0f);
-    p.set(Param::Saturation, 1.0f);
 }
 
 inline render::HeadlessContext& glContext() {

@@ -25,15 +25,7 @@ using shading::Param;
 // A camera that changes nothing: exposure 1, no vignetting, noise, softness
 // or mask, the linear response.
 void neutralCamera(shading::ParamSet& p) {
-    p.set(Param::AutoExposure, 0);
-    p.set(Param::ExposureEv, 0);
-    p.set(Param::Vignetting, 0);
-    p.set(Param::Mask, 0);
-    p.set(Param::Saturation, 1);
-    p.set(Param::Softness, 0);
-    p.set(Param::FullWell, 0);
-    p.set(Param::ReadNoise, 0);
-    p.set(Param::ToneCurve, 0);
+    shading::setCameraIdentity(p);
 }
 
 TEST(Lamp, IrradianceFallsWithTheInverseSquareAndTheSpotProfile) {

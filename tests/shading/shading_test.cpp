@@ -143,11 +143,8 @@ TEST(ModeTable, EachModeReadsExactlyTheTexturesItsRowNames) {
         using P = shading::Param;
         f.params.set(P::SpecularStrength, 0.8f);
         f.params.set(P::Shininess, 40.0f);
-        f.params.set(P::AutoExposure, 0.0f);
+        shading::setCameraIdentity(f.params);
         f.params.set(P::ExposureEv, 1.0f);
-        f.params.set(P::ToneCurve, 0.0f);
-        f.params.set(P::FullWell, 0.0f);
-        f.params.set(P::ReadNoise, 0.0f);
         shading::Textures plain;
         plain.diffuse = {&grey, shading::Filter::Linear, shading::Wrap::Repeat};
         shading::Textures withMap = plain, withDiffuse = plain;

@@ -93,6 +93,9 @@ float meterLuminance(const float* rgb, const FrameSetup& frame);
 // photographic modes straight to the output, clamped, as before the camera
 // existed (no HDR target, no post pass).
 bool cameraIsIdentity(const ParamSet& p) noexcept;
+// Sets the registry's camera group to the identity (every step off): the
+// look of a renderer without the camera, e.g. to compare with one.
+void setCameraIdentity(ParamSet& p);
 // The linear exposure factor for this frame given its metered luminance;
 // updates `state`. Fixed exposure (camera.auto_exposure 0): 2^exposure_ev.
 float exposureFor(const FrameSetup& frame, float metered, ExposureState& state);
