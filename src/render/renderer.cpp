@@ -64,26 +64,20 @@ struct PostProgram {
     UniformBlock camera;
 };
 
-// The mask pass (camera_mask.frag): the field stop as a depth occluder.
-PostProgram linkMask() {
+// A full-frame pass of the camera (camera_post.vert + `frag`, after
+// camera.glsl): the post pass (camera_post.frag, reads the HDR target from
+// unit 0) or the mask pass (camera_mask.frag, the field stop as a depth
+// occluder).
+PostProgram linkCameraPass(const char* frag, const char* name) {
     const std::string header = "#version 330 core\n" + std::string(shaderSource("camera.glsl"));
     PostProgram p;
     p.id = linkProgram("#version 330 core\n" + std::string(shaderSource("camera_post.vert")),
-                       header + std::string(shaderSource("camera_mask.frag")), "camera_mask");
-    checkActiveUniforms(p.id, "camera_mask");
-    p.camera = UniformBlock(p.id, cameraUniforms());
-    return p;
-}
-
-PostProgram linkPost() {
-    const std::string header = "#version 330 core\n" + std::string(shaderSource("camera.glsl"));
-    PostProgram p;
-    p.id = linkProgram("#version 330 core\n" + std::string(shaderSource("camera_post.vert")),
-                       header + std::string(shaderSource("camera_post.frag")), "camera_post");
-    checkActiveUniforms(p.id, "camera_post");
+                       header + std::string(shaderSource(frag)), name);
+    checkActiveUniforms(p.id, name);
     p.camera = UniformBlock(p.id, cameraUniforms());
     glUseProgram(p.id);
-    glUniform1i(glGetUniformLocation(p.id, "uHdr"), 0);
+    const GLint hdr = glGetUniformLocation(p.id, "uHdr");
+    if (hdr >= 0) glUniform1i(hdr, 0);
     return p;
 }
 
@@ -335,8 +329,8 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
     for (const shading::ModeInfo& m : shading::modes())
         if (m.headlight && !m.procedural)
             impl_->headlight[static_cast<std::size_t>(m.id)] = link(static_cast<int>(m.id), "#define MUCOSA_HEADLIGHT 1\n");
-    impl_->post = linkPost();
-    impl_->mask = linkMask();
+    impl_->post = linkCameraPass("camera_post.frag", "camera_post");
+    impl_->mask = linkCameraPass("camera_mask.frag", "camera_mask");
     glGenVertexArrays(1, &impl_->postVao);
     glGenVertexArrays(1, &impl_->vao);
     glGenBuffers(1, &impl_->vbo);
