@@ -55,14 +55,18 @@ TEST(UniformTables, NameTheFieldThatIsMissingOrOfAnotherType) {
 }
 
 TEST(UniformTables, OffsetsAndTypesCoverEachStruct) {
-    for (const auto& table : {render::frameUniforms(), render::materialUniforms(), render::proceduralUniforms()}) {
+    for (const auto& table : {render::frameUniforms(), render::materialUniforms(), render::proceduralUniforms(),
+                              render::cameraUniforms()}) {
         ASSERT_FALSE(table.empty());
         std::size_t previous = 0;
         for (std::size_t i = 0; i < table.size(); ++i) {
-            if (i > 0) EXPECT_GT(table[i].offset, previous) << table[i].name;  // declaration order
+            if (i > 0) {
+                EXPECT_GT(table[i].offset, previous) << table[i].name;  // declaration order
+            }
             previous = table[i].offset;
         }
     }
+    EXPECT_EQ(render::cameraUniforms()[0].name, "uCamera.exposure");
     EXPECT_EQ(render::frameUniforms()[0].name, "uFrame.viewProj");
     EXPECT_EQ(render::materialUniforms()[0].name, "uMaterial.baseColor");
 }
