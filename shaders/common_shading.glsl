@@ -134,7 +134,7 @@ struct Varyings {
     vec3 N;
     float diffuseLight;  // I_L att rho delta (per vertex in every mode)
     float specular;      // E k_s, times the Phong lobe in vertex-phong (E: the lamp's irradiance)
-    float irradiance;    // E: the lamp's irradiance, lampIrradiance (the sheen's, per pixel)
+    float sheen;         // the mucus film's sheen, E sheenLobe (noise, procedural; 0 in the other modes)
     vec2 sphereUv;       // multitexture: highlight-texture coordinates (highlightCoord)
     vec3 P;              // world position (mm): procedural noise in object space, per-pixel L and V
     vec3 tint;           // the mesh's per-vertex tint (linear RGB; 1 without colours): multiplies the albedo
@@ -208,11 +208,11 @@ float lampReach(float cosNL) {
 //   k_sheen F(N.V) (n + 2) / 2 (R.V)^n cos(theta_i).
 // (The BRDF k_sheen F (n + 2) / (2 pi) (R.V)^n; the pi is the one the diffuse
 // term leaves out.) Its directional albedo is at most k_sheen <= 1.
-// L and V: unit vectors in tangent space (N = (0, 0, 1)).
-float sheenLobe(vec3 L, vec3 V, Material m) {
+// From the cosines N.L, N.V and R.V (R = reflect(-L, N)) of unit vectors.
+float sheenLobe(float cosNL, float cosNV, float cosRV, Material m) {
     float n = m.sheenShininess;
-    float rv = max(-L.x * V.x - L.y * V.y + L.z * V.z, 0.0f);  // R = reflect(-L, N)
-    return m.sheenStrength * fresnelSchlick(V.z, m.mucusF0) * (0.5f * (n + 2.0f)) * pow(rv, n) * max(L.z, 0.0f);
+    return m.sheenStrength * fresnelSchlick(cosNV, m.mucusF0) * (0.5f * (n + 2.0f)) * pow(max(cosRV, 0.0f), n) *
+           max(cosNL, 0.0f);
 }
 
 // Paper eq. 11 without the albedo: rho(gamma) delta(r), gamma = cos(V, N),
@@ -306,24 +306,28 @@ Varyings tissueVertex(vec3 P, vec3 N0, vec4 T0, vec2 uv, vec3 tint, Frame f, Mat
     o.N = N;
     o.diffuseLight = 0.0f;
     o.specular = 0.0f;
-    o.irradiance = 0.0f;
+    o.sheen = 0.0f;
     o.sphereUv = vec2(0.0f);
     o.P = P;
     o.tint = tint;
-    // The diffuse term (paper eq. 11, with wrap lighting) and the lamp's
-    // irradiance are per vertex in every mode: the modes differ only in how
-    // the highlight is made, and the per-pixel work of the method is its
-    // specular term and the film's sheen.
+    // The diffuse term (paper eq. 11, with wrap lighting), the lamp's
+    // irradiance and the film's broad sheen are per vertex in every mode: the
+    // modes differ only in how the highlight is made, and the per-pixel work
+    // of the method is its specular term.
     float dl = max(length(L), kTiny);
     float dv = max(length(V), kTiny);
     vec3 Ln = L / dl;
     vec3 Vn = V / dv;
     float cosNL = dot(N, Ln);
     float E = lampIrradiance(dl, -dot(Ln, f.lampAxis), m);
-    o.irradiance = E * lampReach(cosNL);
+    float reachE = E * lampReach(cosNL);
     o.diffuseLight =
         E * brdfRho(wrapCosine(cosNL, m.wrap), m.c) * depthDelta(depthRatio(dv, m.depthMin, m.depthMax), m.d);
-    o.specular = o.irradiance * m.specularStrength;
+    o.specular = reachE * m.specularStrength;
+    // The sheen is a broad lobe on the smooth film (the geometric normal):
+    // per vertex, like the diffuse term; the method's modes only.
+    if (mode == kModeNoise || mode == kModeProcedural)
+        o.sheen = reachE * sheenLobe(cosNL, dot(N, Vn), dot(reflect(-Ln, N), Vn), m);
     if (mode == kModeVertexPhong) {
         o.specular = o.specular * phongLobe(N, Ln, Vn, m.shininess);
     }
@@ -375,13 +379,6 @@ float mapSampleVariance(vec4 mapSample, Material m, Frame f) {
     return mapSlopeVariance(mapSample.w) * m.bumpScale * m.bumpScale;
 }
 
-// The method's wet look besides its glints: the mucus film's sheen, per pixel
-// from the interpolated tangent-space vectors (the film is smooth: the
-// geometric normal, not the map's).
-float wetSheen(Varyings v, Material m) {
-    return v.irradiance * sheenLobe(normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt), m);
-}
-
 // Fragment stage, after the caller sampled the textures: albedoTex at v.uv,
 // mapSample at reflectanceMapCoord(v.uv) (rgb = 0.5 N + 0.5, a = slope
 // deviation, see kMapSigmaMax), highlight at v.sphereUv, and footprint =
@@ -400,7 +397,7 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
         float spec = methodSpecular(Nm, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt),
                                     mapSampleVariance(mapSample, m, f), m.shininess);
-        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * spec + wetSheen(v, m));
+        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * spec + v.sheen);
     }
     if (mode == kModeProcedural || mode == kModeProceduralNormals) {
         // The noise gradient as a surface gradient (Mikkelsen 2010): the
@@ -429,7 +426,7 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             specP = methodSpecular(Np, normalize(MUCOSA_LIGHT_POSITION(f) - v.P), normalize(f.eye - v.P), sigma2,
                                    m.shininess);
         }
-        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * specP + wetSheen(v, m));
+        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * specP + v.sheen);
     }
     if (mode == kModeDiffuse) {
         return albedo * (ambientE + v.diffuseLight);

@@ -139,7 +139,7 @@ constexpr std::array kVaryings = {
     MUCOSA_VARYING(N),
     MUCOSA_VARYING(diffuseLight),
     MUCOSA_VARYING(specular),
-    MUCOSA_VARYING(irradiance),
+    MUCOSA_VARYING(sheen),
     MUCOSA_VARYING(sphereUv),
     MUCOSA_VARYING(P),
     MUCOSA_VARYING(tint),

@@ -253,7 +253,8 @@ double sheenAlbedo(const Material& m, double thetaI) {
             const double ph = (j + 0.5) * 2 * std::numbers::pi / np;
             const vec3 V(static_cast<float>(std::sin(t) * std::cos(ph)), static_cast<float>(std::sin(t) * std::sin(ph)),
                          static_cast<float>(std::cos(t)));
-            const double fr = sheenLobe(L, V, m) / (std::numbers::pi * std::cos(thetaI));
+            const float rv = -L.x * V.x - L.y * V.y + L.z * V.z;  // R = reflect(-L, N), N = z
+            const double fr = sheenLobe(L.z, V.z, rv, m) / (std::numbers::pi * std::cos(thetaI));
             sum += fr * std::cos(t) * std::sin(t) * (std::numbers::pi / 2 / nt) * (2 * std::numbers::pi / np);
         }
     }
