@@ -50,8 +50,9 @@ Views renderQuad(bool mirrored, shading::Mode mode, float lightX) {
     f.mode = mode;
     f.width = 320;
     f.height = 240;
-    // Specular only: black tissue, no ambient.
+    // The map's glints only: black tissue, no ambient, no film sheen.
     f.params.setColor(shading::Param::BaseColor, {0, 0, 0});
+    f.params.set(shading::Param::SheenStrength, 0.0f);
     f.params.set(shading::Param::MucusOpacity, 0.0f);
     f.params.set(shading::Param::Shininess, 60.0f);
     render::Renderer r;
