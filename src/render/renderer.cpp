@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/memory.hpp>
 #include <mucosa/mesh/tangents.hpp>
 #include <mucosa/reflectance/specular_mips.hpp>
 #include <mucosa/render/context.hpp>
@@ -92,6 +93,10 @@ struct HdrTarget {
     void ensure(int w, int h) {
         if (fbo != 0 && w == width && h == height) return;
         release();
+        // Half-float RGBA and 24-bit depth per pixel (system memory on a
+        // software rasteriser): refused before allocating if it cannot fit.
+        requireMemory(saturatingMul(saturatingMul(static_cast<std::uint64_t>(w), static_cast<std::uint64_t>(h)), 12),
+                      "the camera's HDR target");
         glGenFramebuffers(1, &fbo);
         glGenTextures(1, &color);
         glBindTexture(GL_TEXTURE_2D, color);
