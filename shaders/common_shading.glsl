@@ -132,7 +132,7 @@ struct Varyings {
     vec3 T;              // world tangent frame (debug views)
     vec3 B;
     vec3 N;
-    float diffuseLight;  // I_L att rho delta (per vertex in every mode)
+    float diffuseLight;  // E rho delta (per vertex in every mode; the fitted modes: I_L-free rho delta)
     float specular;      // E k_s, times the Phong lobe in vertex-phong (E: the lamp's irradiance)
     float sheen;         // the mucus film's sheen, E sheenLobe (noise, procedural; 0 in the other modes)
     vec2 sphereUv;       // multitexture: highlight-texture coordinates (highlightCoord)
