@@ -86,15 +86,14 @@ Mesh makeTube(float radius, float length, int around, int along) {
         const Vec3 e2{t[1] * e1[2] - t[2] * e1[1], t[2] * e1[0] - t[0] * e1[2], t[0] * e1[1] - t[1] * e1[0]};
         for (int i = 0; i <= around; ++i) {
             const float u = static_cast<float>(i) / static_cast<float>(around), a = 2.0f * kPi * u;
-            const Vec3 radial{std::cos(a) * e1[0] + std::sin(a) * e2[0],
-                                    std::cos(a) * e1[1] + std::sin(a) * e2[1],
-                                    std::cos(a) * e1[2] + std::sin(a) * e2[2]};
+            const Vec3 radial{std::cos(a) * e1[0] + std::sin(a) * e2[0], std::cos(a) * e1[1] + std::sin(a) * e2[1],
+                              std::cos(a) * e1[2] + std::sin(a) * e2[2]};
             m.positions.push_back({c[0] + radius * radial[0], c[1] + radius * radial[1], c[2] + radius * radial[2]});
             m.normals.push_back({-radial[0], -radial[1], -radial[2]});  // into the lumen
             m.uvs.push_back({u, s / circumference});
             // dP/du = d(radial)/da; dP/dv = t. With N = -radial: cross(N, T) = -t x ... -> w fixes B = +t.
             const Vec3 T{-std::sin(a) * e1[0] + std::cos(a) * e2[0], -std::sin(a) * e1[1] + std::cos(a) * e2[1],
-                               -std::sin(a) * e1[2] + std::cos(a) * e2[2]};
+                         -std::sin(a) * e1[2] + std::cos(a) * e2[2]};
             const Vec3 N{-radial[0], -radial[1], -radial[2]};
             const Vec3 NxT{N[1] * T[2] - N[2] * T[1], N[2] * T[0] - N[0] * T[2], N[0] * T[1] - N[1] * T[0]};
             const float w = (NxT[0] * t[0] + NxT[1] * t[1] + NxT[2] * t[2]) >= 0 ? 1.0f : -1.0f;

@@ -24,10 +24,10 @@ using Vec4 = std::array<float, 4>;
 
 struct Mesh {
     std::vector<Vec3> positions;
-    std::vector<Vec3> normals;    // per vertex, unit; empty if absent
-    std::vector<Vec2> uvs;        // per vertex; empty if absent
-    std::vector<Vec4> tangents;   // per vertex, xyz unit, w = +-1; empty if absent
-    std::vector<Vec3> colors;     // per vertex linear RGB tint multiplying the albedo; empty if absent
+    std::vector<Vec3> normals;           // per vertex, unit; empty if absent
+    std::vector<Vec2> uvs;               // per vertex; empty if absent
+    std::vector<Vec4> tangents;          // per vertex, xyz unit, w = +-1; empty if absent
+    std::vector<Vec3> colors;            // per vertex linear RGB tint multiplying the albedo; empty if absent
     std::vector<std::uint32_t> indices;  // 3 per triangle
 
     std::size_t vertexCount() const noexcept { return positions.size(); }

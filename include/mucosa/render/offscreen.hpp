@@ -62,7 +62,8 @@ struct CompareOptions {
     int views = 2;  // views along the camera path
     std::function<void(int done, int total)> progress;
 };
-image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& assets, const CompareOptions& options = {});
+image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& assets,
+                           const CompareOptions& options = {});
 
 // The comparison sheet of the built-in default scene (the phantom, 'bronchial'
 // preset), written atomically to `png`: what `mucosa demo` adds to ./out/.

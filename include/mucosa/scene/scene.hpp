@@ -148,7 +148,6 @@ struct SceneAssets {
 // one); the renderer then keeps its flat default map.
 SceneAssets loadAssets(const Scene& scene, int threads = 0, bool reflectanceMap = true);
 
-
 // Camera poses for `frames` frames (scene.pose alone when frames == 1 and a
 // pose is given; else along the path).
 std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& assets, int frames);

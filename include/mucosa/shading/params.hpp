@@ -47,11 +47,11 @@ struct ModeInfo {
     std::string_view name;  // --mode and scene "mode" value
     std::string_view description;
     UvNeed uvs;
-    bool readsDiffuse;      // samples the subject texture
-    bool readsMap;          // samples the reflectance map (so a scene must load or generate one)
-    bool readsHighlight;    // samples the sphere-mapped highlight texture
-    bool procedural;        // evaluates the noise per pixel (procedural_noise.glsl)
-    bool headlight;         // lights per pixel and has a variant for a light exactly at the eye (Lt = Vt)
+    bool readsDiffuse;    // samples the subject texture
+    bool readsMap;        // samples the reflectance map (so a scene must load or generate one)
+    bool readsHighlight;  // samples the sphere-mapped highlight texture
+    bool procedural;      // evaluates the noise per pixel (procedural_noise.glsl)
+    bool headlight;       // lights per pixel and has a variant for a light exactly at the eye (Lt = Vt)
     // Renders linear radiance that goes through the endoscope's camera
     // (shaders/camera.glsl: exposure, sensor, tone curve, mask). The debug
     // views and the fitted modes (whose texture and rho, delta already are a
