@@ -264,7 +264,7 @@ TEST(Phantom, TintIsPaleOnCartilageAndRedderOnTheMembranousWall) {
         if (std::abs(t.angleDeg) < 60 && ringPhase(t.s) > 0.44) furrow += gr, ++nf;
         if (std::abs(t.angleDeg) > 165) membrane += gr, ++nm;
     }
-    ASSERT_GT(nc * nf * nm, 0);
+    ASSERT_TRUE(nc > 0 && nf > 0 && nm > 0);
     crest /= nc, furrow /= nf, membrane /= nm;
     std::printf("tint green/red: crests %.3f, furrows %.3f, membranous wall %.3f\n", crest, furrow, membrane);
     EXPECT_GT(crest, furrow + 0.05);
