@@ -1,0 +1,148 @@
+#pragma once
+// Video-to-CT registration: the pose of every bronchoscope frame on a mesh of
+// the patient's airway (Deligianni, Chung, Yang: pq-space 2D/3D registration,
+// MICCAI 2003; docs/theory.md "Registration").
+//
+// Video side: with the lamp at the optical centre, a Lambertian surface and
+// local planarity, the log-intensity derivatives are linear in the surface
+// gradient (p, q) and albedo and lamp power cancel (pqFromShading). Model side:
+// the mesh rendered at a candidate pose, its normals lit by the same lamp and
+// passed through the same estimator (pqFromModel), so that a lamp offset from
+// the lens is modelled exactly. The pose maximises the confidence-weighted
+// agreement of the two normal fields, tracked frame to frame, coarse to fine.
+// The baseline: normalised cross-correlation of the frame with a Lambertian
+// render at the candidate pose (intensity-based registration).
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <mucosa/fit/frames.hpp>
+#include <mucosa/fit/raster.hpp>
+#include <mucosa/image/image.hpp>
+#include <mucosa/mesh/mesh.hpp>
+
+namespace mucosa::fit {
+
+enum class RegistrationMethod { PqSpace, Intensity };
+const char* methodName(RegistrationMethod m) noexcept;
+
+// A (p, q) field over a pinhole image: the surface z(X, Y) in camera space
+// (OpenCV axes) has gradient (p, q), i.e. normal (p, q, -1) / sqrt(1 + p^2 + q^2)
+// facing the camera. weight 0 = no estimate (masked).
+struct PqField {
+    int width = 0, height = 0;
+    std::vector<float> p, q, weight;
+    std::vector<std::uint8_t> usable;  // the pixels the local fits drew on
+};
+
+struct PqOptions {
+    double smoothingPx = 2.0;      // Gaussian sigma of the log-intensity smoothing, working pixels
+    double darkFraction = 0.04;    // below this fraction of the frame's 99th percentile: the dark lumen
+    double saturation = 0.97;      // linear value at or above which a pixel is specular/clipped
+    int borderPx = 2;              // image border (and field-of-view edge) masked, working pixels
+    double minConditioning = 0.2;  // 1 + a x + b y below this: near-grazing, masked
+    double maxSlope = 6.0;         // |(p, q)| above this: a fold or occluding contour, masked
+};
+
+// Video side: `linear` is the frame's linear luminance (1 channel) resampled to
+// an undistorted pinhole camera K; `valid` (optional, 1 = usable) marks the
+// field of view and clipped pixels. Light at the optical centre.
+PqField pqFromShading(const image::ImageF& linear, const Intrinsics& K, const PqOptions& options,
+                      const std::vector<std::uint8_t>* valid = nullptr);
+
+// Model side at one pose: what the lamp (at `lightOffset`, camera space)
+// shows of the surface the depth pass sees (interpolated mesh normals), as
+// linear Lambertian irradiance n.l / d^2, rendered at `supersample` x the
+// resolution and box-filtered like a camera's pixels.
+struct ModelView {
+    image::ImageF shading;           // 1 channel; 0 where nothing lit is seen
+    image::ImageF depth;             // 1 channel, mean z of the sub-samples that hit (inf: none)
+    std::vector<std::uint8_t> seen;  // 1: every sub-sample sees a lit surface
+};
+ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& lightOffset,
+                      int threads = 1, int supersample = 2);
+// The same estimator on the model's shading: like is compared with like, so
+// the estimator's own biases (curvature breaks local planarity; smoothing)
+// and the lamp's offset from the lens are modelled exactly, not assumed away.
+// On a plane with the lamp at the lens it returns the plane's gradient.
+// `usable` (optional): the video field's usable pixels; the model's fits
+// then draw on the same pixels as the video's (no lumen or glint the video
+// could not use enters the model's estimate either).
+PqField pqFromModel(const ModelView& view, const Intrinsics& K, const PqOptions& options,
+                    const std::vector<std::uint8_t>* usable = nullptr);
+
+// Weighted mean cosine between the normals of two fields over pixels where
+// `video` has weight; pixels the model does not see count as cosine 0.
+double pqSimilarity(const PqField& video, const PqField& model);
+// Normalised cross-correlation of two images over the pixels `valid` marks.
+double normalisedCrossCorrelation(const image::ImageF& a, const image::ImageF& b,
+                                  const std::vector<std::uint8_t>& valid);
+
+struct RegisterOptions {
+    RegistrationMethod method = RegistrationMethod::PqSpace;
+    std::vector<int> levels = {80, 160};  // working widths, coarse to fine (capped at the frame's width)
+    int maxIterations = 12;               // Levenberg-Marquardt iterations per level
+    double robustScale = 0.5;             // pq: Cauchy scale of |n_video - n_model|
+    int supersample = 2;                  // model renders: sub-samples per pixel side
+    double stepMm = 0.15, stepDeg = 0.3;  // finite-difference steps (at the finest level)
+    double farMm = 120.0;                 // the depth pass sees this far
+    double minSimilarity = 0.85;          // below this (pq) a frame is flagged not converged
+    double minCorrelation = 0.8;          // the same for the intensity method
+    double saturation = 0.97;             // linear, specular/clipped
+    double gamma = 1.0;                   // frames' linearisation (FrameSet::gamma)
+    Vec3d lightOffset{0, 0, 0};
+    PqOptions pq;
+    int threads = 0;
+};
+
+struct FrameRegistration {
+    Mat4 cameraToWorld{};
+    double similarity = 0;  // pq: weighted mean cosine; intensity: NCC
+    int iterations = 0;     // summed over levels
+    int evaluations = 0;    // renders
+    bool converged = false;
+    double renderSeconds = 0, similaritySeconds = 0, optimiserSeconds = 0;
+};
+
+// A frame prepared for registration: linear luminance at every level,
+// resampled to an undistorted pinhole camera, with its validity mask.
+struct VideoFrame {
+    struct Level {
+        Intrinsics K;
+        image::ImageF luminance;
+        std::vector<std::uint8_t> valid;
+        PqField pq;  // pq method only
+    };
+    std::vector<Level> levels;
+};
+// `linear`: the decoded frame (3 channels, linear), `saturated` as from
+// loadFrameImage. Pixels outside the scope's field of view (black) are masked.
+VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* saturated, const Intrinsics& K,
+                        const RegisterOptions& options);
+
+// Registers one frame starting from `initial` (the previous frame's pose).
+FrameRegistration registerFrame(const mesh::Mesh& mesh, const VideoFrame& frame, const Mat4& initial,
+                                const RegisterOptions& options);
+
+// The triangles within `radiusMm` of a camera centre (the depth pass of a
+// frame's neighbourhood; registration renders many poses near one point).
+std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& mesh, const Vec3d& centre, double radiusMm);
+
+// Pose error between two camera_to_world matrices: centre distance (mesh
+// units) and rotation angle (degrees).
+struct PoseError {
+    double position = 0, degrees = 0;
+};
+PoseError poseError(const Mat4& a, const Mat4& b) noexcept;
+
+// A pose moved by a translation (camera axes, mesh units) and a rotation
+// vector (camera axes, radians): camera_to_world * [R(w) | t].
+Mat4 perturbPose(const Mat4& cameraToWorld, const Vec3d& translation, const Vec3d& rotation) noexcept;
+
+// A camera_to_world from a position, a look-at point and an up direction
+// (OpenCV axes: z toward look_at, y down, so `up` maps to -y).
+Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up);
+
+}  // namespace mucosa::fit

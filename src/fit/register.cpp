@@ -1,0 +1,663 @@
+#include <mucosa/fit/register.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <optional>
+
+#include <Eigen/Dense>
+
+#include <mucosa/core/error.hpp>
+
+namespace mucosa::fit {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Separable Gaussian with zero padding (the moments of the local fit).
+void gaussianBlur(std::vector<double>& v, int w, int h, double sigma) {
+    const int r = std::max(1, static_cast<int>(std::ceil(3 * sigma)));
+    std::vector<double> k(2 * r + 1);
+    double sum = 0;
+    for (int i = -r; i <= r; ++i) sum += k[i + r] = std::exp(-0.5 * i * i / (sigma * sigma));
+    for (double& x : k) x /= sum;
+    std::vector<double> t(v.size());
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            double a = 0;
+            for (int i = std::max(-r, -x); i <= std::min(r, w - 1 - x); ++i)
+                a += k[i + r] * v[static_cast<std::size_t>(y) * w + x + i];
+            t[static_cast<std::size_t>(y) * w + x] = a;
+        }
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            double a = 0;
+            for (int i = std::max(-r, -y); i <= std::min(r, h - 1 - y); ++i)
+                a += k[i + r] * t[static_cast<std::size_t>(y + i) * w + x];
+            v[static_cast<std::size_t>(y) * w + x] = a;
+        }
+}
+
+// The closed-form solve: log-intensity derivatives (per unit of normalised
+// image coordinate) at (x, y) -> (p, q, conditioning), or nothing if masked.
+std::optional<std::array<double, 3>> solvePq(double gx, double gy, double xn, double yn, const PqOptions& o) {
+    const double S = 1 + xn * xn + yn * yn;
+    const double a = -gx / 3 - xn / S, b = -gy / 3 - yn / S;
+    const double cond = 1 + a * xn + b * yn;
+    if (cond < o.minConditioning) return std::nullopt;
+    const double p = a / cond, q = b / cond;
+    if (p * p + q * q > o.maxSlope * o.maxSlope) return std::nullopt;
+    return std::array<double, 3>{p, q, cond};
+}
+
+// The video-side estimator. `E`: linear irradiance; `use`: pixels
+// that may be used; `weighted`: the video's confidence (else weight 1).
+PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const Intrinsics& K, const PqOptions& o,
+                 double darkLevel) {
+    const int w = E.width(), h = E.height();
+    const std::size_t n = static_cast<std::size_t>(w) * h;
+    PqField f;
+    f.width = w;
+    f.height = h;
+    f.p.assign(n, 0.f);
+    f.q.assign(n, 0.f);
+    f.weight.assign(n, 0.f);
+    std::vector<float> L(n, 0.f);
+    for (std::size_t i = 0; i < n; ++i) {
+        const float e = E.data()[i];
+        if (!(e > 0) || !std::isfinite(e)) use[i] = 0;
+        if (use[i]) L[i] = std::log(e);
+    }
+    f.usable = use;
+    // The log-intensity's gradient at each pixel: the slope of a plane fitted
+    // to ln E by Gaussian-weighted least squares over the usable pixels around
+    // it (a masked local-linear fit: unlike smoothing then differencing, it is
+    // unbiased next to the mask's edge where the window is one-sided). The
+    // moments come from separable convolutions of m, m x, m y, m x^2, m y^2,
+    // m x y, m L, m L x, m L y (absolute coordinates, centred algebraically).
+    enum { M1, MX, MY, MXX, MYY, MXY, ML, MLX, MLY, kMoments };
+    std::vector<std::vector<double>> mom(kMoments, std::vector<double>(n, 0.0));
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * w + x;
+            if (!use[i]) continue;
+            const double fx = x, fy = y;
+            mom[M1][i] = 1, mom[MX][i] = fx, mom[MY][i] = fy, mom[MXX][i] = fx * fx, mom[MYY][i] = fy * fy;
+            mom[MXY][i] = fx * fy, mom[ML][i] = L[i], mom[MLX][i] = L[i] * fx, mom[MLY][i] = L[i] * fy;
+        }
+    for (auto& m : mom) gaussianBlur(m, w, h, std::max(0.5, o.smoothingPx));
+    const double fullMass = 1.0;  // the kernel is normalised
+    const int b = std::max(1, o.borderPx);
+    for (int y = b; y < h - b; ++y)
+        for (int x = b; x < w - b; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * w + x;
+            if (!use[i]) continue;
+            const double s1 = mom[M1][i];
+            if (s1 < 0.35 * fullMass) continue;                               // too little of the window is usable
+            const double mx = mom[MX][i] / s1 - x, my = mom[MY][i] / s1 - y;  // centroid offset
+            // Centred second moments (about the pixel) and cross-moments with L.
+            const double sxx = mom[MXX][i] - 2.0 * x * mom[MX][i] + double(x) * x * s1;
+            const double syy = mom[MYY][i] - 2.0 * y * mom[MY][i] + double(y) * y * s1;
+            const double sxy = mom[MXY][i] - x * mom[MY][i] - y * mom[MX][i] + double(x) * y * s1;
+            const double sl = mom[ML][i];
+            const double slx = mom[MLX][i] - x * sl, sly = mom[MLY][i] - y * sl;
+            // Normal equations of L ~ c + gu du + gv dv with du = u - x, dv = v - y.
+            Eigen::Matrix3d A;
+            A << s1, s1 * mx, s1 * my, s1 * mx, sxx, sxy, s1 * my, sxy, syy;
+            const Eigen::Vector3d rhs(sl, slx, sly);
+            // A window cut to a line cannot give a 2D slope.
+            if (std::abs(A.determinant()) < 1e-3 * s1 * s1 * s1 * std::pow(o.smoothingPx, 4)) continue;
+            const Eigen::Vector3d sol = A.ldlt().solve(rhs);
+            // d lnE / d(normalised x) = d lnE / du * fx.
+            const double gx = sol[1] * K.fx, gy = sol[2] * K.fy;
+            const auto pq = solvePq(gx, gy, (x - K.cx) / K.fx, (y - K.cy) / K.fy, o);
+            if (!pq) continue;
+            const double cond = (*pq)[2];
+            f.p[i] = static_cast<float>((*pq)[0]);
+            f.q[i] = static_cast<float>((*pq)[1]);
+            // Conditioning: the solve amplifies gradient noise by 1 / cond.
+            // Brightness: the log-gradient's noise grows as the signal falls.
+            const double e = E.data()[i];
+            f.weight[i] = static_cast<float>(std::min(1.0, cond / (4 * o.minConditioning)) * (e / (e + 2 * darkLevel)));
+        }
+    return f;
+}
+
+double percentile(std::vector<float> v, double q) {
+    if (v.empty()) return 0;
+    const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size() - 1)));
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+    return v[k];
+}
+
+using Mat3 = Eigen::Matrix3d;
+
+Mat3 rotationOf(const Mat4& m) {
+    Mat3 R;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) R(r, c) = m[r][c];
+    return R;
+}
+
+Mat3 rodrigues(const Vec3d& w) {
+    const Eigen::Vector3d v(w[0], w[1], w[2]);
+    const double a = v.norm();
+    if (a < 1e-12) return Mat3::Identity();
+    return Eigen::AngleAxisd(a, v / a).toRotationMatrix();
+}
+
+// A frame's neighbourhood as a small mesh (positions, normals, indices).
+mesh::Mesh submesh(const mesh::Mesh& m, const std::vector<std::uint32_t>& tris) {
+    mesh::Mesh s;
+    std::vector<std::int64_t> remap(m.vertexCount(), -1);
+    s.indices.reserve(tris.size() * 3);
+    for (std::uint32_t t : tris)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = m.indices[3 * static_cast<std::size_t>(t) + k];
+            if (remap[v] < 0) {
+                remap[v] = static_cast<std::int64_t>(s.positions.size());
+                s.positions.push_back(m.positions[v]);
+                s.normals.push_back(m.normals[v]);
+            }
+            s.indices.push_back(static_cast<std::uint32_t>(remap[v]));
+        }
+    return s;
+}
+
+constexpr double kUnseen2 = 0.3;  // |n_video - n_model|^2 charged for a pixel the model does not see
+
+struct Objective {
+    double cauchy2 = 0.25;  // squared scale of the Cauchy loss
+    const mesh::Mesh& mesh;
+    const VideoFrame::Level& level;
+    const RegisterOptions& o;
+    std::vector<std::size_t> pixels;  // the residual's pixels (fixed for the level)
+    double videoMean = 0, videoStd = 1;
+    FrameRegistration& stats;
+
+    Objective(const mesh::Mesh& m, const VideoFrame::Level& l, const RegisterOptions& opt, FrameRegistration& st)
+        : cauchy2(opt.robustScale * opt.robustScale), mesh(m), level(l), o(opt), stats(st) {
+        const std::size_t n = static_cast<std::size_t>(l.K.width) * l.K.height;
+        if (o.method == RegistrationMethod::PqSpace) {
+            for (std::size_t i = 0; i < n; ++i)
+                if (l.pq.weight[i] > 0) pixels.push_back(i);
+        } else {
+            double s = 0, s2 = 0;
+            for (std::size_t i = 0; i < n; ++i)
+                if (l.valid[i]) {
+                    pixels.push_back(i);
+                    s += l.luminance.data()[i];
+                    s2 += double(l.luminance.data()[i]) * l.luminance.data()[i];
+                }
+            const double count = static_cast<double>(std::max<std::size_t>(1, pixels.size()));
+            videoMean = s / count;
+            videoStd = std::sqrt(std::max(1e-20, s2 / count - videoMean * videoMean));
+        }
+    }
+
+    // Per-pixel difference vectors at a pose (3 per pixel for pq, 1 for
+    // intensity) and the similarity there.
+    // `seen` (optional): 1 where the model has an estimate at the pixel.
+    std::vector<double> differences(const Mat4& pose, double* similarity, std::vector<std::uint8_t>* seen = nullptr) {
+        auto t0 = Clock::now();
+        const ModelView view = renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample);
+        stats.renderSeconds += secondsSince(t0);
+        ++stats.evaluations;
+        t0 = Clock::now();
+        std::vector<double> d;
+        if (o.method == RegistrationMethod::PqSpace) {
+            const PqField m = pqFromModel(view, level.K, o.pq, &level.pq.usable);
+            d.resize(3 * pixels.size());
+            if (seen) seen->assign(pixels.size(), 0);
+            double sw = 0, sc = 0;
+            for (std::size_t k = 0; k < pixels.size(); ++k) {
+                const std::size_t i = pixels[k];
+                const double pv = level.pq.p[i], qv = level.pq.q[i];
+                const double nv = std::sqrt(1 + pv * pv + qv * qv);
+                const Eigen::Vector3d a(pv / nv, qv / nv, -1 / nv);
+                Eigen::Vector3d diff;
+                double c = 0;
+                if (m.weight[i] > 0) {
+                    const double pm = m.p[i], qm = m.q[i];
+                    const double nm = std::sqrt(1 + pm * pm + qm * qm);
+                    const Eigen::Vector3d bv(pm / nm, qm / nm, -1 / nm);
+                    diff = a - bv;
+                    c = a.dot(bv);
+                    if (seen) (*seen)[k] = 1;
+                } else {
+                    // Unseen by the model (beyond its edge, an occluding
+                    // contour's rim): a fixed, moderate cost (that of 33
+                    // degrees). A large one makes the cost jump as pixels cross
+                    // a contour and hides the smooth part from the solver;
+                    // none would reward looking past the mesh.
+                    diff = a * std::sqrt(kUnseen2);
+                }
+                for (int j = 0; j < 3; ++j) d[3 * k + j] = diff[j];
+                sw += level.pq.weight[i];
+                sc += level.pq.weight[i] * c;
+            }
+            if (similarity) *similarity = sw > 0 ? sc / sw : 0;
+        } else {
+            double s = 0, s2 = 0;
+            for (std::size_t i : pixels) {
+                s += view.shading.data()[i];
+                s2 += double(view.shading.data()[i]) * view.shading.data()[i];
+            }
+            const double n = static_cast<double>(std::max<std::size_t>(1, pixels.size()));
+            const double mm = s / n, sd = std::sqrt(std::max(1e-30, s2 / n - mm * mm));
+            d.resize(pixels.size());
+            if (seen) seen->assign(pixels.size(), 1);
+            double ncc = 0;
+            for (std::size_t k = 0; k < pixels.size(); ++k) {
+                const std::size_t i = pixels[k];
+                const double zv = (level.luminance.data()[i] - videoMean) / videoStd;
+                const double zm = (view.shading.data()[i] - mm) / sd;
+                d[k] = (zv - zm) / std::sqrt(n);
+                ncc += zv * zm / n;
+            }
+            if (similarity) *similarity = ncc;
+        }
+        stats.similaritySeconds += secondsSince(t0);
+        return d;
+    }
+
+    int block() const { return o.method == RegistrationMethod::PqSpace ? 3 : 1; }
+    double weight(std::size_t k) const {
+        return o.method == RegistrationMethod::PqSpace ? level.pq.weight[pixels[k]] : 1.0;
+    }
+};
+
+// Cauchy loss on the per-pixel difference norm (pq: |n_video - n_model|^2 =
+// 2 - 2 cos): a pixel whose model normal is far off (a specular streak, a
+// vessel edge) stops pulling once it is clearly an outlier.
+
+double robustCost(const Objective& obj, const std::vector<double>& d) {
+    const int b = obj.block();
+    double c = 0;
+    for (std::size_t k = 0; k < obj.pixels.size(); ++k) {
+        double e2 = 0;
+        for (int j = 0; j < b; ++j) e2 += d[b * k + j] * d[b * k + j];
+        c += obj.o.method == RegistrationMethod::PqSpace ? obj.weight(k) * obj.cauchy2 * std::log1p(e2 / obj.cauchy2)
+                                                         : e2;
+    }
+    return c;
+}
+
+}  // namespace
+
+const char* methodName(RegistrationMethod m) noexcept {
+    return m == RegistrationMethod::PqSpace ? "pq" : "intensity";
+}
+
+PqField pqFromShading(const image::ImageF& linear, const Intrinsics& K, const PqOptions& o,
+                      const std::vector<std::uint8_t>* valid) {
+    const std::size_t n = static_cast<std::size_t>(linear.width()) * linear.height();
+    std::vector<float> inside;
+    inside.reserve(n);
+    for (std::size_t i = 0; i < n; ++i)
+        if (!valid || (*valid)[i]) inside.push_back(linear.data()[i]);
+    const double dark = o.darkFraction * percentile(inside, 0.99);
+    std::vector<std::uint8_t> use(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const float e = linear.data()[i];
+        use[i] = (!valid || (*valid)[i]) && e > dark && e < o.saturation;
+    }
+    return estimate(linear, std::move(use), K, o, dark);
+}
+
+ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& L,
+                      int threads, int supersample) {
+    // Rendered at `supersample` x the resolution and box-filtered, as the
+    // video's pixels integrate the scene: without it the model is point-
+    // sampled, and the comparison favours a pose that aliases alike.
+    const int ss = std::max(1, supersample);
+    Intrinsics Ks = K;
+    Ks.width = K.width * ss;
+    Ks.height = K.height * ss;
+    Ks.fx = K.fx * ss;
+    Ks.fy = K.fy * ss;
+    Ks.cx = (K.cx + 0.5) * ss - 0.5;
+    Ks.cy = (K.cy + 0.5) * ss - 0.5;
+    const Mat4 W = invertRigid(cameraToWorld);
+    const GBuffer g = rasterize(mesh, Ks, W, 0.5, threads);
+    ModelView v;
+    v.shading = image::ImageF(K.width, K.height, 1);
+    v.depth = image::ImageF(K.width, K.height, 1);
+    v.seen.assign(static_cast<std::size_t>(K.width) * K.height, 0);
+    const Mat3 R = rotationOf(W);
+    for (int y = 0; y < K.height; ++y)
+        for (int x = 0; x < K.width; ++x) {
+            double sum = 0, depth = 0;
+            int hits = 0, lit = 0;
+            for (int sy = 0; sy < ss; ++sy)
+                for (int sx = 0; sx < ss; ++sx) {
+                    const int X = x * ss + sx, Y = y * ss + sy;
+                    const std::size_t i = static_cast<std::size_t>(Y) * Ks.width + X;
+                    const std::int32_t t = g.triangle[i];
+                    if (t < 0) continue;
+                    ++hits;
+                    const double z = g.depth[i];
+                    depth += z;
+                    const Eigen::Vector3d P((X - Ks.cx) / Ks.fx * z, (Y - Ks.cy) / Ks.fy * z, z);
+                    const double b1 = g.b1[i], b2 = g.b2[i], b0 = 1 - b1 - b2;
+                    Eigen::Vector3d nw = Eigen::Vector3d::Zero();
+                    const double bs[3] = {b0, b1, b2};
+                    for (int k = 0; k < 3; ++k) {
+                        const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
+                        nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
+                    }
+                    const Eigen::Vector3d nc = (R * nw).normalized();
+                    const Eigen::Vector3d l = Eigen::Vector3d(L[0], L[1], L[2]) - P;
+                    const double d = l.norm();
+                    const double cosine = nc.dot(l) / d;
+                    if (cosine > 0) sum += cosine / (d * d), ++lit;
+                }
+            const std::size_t o = static_cast<std::size_t>(y) * K.width + x;
+            v.shading.data()[o] = static_cast<float>(sum / (ss * ss));
+            v.depth.data()[o] = hits ? static_cast<float>(depth / hits) : std::numeric_limits<float>::infinity();
+            // Seen: every sub-sample hits a lit surface (a pixel on an
+            // occluding contour or the mesh's edge mixes two surfaces).
+            v.seen[o] = lit == ss * ss ? 1 : 0;
+        }
+    return v;
+}
+
+PqField pqFromModel(const ModelView& view, const Intrinsics& K, const PqOptions& o,
+                    const std::vector<std::uint8_t>* usable) {
+    const std::size_t n = static_cast<std::size_t>(K.width) * K.height;
+    std::vector<std::uint8_t> use(n);
+    for (std::size_t i = 0; i < n; ++i)
+        use[i] = view.seen[i] && view.shading.data()[i] > 0 && (!usable || (*usable)[i]);
+    PqField f = estimate(view.shading, std::move(use), K, o, 0);
+    for (float& w : f.weight) w = w > 0 ? 1.f : 0.f;
+    return f;
+}
+
+double pqSimilarity(const PqField& video, const PqField& model) {
+    double sw = 0, sc = 0;
+    for (std::size_t i = 0; i < video.weight.size(); ++i) {
+        const double w = video.weight[i];
+        if (w <= 0) continue;
+        sw += w;
+        if (model.weight[i] <= 0) continue;
+        const double pa = video.p[i], qa = video.q[i], pb = model.p[i], qb = model.q[i];
+        sc += w * (pa * pb + qa * qb + 1) / std::sqrt((1 + pa * pa + qa * qa) * (1 + pb * pb + qb * qb));
+    }
+    return sw > 0 ? sc / sw : 0;
+}
+
+double normalisedCrossCorrelation(const image::ImageF& a, const image::ImageF& b,
+                                  const std::vector<std::uint8_t>& valid) {
+    double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0, n = 0;
+    for (std::size_t i = 0; i < valid.size(); ++i) {
+        if (!valid[i]) continue;
+        const double x = a.data()[i], y = b.data()[i];
+        sa += x, sb += y, saa += x * x, sbb += y * y, sab += x * y, ++n;
+    }
+    if (n < 2) return 0;
+    const double cov = sab / n - sa * sb / (n * n);
+    const double va = saa / n - sa * sa / (n * n), vb = sbb / n - sb * sb / (n * n);
+    return va > 0 && vb > 0 ? cov / std::sqrt(va * vb) : 0;
+}
+
+VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* saturated, const Intrinsics& K,
+                        const RegisterOptions& o) {
+    const int W = linear.width(), H = linear.height();
+    // Luminance (Rec. 709 weights) and the scope's field of view: black pixels
+    // connected to the image border are outside it; a dark lumen inside is not.
+    std::vector<float> lum(static_cast<std::size_t>(W) * H);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const int c = linear.channels();
+            const float r = linear.at(x, y, 0), g = linear.at(x, y, c > 1 ? 1 : 0), b = linear.at(x, y, c > 2 ? 2 : 0);
+            lum[static_cast<std::size_t>(y) * W + x] = 0.2126f * r + 0.7152f * g + 0.0722f * b;
+        }
+    std::vector<std::uint8_t> outside(lum.size(), 0);
+    std::vector<std::size_t> stack;
+    auto seed = [&](int x, int y) {
+        const std::size_t i = static_cast<std::size_t>(y) * W + x;
+        if (!outside[i] && lum[i] <= 1e-6f) outside[i] = 1, stack.push_back(i);
+    };
+    for (int x = 0; x < W; ++x) seed(x, 0), seed(x, H - 1);
+    for (int y = 0; y < H; ++y) seed(0, y), seed(W - 1, y);
+    while (!stack.empty()) {
+        const std::size_t i = stack.back();
+        stack.pop_back();
+        const int x = static_cast<int>(i % W), y = static_cast<int>(i / W);
+        if (x > 0) seed(x - 1, y);
+        if (x + 1 < W) seed(x + 1, y);
+        if (y > 0) seed(x, y - 1);
+        if (y + 1 < H) seed(x, y + 1);
+    }
+
+    VideoFrame f;
+    for (int width : o.levels) {
+        width = std::min(width, W);
+        if (!f.levels.empty() && f.levels.back().K.width == width) continue;
+        const double s = static_cast<double>(width) / W;
+        VideoFrame::Level l;
+        l.K.width = width;
+        l.K.height = std::max(1, static_cast<int>(std::lround(H * s)));
+        const double sy = static_cast<double>(l.K.height) / H;
+        l.K.fx = K.fx * s;
+        l.K.fy = K.fy * sy;
+        l.K.cx = (K.cx + 0.5) * s - 0.5;
+        l.K.cy = (K.cy + 0.5) * sy - 0.5;
+        l.luminance = image::ImageF(l.K.width, l.K.height, 1);
+        l.valid.assign(static_cast<std::size_t>(l.K.width) * l.K.height, 0);
+        const int taps = std::clamp(static_cast<int>(std::ceil(1 / s)), 1, 4);
+        for (int y = 0; y < l.K.height; ++y)
+            for (int x = 0; x < l.K.width; ++x) {
+                double sum = 0;
+                bool ok = true;
+                for (int j = 0; ok && j < taps; ++j)
+                    for (int i = 0; ok && i < taps; ++i) {
+                        const double u = x + (i + 0.5) / taps - 0.5, v = y + (j + 0.5) / taps - 0.5;
+                        const auto px = project(K, (u - l.K.cx) / l.K.fx, (v - l.K.cy) / l.K.fy);
+                        const double fx = px[0], fy = px[1];
+                        if (!(fx >= 0 && fy >= 0 && fx <= W - 1 && fy <= H - 1)) {
+                            ok = false;
+                            break;
+                        }
+                        const int x0 = std::min(W - 2, static_cast<int>(fx)),
+                                  y0 = std::min(H - 2, static_cast<int>(fy));
+                        const double ax = fx - x0, ay = fy - y0;
+                        double acc = 0;
+                        for (int dy = 0; dy < 2; ++dy)
+                            for (int dx = 0; dx < 2; ++dx) {
+                                const std::size_t k = static_cast<std::size_t>(y0 + dy) * W + x0 + dx;
+                                const double wgt = (dx ? ax : 1 - ax) * (dy ? ay : 1 - ay);
+                                if (wgt <= 0) continue;
+                                if (outside[k] || (saturated && saturated->data()[k])) ok = false;
+                                acc += wgt * lum[k];
+                            }
+                        sum += acc;
+                    }
+                const std::size_t i = static_cast<std::size_t>(y) * l.K.width + x;
+                l.luminance.data()[i] = ok ? static_cast<float>(sum / (taps * taps)) : 0.f;
+                l.valid[i] = ok && l.luminance.data()[i] < o.saturation;
+            }
+        if (o.method == RegistrationMethod::PqSpace) l.pq = pqFromShading(l.luminance, l.K, o.pq, &l.valid);
+        f.levels.push_back(std::move(l));
+    }
+    return f;
+}
+
+std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& m, const Vec3d& c, double radius) {
+    std::vector<std::uint32_t> out;
+    for (std::size_t t = 0; t < m.triangleCount(); ++t) {
+        double best = std::numeric_limits<double>::infinity();
+        for (int k = 0; k < 3; ++k) {
+            const auto& p = m.positions[m.indices[3 * t + k]];
+            const double dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
+            best = std::min(best, dx * dx + dy * dy + dz * dz);
+        }
+        if (best <= radius * radius) out.push_back(static_cast<std::uint32_t>(t));
+    }
+    return out;
+}
+
+FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& frame, const Mat4& initial,
+                                const RegisterOptions& o) {
+    const auto start = Clock::now();
+    FrameRegistration r;
+    r.cameraToWorld = initial;
+    if (frame.levels.empty()) throw InputError("frame", "registration", "has no levels");
+    const mesh::Mesh mesh = submesh(fullMesh, trianglesNear(fullMesh, cameraCentre(initial), o.farMm));
+    const int finest = frame.levels.back().K.width;
+    bool atMinimum = false;
+    for (std::size_t li = 0; li < frame.levels.size(); ++li) {
+        const VideoFrame::Level& level = frame.levels[li];
+        Objective obj(mesh, level, o, r);
+        if (obj.pixels.size() < 50) {
+            r.similarity = 0;
+            r.converged = false;
+            r.optimiserSeconds = secondsSince(start) - r.renderSeconds - r.similaritySeconds;
+            return r;
+        }
+        // Parameters in units of the finite-difference steps (scaled to the
+        // level: a coarse pixel sees a coarser change), so that the six
+        // columns of the Jacobian are comparable.
+        const double scale = static_cast<double>(finest) / level.K.width;
+        const double ht = o.stepMm * scale, hw = o.stepDeg * scale * M_PI / 180;
+        const Mat4 base = r.cameraToWorld;
+        auto poseAt = [&](const Eigen::Matrix<double, 6, 1>& x) {
+            return perturbPose(base, {x[0] * ht, x[1] * ht, x[2] * ht}, {x[3] * hw, x[4] * hw, x[5] * hw});
+        };
+        Eigen::Matrix<double, 6, 1> x = Eigen::Matrix<double, 6, 1>::Zero();
+        double sim = 0;
+        std::vector<std::uint8_t> seen;
+        std::vector<double> d = obj.differences(poseAt(x), &sim, &seen);
+        double cost = robustCost(obj, d);
+        double lambda = 1e-3;
+        atMinimum = false;
+        const int b = obj.block();
+        for (int it = 0; it < o.maxIterations; ++it) {
+            ++r.iterations;
+            // IRLS weights of the Cauchy loss at the current pose.
+            std::vector<double> wrow(obj.pixels.size());
+            for (std::size_t k = 0; k < obj.pixels.size(); ++k) {
+                double e2 = 0;
+                for (int j = 0; j < b; ++j) e2 += d[b * k + j] * d[b * k + j];
+                wrow[k] = o.method == RegistrationMethod::PqSpace ? obj.weight(k) / (1 + e2 / obj.cauchy2) : 1.0;
+            }
+            Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+            Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+            std::vector<std::vector<double>> cols(6);
+            for (int j = 0; j < 6; ++j) {
+                // Central differences: half a step either side.
+                Eigen::Matrix<double, 6, 1> xp = x, xm = x;
+                xp[j] += 0.5;
+                xm[j] -= 0.5;
+                std::vector<std::uint8_t> seenP, seenM;
+                std::vector<double> dp = obj.differences(poseAt(xp), nullptr, &seenP);
+                const std::vector<double> dm = obj.differences(poseAt(xm), nullptr, &seenM);
+                // A pixel that enters or leaves the model's support between the
+                // two poses jumps: it carries no derivative (direct alignment's
+                // usual rule), and would swamp the smooth part of the Jacobian.
+                for (std::size_t k = 0; k < dp.size(); ++k)
+                    dp[k] = seen[k / b] && seenP[k / b] && seenM[k / b] ? dp[k] - dm[k] : 0.0;
+                cols[j] = std::move(dp);
+            }
+            for (std::size_t k = 0; k < d.size(); ++k) {
+                const double wk = wrow[k / b];
+                for (int a = 0; a < 6; ++a) {
+                    g[a] += wk * cols[a][k] * d[k];
+                    for (int c = a; c < 6; ++c) A(a, c) += wk * cols[a][k] * cols[c][k];
+                }
+            }
+            for (int a = 0; a < 6; ++a)
+                for (int c = 0; c < a; ++c) A(a, c) = A(c, a);
+            bool improved = false;
+            Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
+            for (int tries = 0; tries < 6 && !improved; ++tries) {
+                Eigen::Matrix<double, 6, 6> M = A;
+                for (int a = 0; a < 6; ++a) M(a, a) += lambda * (A(a, a) + 1e-9);
+                step = M.ldlt().solve(-g);
+                if (!step.allFinite()) break;
+                // A trust region of 20 steps (a few mm, a few degrees) per iteration.
+                const double len = step.norm();
+                if (len > 20) step *= 20 / len;
+                double s2 = 0;
+                std::vector<std::uint8_t> seen2;
+                std::vector<double> d2 = obj.differences(poseAt(x + step), &s2, &seen2);
+                const double c2 = robustCost(obj, d2);
+                if (c2 < cost) {
+                    x += step, d = std::move(d2), cost = c2, sim = s2, seen = std::move(seen2);
+                    lambda = std::max(1e-6, lambda / 3);
+                    improved = true;
+                    // The linearisation is local (the normal field moves by
+                    // pixels per millimetre): keep going along the direction
+                    // while the cost keeps falling.
+                    for (int ext = 0; ext < 4; ++ext) {
+                        double s3 = 0;
+                        std::vector<std::uint8_t> seen3;
+                        std::vector<double> d3 = obj.differences(poseAt(x + step), &s3, &seen3);
+                        const double c3 = robustCost(obj, d3);
+                        if (!(c3 < cost)) break;
+                        x += step, d = std::move(d3), cost = c3, sim = s3, seen = std::move(seen3);
+                    }
+                } else {
+                    lambda *= 5;
+                }
+            }
+            if (!improved || step.norm() < 0.05) {
+                atMinimum = true;
+                break;
+            }
+        }
+        r.cameraToWorld = poseAt(x);
+        r.similarity = sim;
+    }
+    r.converged =
+        atMinimum && r.similarity >= (o.method == RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation);
+    r.optimiserSeconds = std::max(0.0, secondsSince(start) - r.renderSeconds - r.similaritySeconds);
+    return r;
+}
+
+PoseError poseError(const Mat4& a, const Mat4& b) noexcept {
+    PoseError e;
+    const Vec3d ca = cameraCentre(a), cb = cameraCentre(b);
+    e.position = std::sqrt((ca[0] - cb[0]) * (ca[0] - cb[0]) + (ca[1] - cb[1]) * (ca[1] - cb[1]) +
+                           (ca[2] - cb[2]) * (ca[2] - cb[2]));
+    const Mat3 R = rotationOf(a).transpose() * rotationOf(b);
+    e.degrees = std::acos(std::clamp((R.trace() - 1) / 2, -1.0, 1.0)) * 180 / M_PI;
+    return e;
+}
+
+Mat4 perturbPose(const Mat4& m, const Vec3d& t, const Vec3d& w) noexcept {
+    const Mat3 R = rotationOf(m);
+    const Mat3 Rn = R * rodrigues(w);
+    const Eigen::Vector3d tn = R * Eigen::Vector3d(t[0], t[1], t[2]) + Eigen::Vector3d(m[0][3], m[1][3], m[2][3]);
+    Mat4 o{};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) o[r][c] = Rn(r, c);
+        o[r][3] = tn[r];
+    }
+    o[3] = {0, 0, 0, 1};
+    return o;
+}
+
+Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up) {
+    const Eigen::Vector3d p(position[0], position[1], position[2]);
+    Eigen::Vector3d z = Eigen::Vector3d(lookAt[0], lookAt[1], lookAt[2]) - p;
+    const Eigen::Vector3d u(up[0], up[1], up[2]);
+    if (z.norm() < 1e-12) throw InputError("look_at", "pose", "equals the position");
+    z.normalize();
+    Eigen::Vector3d y = -(u - u.dot(z) * z);
+    if (y.norm() < 1e-9) throw InputError("up", "pose", "is parallel to the viewing direction");
+    y.normalize();
+    const Eigen::Vector3d x = y.cross(z);
+    Mat4 o{};
+    for (int r = 0; r < 3; ++r) o[r] = {x[r], y[r], z[r], p[r]};
+    o[3] = {0, 0, 0, 1};
+    return o;
+}
+
+}  // namespace mucosa::fit

@@ -1,0 +1,296 @@
+// Registration (fit/register.hpp): the pq estimator against analytic scenes,
+// the model side, the lamp offset, and tracking recovery on rendered frames.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include <mucosa/fit/register.hpp>
+#include <mucosa/mesh/primitives.hpp>
+#include <mucosa/mesh/repair.hpp>
+
+#include "register_scene.hpp"
+
+using namespace mucosa;
+using fit::Intrinsics;
+using fit::Mat4;
+
+namespace {
+
+Intrinsics pinhole(int size, double f) {
+    Intrinsics K;
+    K.width = K.height = size;
+    K.fx = K.fy = f;
+    K.cx = K.cy = (size - 1) / 2.0;
+    return K;
+}
+
+double median(std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+}
+
+double angleDeg(double pa, double qa, double pb, double qb) {
+    const double c = (pa * pb + qa * qb + 1) / std::sqrt((1 + pa * pa + qa * qa) * (1 + pb * pb + qb * qb));
+    return std::acos(std::clamp(c, -1.0, 1.0)) * 180 / M_PI;
+}
+
+}  // namespace
+
+// A plane z = c + p X + q Y lit from the optical centre: the estimator
+// returns its (p, q) everywhere, whatever the albedo and lamp power.
+TEST(RegisterPq, PlaneShadingGivesTheTrueGradient) {
+    const Intrinsics K = pinhole(121, 90);
+    for (const auto& [p, q, c] : {std::array{0.0, 0.0, 20.0}, std::array{0.4, -0.2, 15.0}, std::array{-0.8, 0.5, 30.0},
+                                  std::array{1.2, 0.9, 10.0}}) {
+        image::ImageF E(K.width, K.height, 1);
+        for (int y = 0; y < K.height; ++y)
+            for (int x = 0; x < K.width; ++x) {
+                const double xn = (x - K.cx) / K.fx, yn = (y - K.cy) / K.fy;
+                const double D = 1 - p * xn - q * yn;
+                double e = 0;
+                if (D > 0.05) {
+                    const double Z = c / D, N = std::sqrt(1 + p * p + q * q);
+                    // n.(-P) / |P|^3 with n = (p, q, -1) / N, P = Z (x, y, 1).
+                    const double num = Z * D / N, r = Z * std::sqrt(1 + xn * xn + yn * yn);
+                    e = 37.0 * num / (r * r * r);  // albedo x lamp power: any constant
+                }
+                E.at(x, y) = static_cast<float>(e);
+            }
+        fit::PqOptions o;
+        o.darkFraction = 0;
+        o.saturation = 1e30;
+        const fit::PqField f = fit::pqFromShading(E, K, o);
+        std::vector<double> dp, dq;
+        for (std::size_t i = 0; i < f.weight.size(); ++i)
+            if (f.weight[i] > 0) dp.push_back(std::abs(f.p[i] - p)), dq.push_back(std::abs(f.q[i] - q));
+        ASSERT_GT(dp.size(), 5000u) << p << " " << q;
+        std::printf("plane (%.1f, %.1f): median |dp| %.5f |dq| %.5f, max %.4f %.4f\n", p, q, median(dp), median(dq),
+                    *std::max_element(dp.begin(), dp.end()), *std::max_element(dq.begin(), dq.end()));
+        // The log-intensity of a plane is curved: the smoothing biases the
+        // difference a little where the slope is steep (measured: median
+        // 0.002, p99 0.02 at (1.2, 0.9); worst near the grazing border, 0.2).
+        std::sort(dp.begin(), dp.end());
+        std::sort(dq.begin(), dq.end());
+        EXPECT_LT(median(dp), 3e-3) << p << " " << q;
+        EXPECT_LT(median(dq), 3e-3) << p << " " << q;
+        EXPECT_LT(dp[dp.size() * 99 / 100], 0.04) << p << " " << q;
+        EXPECT_LT(dq[dq.size() * 99 / 100], 0.04) << p << " " << q;
+    }
+}
+
+// Inside a cylinder (radius 8 mm, off-axis, tilted): curvature breaks local
+// planarity only a little; the estimated normals stay within a degree or two.
+TEST(RegisterPq, CylinderShadingGivesTheTrueGradient) {
+    const Intrinsics K = pinhole(161, 110);
+    const double R = 8;
+    // Cylinder axis through (a0) with direction (ad), in camera coordinates.
+    const std::array<double, 3> a0{2.0, -1.5, 0.0};
+    std::array<double, 3> ad{0.25, -0.1, 1.0};
+    const double an = std::sqrt(ad[0] * ad[0] + ad[1] * ad[1] + ad[2] * ad[2]);
+    for (double& v : ad) v /= an;
+    image::ImageF E(K.width, K.height, 1);
+    std::vector<std::array<double, 2>> truth(static_cast<std::size_t>(K.width) * K.height);
+    auto dot = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+        return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    };
+    for (int y = 0; y < K.height; ++y)
+        for (int x = 0; x < K.width; ++x) {
+            const std::array<double, 3> d{(x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0};
+            // |(t d - a0) - ((t d - a0).ad) ad|^2 = R^2
+            const std::array<double, 3> m{-a0[0], -a0[1], -a0[2]};
+            const double dd = dot(d, ad), md = dot(m, ad);
+            const std::array<double, 3> u{d[0] - dd * ad[0], d[1] - dd * ad[1], d[2] - dd * ad[2]};
+            const std::array<double, 3> v{m[0] - md * ad[0], m[1] - md * ad[1], m[2] - md * ad[2]};
+            const double A = dot(u, u), B = 2 * dot(u, v), C = dot(v, v) - R * R;
+            const double disc = B * B - 4 * A * C;
+            const std::size_t i = static_cast<std::size_t>(y) * K.width + x;
+            if (A < 1e-12 || disc < 0) continue;
+            const double t = (-B + std::sqrt(disc)) / (2 * A);
+            const std::array<double, 3> P{t * d[0], t * d[1], t * d[2]};
+            const std::array<double, 3> w{P[0] - a0[0], P[1] - a0[1], P[2] - a0[2]};
+            const double wd = dot(w, ad);
+            std::array<double, 3> n{-(w[0] - wd * ad[0]) / R, -(w[1] - wd * ad[1]) / R, -(w[2] - wd * ad[2]) / R};
+            const double r = std::sqrt(dot(P, P));
+            const double cosine = -dot(n, P) / r;
+            if (cosine <= 0 || n[2] >= 0) continue;
+            E.at(x, y) = static_cast<float>(cosine / (r * r));
+            truth[i] = {n[0] / -n[2], n[1] / -n[2]};
+        }
+    fit::PqOptions o;
+    o.darkFraction = 0.01;
+    o.saturation = 1e30;
+    const fit::PqField f = fit::pqFromShading(E, K, o);
+    std::vector<double> err;
+    for (std::size_t i = 0; i < f.weight.size(); ++i)
+        if (f.weight[i] > 0) err.push_back(angleDeg(f.p[i], f.q[i], truth[i][0], truth[i][1]));
+    ASSERT_GT(err.size(), 10000u);
+    std::sort(err.begin(), err.end());
+    const double med = err[err.size() / 2], p95 = err[err.size() * 95 / 100];
+    std::printf("cylinder: %zu pixels, normal error median %.3f deg, p95 %.3f deg\n", err.size(), med, p95);
+    // Curvature breaks local planarity: n.(-P) varies along a curved wall
+    // seen off-axis. This bias is the estimator's, and the model side, run
+    // through the same estimator, shares it.
+    EXPECT_LT(med, 2.5);
+    EXPECT_LT(p95, 6.0);
+}
+
+// The model side of a plane mesh returns the plane's gradient in camera space.
+TEST(RegisterPq, ModelSideOfAPlaneIsItsGradient) {
+    mesh::Mesh quad = mesh::makeQuad(200.0f, 20);  // z = 0, normal +z
+    const Intrinsics K = pinhole(101, 80);
+    const Mat4 pose = fit::lookAtPose({12, -8, 25}, {1, 2, 0}, {0, 1, 0});
+    const fit::ModelView v = fit::renderModel(quad, K, pose, {0, 0, 0});
+    fit::PqOptions o;
+    const fit::PqField f = fit::pqFromModel(v, K, o);
+    // Plane normal +z (world) in camera space.
+    const Mat4 W = fit::invertRigid(pose);
+    const auto n = fit::transformDirection(W, {0, 0, 1});
+    const double p = n[0] / -n[2], q = n[1] / -n[2];
+    std::vector<double> err;
+    for (std::size_t i = 0; i < f.weight.size(); ++i)
+        if (f.weight[i] > 0) err.push_back(angleDeg(f.p[i], f.q[i], p, q));
+    ASSERT_GT(err.size(), 5000u);
+    std::sort(err.begin(), err.end());
+    std::printf("plane model: median %.4f deg, p95 %.4f deg, p99 %.4f deg\n", err[err.size() / 2],
+                err[err.size() * 95 / 100], err[err.size() * 99 / 100]);
+    EXPECT_LT(err[err.size() / 2], 0.05);
+    EXPECT_LT(err[err.size() * 95 / 100], 0.5);  // the far, grazing rows amplify float rounding
+}
+
+TEST(RegisterPose, PerturbAndErrorAreConsistent) {
+    const Mat4 a = fit::lookAtPose({1, 2, 3}, {4, 6, 3}, {0, 0, 1});
+    // Orthonormal, right-handed, z toward the target, up -> -y.
+    const auto z = fit::transformDirection(a, {0, 0, 1});
+    EXPECT_NEAR(z[0], 0.6, 1e-12);
+    EXPECT_NEAR(z[1], 0.8, 1e-12);
+    const auto y = fit::transformDirection(a, {0, 1, 0});
+    EXPECT_NEAR(y[2], -1, 1e-12);
+    const Mat4 b = fit::perturbPose(a, {0.3, -0.4, 1.2}, {0, 0, 10 * M_PI / 180});
+    const fit::PoseError e = fit::poseError(a, b);
+    EXPECT_NEAR(e.position, 1.3, 1e-9);
+    EXPECT_NEAR(e.degrees, 10, 1e-9);
+    EXPECT_NEAR(fit::poseError(b, b).degrees, 0, 1e-6);
+}
+
+// The lamp 2.5 mm off the lens: the model side modelling the offset agrees
+// with the frame at the true pose; ignoring it costs agreement.
+TEST(RegisterPq, LampOffsetIsModelledExactly) {
+    const test::RegisterScene scene = test::makeRegisterScene();
+    const Intrinsics K = pinhole(160, 90);
+    const Mat4 pose = scene.poses[3];
+    const fit::Vec3d offset{2.5, 0, 0};
+    test::VideoOptions vo;
+    vo.lightOffset = offset;
+    vo.noise = 0;
+    vo.specular = 0;
+    vo.albedoContrast = 0;
+    const image::ImageF frame = test::renderVideoFrame(scene.mesh, K, pose, vo, 1);  // the model's own surface
+    fit::RegisterOptions ro;
+    ro.levels = {160};
+    ro.lightOffset = offset;
+    const fit::VideoFrame vf = fit::prepareFrame(frame, nullptr, K, ro);
+    // Point-sampled like the frame (supersample 1): only the lamp differs.
+    const fit::PqField withOffset =
+        fit::pqFromModel(fit::renderModel(scene.mesh, K, pose, offset, 1, 1), K, ro.pq, &vf.levels[0].pq.usable);
+    const fit::PqField without =
+        fit::pqFromModel(fit::renderModel(scene.mesh, K, pose, {0, 0, 0}, 1, 1), K, ro.pq, &vf.levels[0].pq.usable);
+    const double sOff = fit::pqSimilarity(vf.levels[0].pq, withOffset);
+    const double sNo = fit::pqSimilarity(vf.levels[0].pq, without);
+    std::printf("similarity at the true pose: lamp offset modelled %.5f, ignored %.5f\n", sOff, sNo);
+    EXPECT_GT(sOff, 0.995);
+    EXPECT_GT(sOff - sNo, 0.005);
+}
+
+// Tracking: frames rendered along a bumpy, curved airway with albedo texture,
+// glints, sensor noise and exposure changing +-30 % frame to frame; the first
+// pose off by 2 mm and 4 degrees.
+class RegisterTracking : public ::testing::TestWithParam<fit::RegistrationMethod> {};
+
+TEST_P(RegisterTracking, RecoversTheSequence) {
+    const test::RegisterScene scene = test::makeRegisterScene();
+    const Intrinsics K = pinhole(160, 90);
+    fit::RegisterOptions ro;
+    ro.method = GetParam();
+    ro.levels = {40, 80};
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> gain(0.7, 1.3);
+    Mat4 pose = fit::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
+    const fit::PoseError start = fit::poseError(pose, scene.poses[0]);
+    ASSERT_GT(start.position, 1.9);
+    ASSERT_GT(start.degrees, 3.9);
+    std::vector<double> mm, deg;
+    for (std::size_t i = 0; i < scene.poses.size(); ++i) {
+        test::VideoOptions vo;
+        vo.gain = gain(rng);
+        vo.seed = static_cast<unsigned>(i + 1);
+        image::Image8 sat;
+        const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[i], vo, 1, &sat);
+        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
+        const fit::FrameRegistration r = fit::registerFrame(scene.mesh, vf, pose, ro);
+        const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[i]);
+        std::printf("%s frame %zu: %.3f mm %.3f deg, similarity %.4f, %d iterations, %d renders, converged %d\n",
+                    fit::methodName(ro.method), i, e.position, e.degrees, r.similarity, r.iterations, r.evaluations,
+                    r.converged);
+        mm.push_back(e.position);
+        deg.push_back(e.degrees);
+        EXPECT_TRUE(r.converged) << i;
+        pose = r.cameraToWorld;
+    }
+    // Measured: pq median 0.2 mm / 0.6 deg, worst 0.8 mm / 2.6 deg (frames 5-6,
+    // where the vessels cross the fold); intensity 0.4 mm / 1.9 deg, worst
+    // 0.6 mm / 2.9 deg. The bounds leave room for compiler differences only.
+    const double worstMm = *std::max_element(mm.begin(), mm.end());
+    const double worstDeg = *std::max_element(deg.begin(), deg.end());
+    if (ro.method == fit::RegistrationMethod::PqSpace) {
+        EXPECT_LT(median(mm), 0.35);
+        EXPECT_LT(median(deg), 1.0);
+        EXPECT_LT(worstMm, 1.2);
+        EXPECT_LT(worstDeg, 3.5);
+    } else {
+        EXPECT_LT(median(mm), 0.6);
+        EXPECT_LT(median(deg), 2.5);
+        EXPECT_LT(worstMm, 1.0);
+        EXPECT_LT(worstDeg, 4.0);
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(BothMethods, RegisterTracking,
+                         ::testing::Values(fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity),
+                         [](const auto& p) { return std::string(fit::methodName(p.param)); });
+
+// The similarity peaks at the true pose: moving 1 mm or 2 degrees along any
+// axis lowers it, at every level (the objective is informative in all six
+// directions; roll about the axis of a tube is the weakest).
+TEST(RegisterPq, SimilarityPeaksAtTheTruePose) {
+    const test::RegisterScene scene = test::makeRegisterScene();
+    const Intrinsics K = pinhole(160, 90);
+    fit::RegisterOptions ro;
+    ro.levels = {40, 80, 160};
+    for (int f : {0, 3, 6}) {
+        image::Image8 sat;
+        const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[f], {}, 1, &sat);
+        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
+        for (const auto& L : vf.levels) {
+            auto sim = [&](const Mat4& pose) {
+                return fit::pqSimilarity(L.pq, fit::pqFromModel(fit::renderModel(scene.mesh, L.K, pose, {0, 0, 0}), L.K,
+                                                                ro.pq, &L.pq.usable));
+            };
+            const double s0 = sim(scene.poses[f]);
+            std::printf("frame %d, width %d: at the truth %.4f, moved:", f, L.K.width, s0);
+            for (int axis = 0; axis < 6; ++axis)
+                for (double sign : {-1.0, 1.0}) {
+                    fit::Vec3d t{0, 0, 0}, w{0, 0, 0};
+                    if (axis < 3)
+                        t[axis] = sign * 1.0;
+                    else
+                        w[axis - 3] = sign * 2.0 * M_PI / 180;
+                    const double s = sim(fit::perturbPose(scene.poses[f], t, w));
+                    std::printf(" %.4f", s);
+                    EXPECT_LT(s, s0) << "frame " << f << " width " << L.K.width << " axis " << axis << " " << sign;
+                }
+            std::printf("\n");
+        }
+    }
+}
