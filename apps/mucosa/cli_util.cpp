@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <utility>
 #include <vector>
@@ -44,6 +45,13 @@ std::string count(std::uint64_t n, std::string_view singular, std::string_view p
     if (n == 1) return fmt::format("1 {}", singular);
     if (plural.empty()) return fmt::format("{} {}s", n, singular);
     return fmt::format("{} {}", n, plural);
+}
+
+std::string formatDuration(double seconds) {
+    const long long t = std::llround(std::max(seconds, 0.0));
+    if (t >= 3600) return fmt::format("{}h{:02}m", t / 3600, t / 60 % 60);
+    if (t >= 60) return fmt::format("{}m{:02}s", t / 60, t % 60);
+    return fmt::format("{}s", t);
 }
 
 std::string joinPath(const std::filesystem::path& dir, std::string_view name) {

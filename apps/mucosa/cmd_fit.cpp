@@ -59,7 +59,14 @@ void addFitCommand(CLI::App& app, Global& g) {
             report(stage, kFitFrom + (kFitTo - kFitFrom) * std::clamp(fraction, 0.0, 1.0));
         };
         report("reading " + a->frames + " and " + a->mesh, 0.0);
-        const fit::FrameSet frames = fit::readFrames(a->frames);
+        fit::FrameSet frames = fit::readFrames(a->frames);
+        // Frames `mucosa register` could not register carry a wrong pose.
+        const auto flagged = std::erase_if(frames.frames, [](const fit::Frame& f) { return f.flagged; });
+        if (flagged > 0)
+            warn(fmt::format("skipping {} of {} that mucosa register flagged as not converged", count(flagged, "frame"),
+                             a->frames));
+        if (frames.frames.empty())
+            throw InputError("frames", a->frames, "every frame is flagged as not converged by mucosa register");
         mesh::Mesh m = mesh::load(a->mesh);
         fit::FitResult r;
         try {

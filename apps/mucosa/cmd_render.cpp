@@ -29,13 +29,6 @@ struct RenderArgs {
     bool reference = false;
 };
 
-std::string formatDuration(double seconds) {
-    const long long t = std::llround(std::max(seconds, 0.0));
-    if (t >= 3600) return fmt::format("{}h{:02}m", t / 3600, t / 60 % 60);
-    if (t >= 60) return fmt::format("{}m{:02}s", t / 60, t % 60);
-    return fmt::format("{}s", t);
-}
-
 void run(const RenderArgs& a, const Global& g) {
     namespace fs = std::filesystem;
     scene::Scene scene = resolveScene(a.scene);

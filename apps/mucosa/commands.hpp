@@ -37,6 +37,9 @@ void warn(const std::string& line);
 // "vertices").
 std::string count(std::uint64_t n, std::string_view singular, std::string_view plural = {});
 
+// An ETA or elapsed time: "42s", "3m05s", "1h20m".
+std::string formatDuration(double seconds);
+
 // A folder path joined with a name for messages: "fit/" and "brdf.json" give
 // "fit/brdf.json", not "fit//brdf.json".
 std::string joinPath(const std::filesystem::path& dir, std::string_view name);
@@ -73,6 +76,6 @@ std::vector<std::string> nearest(std::string_view word, const std::vector<std::s
 #define MUCOSA_CLI_CONCAT2(a, b) a##b
 #define MUCOSA_CLI_CONCAT(a, b) MUCOSA_CLI_CONCAT2(a, b)
 // Order of subcommands in --help: map 10, mesh 20, phantom 30, render 40,
-// compare 50, view 60, params 65, fit 70, tune 75, categories 80, study 90, demo 100.
+// compare 50, view 60, params 65, register 68, fit 70, tune 75, categories 80, study 90, demo 100.
 #define MUCOSA_REGISTER_COMMAND(order, fn) \
     static const ::mucosa::cli::CommandRegistration MUCOSA_CLI_CONCAT(kRegistration, __LINE__)(order, fn)

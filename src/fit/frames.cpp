@@ -29,21 +29,64 @@ double number(const json& j, const char* key, const std::string& where, const st
     return v;
 }
 
-}  // namespace
+Intrinsics parseIntrinsics(const json& k, const std::string& kw, const std::string& file) {
+    Intrinsics K;
+    const double w = number(k, "width", kw, file, true), h = number(k, "height", kw, file, true);
+    if (w < 1 || h < 1 || w > 65536 || h > 65536 || w != std::floor(w) || h != std::floor(h))
+        throw InputError("field '" + kw + "width/height'", file, "must be whole numbers in 1..65536");
+    K.width = static_cast<int>(w);
+    K.height = static_cast<int>(h);
+    K.fx = number(k, "fx", kw, file, true);
+    K.fy = number(k, "fy", kw, file, true);
+    K.cx = number(k, "cx", kw, file, true);
+    K.cy = number(k, "cy", kw, file, true);
+    K.k1 = number(k, "k1", kw, file, false);
+    K.k2 = number(k, "k2", kw, file, false);
+    if (!(K.fx > 0) || !(K.fy > 0)) throw InputError("field '" + kw + "fx'", file, "focal lengths must be positive");
+    return K;
+}
 
-FrameSet readFrames(const fs::path& path) {
-    const std::string file = path.string();
-    const json j = detail::parseJsonFile(readTextFile(path), file);
-    if (!j.is_object()) throw InputError("frames file", file, "must be a JSON object");
-    FrameSet set;
+Mat4 parseMatrix(const json& m, const std::string& field, const std::string& file) {
+    if (!m.is_array() || m.size() != 4)
+        throw InputError("field '" + field + "'", file, "must be a row-major 4x4 matrix");
+    Mat4 M{};
+    for (int r = 0; r < 4; ++r) {
+        const json& row = m[r];
+        if (!row.is_array() || row.size() != 4)
+            throw InputError("field '" + field + "'", file, "must be a row-major 4x4 matrix");
+        for (int c = 0; c < 4; ++c) {
+            if (!row[c].is_number()) throw InputError("field '" + field + "'", file, "must hold numbers");
+            M[r][c] = row[c].get<double>();
+            if (!std::isfinite(M[r][c])) throw InputError("field '" + field + "'", file, "must hold finite numbers");
+        }
+    }
+    // Rigid: orthonormal rotation with det +1, last row 0 0 0 1.
+    double worst = 0;
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+            double dot = 0;
+            for (int r = 0; r < 3; ++r) dot += M[r][a] * M[r][b];
+            worst = std::max(worst, std::fabs(dot - (a == b ? 1.0 : 0.0)));
+        }
+    const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                       M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                       M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
+    if (worst > 1e-3 || det < 0 || M[3][0] != 0 || M[3][1] != 0 || M[3][2] != 0 || M[3][3] != 1)
+        throw InputError("field '" + field + "'", file,
+                         "is not a rigid transform (rotation must be orthonormal with det +1, last row 0 0 0 1)");
+    return M;
+}
+
+// units, gamma and light.offset: shared by frames and camera files.
+void parseCommon(const json& j, const std::string& file, double& gamma, Vec3d& lightOffset) {
     if (j.contains("units")) {
         if (!j["units"].is_string()) throw InputError("field 'units'", file, "must be a string");
-        set.units = j["units"].get<std::string>();
-        if (set.units != "mm")
-            throw InputError("field 'units'", file, "'" + set.units + "' is not supported: give poses in mm");
+        const std::string units = j["units"].get<std::string>();
+        if (units != "mm")
+            throw InputError("field 'units'", file, "'" + units + "' is not supported: give poses in mm");
     }
-    set.gamma = number(j, "gamma", "", file, false, 1.0);
-    if (!(set.gamma > 0)) throw InputError("field 'gamma'", file, "must be positive");
+    gamma = number(j, "gamma", "", file, false, 1.0);
+    if (!(gamma > 0)) throw InputError("field 'gamma'", file, "must be positive");
     if (j.contains("light")) {
         const json& l = j["light"];
         if (!l.is_object()) throw InputError("field 'light'", file, "must be an object");
@@ -51,11 +94,22 @@ FrameSet readFrames(const fs::path& path) {
             if (!l["offset"].is_array() || l["offset"].size() != 3)
                 throw InputError("field 'light.offset'", file, "must be 3 numbers (camera coordinates)");
             for (int i = 0; i < 3; ++i) {
-                if (!l["offset"][i].is_number()) throw InputError("field 'light.offset'", file, "must be numbers");
-                set.lightOffset[i] = l["offset"][i].get<double>();
+                if (!l["offset"][i].is_number() || !std::isfinite(l["offset"][i].get<double>()))
+                    throw InputError("field 'light.offset'", file, "must be finite numbers");
+                lightOffset[i] = l["offset"][i].get<double>();
             }
         }
     }
+}
+
+}  // namespace
+
+FrameSet readFrames(const fs::path& path) {
+    const std::string file = path.string();
+    const json j = detail::parseJsonFile(readTextFile(path), file);
+    if (!j.is_object()) throw InputError("frames file", file, "must be a JSON object");
+    FrameSet set;
+    parseCommon(j, file, set.gamma, set.lightOffset);
     if (!j.contains("frames") || !j["frames"].is_array() || j["frames"].empty())
         throw InputError("field 'frames'", file, "must be a non-empty array");
     const fs::path dir = path.parent_path();
@@ -70,51 +124,71 @@ FrameSet readFrames(const fs::path& path) {
         fr.image = dir / f["image"].get<std::string>();
         if (!f.contains("intrinsics") || !f["intrinsics"].is_object())
             throw InputError("field '" + where + "intrinsics'", file, "is missing");
-        const json& k = f["intrinsics"];
-        const std::string kw = where + "intrinsics.";
-        const double w = number(k, "width", kw, file, true), h = number(k, "height", kw, file, true);
-        if (w < 1 || h < 1 || w > 65536 || h > 65536 || w != std::floor(w) || h != std::floor(h))
-            throw InputError("field '" + kw + "width/height'", file, "must be whole numbers in 1..65536");
-        fr.K.width = static_cast<int>(w);
-        fr.K.height = static_cast<int>(h);
-        fr.K.fx = number(k, "fx", kw, file, true);
-        fr.K.fy = number(k, "fy", kw, file, true);
-        fr.K.cx = number(k, "cx", kw, file, true);
-        fr.K.cy = number(k, "cy", kw, file, true);
-        fr.K.k1 = number(k, "k1", kw, file, false);
-        fr.K.k2 = number(k, "k2", kw, file, false);
-        if (!(fr.K.fx > 0) || !(fr.K.fy > 0))
-            throw InputError("field '" + kw + "fx'", file, "focal lengths must be positive");
-        if (!f.contains("camera_to_world") || !f["camera_to_world"].is_array() || f["camera_to_world"].size() != 4)
+        fr.K = parseIntrinsics(f["intrinsics"], where + "intrinsics.", file);
+        if (!f.contains("camera_to_world"))
             throw InputError("field '" + where + "camera_to_world'", file, "must be a row-major 4x4 matrix");
-        for (int r = 0; r < 4; ++r) {
-            const json& row = f["camera_to_world"][r];
-            if (!row.is_array() || row.size() != 4)
-                throw InputError("field '" + where + "camera_to_world'", file, "must be a row-major 4x4 matrix");
-            for (int c = 0; c < 4; ++c) {
-                if (!row[c].is_number())
-                    throw InputError("field '" + where + "camera_to_world'", file, "must hold numbers");
-                fr.cameraToWorld[r][c] = row[c].get<double>();
-            }
-        }
-        // Rigid: orthonormal rotation with det +1, last row 0 0 0 1.
-        const Mat4& M = fr.cameraToWorld;
-        double worst = 0;
-        for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) {
-                double dot = 0;
-                for (int r = 0; r < 3; ++r) dot += M[r][a] * M[r][b];
-                worst = std::max(worst, std::fabs(dot - (a == b ? 1.0 : 0.0)));
-            }
-        const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
-                           M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
-                           M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
-        if (worst > 1e-3 || det < 0 || M[3][0] != 0 || M[3][1] != 0 || M[3][2] != 0 || M[3][3] != 1)
-            throw InputError("field '" + where + "camera_to_world'", file,
-                             "is not a rigid transform (rotation must be orthonormal with det +1, last row 0 0 0 1)");
+        fr.cameraToWorld = parseMatrix(f["camera_to_world"], where + "camera_to_world", file);
+        // `mucosa register` flags frames it could not register.
+        if (f.contains("registration") && f["registration"].is_object() && f["registration"].contains("converged") &&
+            f["registration"]["converged"].is_boolean())
+            fr.flagged = !f["registration"]["converged"].get<bool>();
         set.frames.push_back(std::move(fr));
     }
     return set;
+}
+
+CameraModel readCamera(const fs::path& path) {
+    const std::string file = path.string();
+    const json j = detail::parseJsonFile(readTextFile(path), file);
+    if (!j.is_object()) throw InputError("camera file", file, "must be a JSON object");
+    CameraModel c;
+    parseCommon(j, file, c.gamma, c.lightOffset);
+    if (!j.contains("intrinsics") || !j["intrinsics"].is_object())
+        throw InputError("field 'intrinsics'", file, "is missing (width, height, fx, fy, cx, cy[, k1, k2])");
+    c.K = parseIntrinsics(j["intrinsics"], "intrinsics.", file);
+    return c;
+}
+
+Mat4 readPose(const fs::path& path) {
+    const std::string file = path.string();
+    const json j = detail::parseJsonFile(readTextFile(path), file);
+    if (!j.is_object()) throw InputError("pose file", file, "must be a JSON object");
+    if (j.contains("camera_to_world")) return parseMatrix(j["camera_to_world"], "camera_to_world", file);
+    Vec3d v[3];
+    const char* keys[3] = {"position", "look_at", "up"};
+    for (int k = 0; k < 3; ++k) {
+        if (!j.contains(keys[k]) || !j[keys[k]].is_array() || j[keys[k]].size() != 3)
+            throw InputError("field '" + std::string(keys[k]) + "'", file,
+                             "must be 3 numbers (or give a row-major 4x4 'camera_to_world')");
+        for (int i = 0; i < 3; ++i) {
+            if (!j[keys[k]][i].is_number() || !std::isfinite(j[keys[k]][i].get<double>()))
+                throw InputError("field '" + std::string(keys[k]) + "'", file, "must be finite numbers");
+            v[k][i] = j[keys[k]][i].get<double>();
+        }
+    }
+    try {
+        return lookAtPose(v[0], v[1], v[2]);
+    } catch (const InputError& e) {
+        throw InputError(e.subject(), file, e.reason());
+    }
+}
+
+Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up) {
+    // OpenCV axes: z toward look_at, y down (so `up` is -y), x = y cross z.
+    double z[3] = {lookAt[0] - position[0], lookAt[1] - position[1], lookAt[2] - position[2]};
+    const double zn = std::sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2]);
+    if (!(zn > 1e-9)) throw InputError("field 'look_at'", "", "equals 'position'");
+    for (double& c : z) c /= zn;
+    const double ud = up[0] * z[0] + up[1] * z[1] + up[2] * z[2];
+    double y[3] = {-(up[0] - ud * z[0]), -(up[1] - ud * z[1]), -(up[2] - ud * z[2])};
+    const double yn = std::sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+    if (!(yn > 1e-9)) throw InputError("field 'up'", "", "is parallel to the viewing direction");
+    for (double& c : y) c /= yn;
+    const double x[3] = {y[1] * z[2] - y[2] * z[1], y[2] * z[0] - y[0] * z[2], y[0] * z[1] - y[1] * z[0]};
+    Mat4 m{};
+    for (int r = 0; r < 3; ++r) m[r] = {x[r], y[r], z[r], position[r]};
+    m[3] = {0, 0, 0, 1};
+    return m;
 }
 
 void writeFrames(const fs::path& path, const FrameSet& set) {

@@ -97,8 +97,10 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
         cam[i] = transformPoint(W, {p[0], p[1], p[2]});
     }
     const std::size_t triangles = mesh.triangleCount();
-    // Bands of rows per task: each task owns its rows of the z-buffer.
-    const int bands = std::max(1, std::min(K.height, 4 * resolveThreads(threads)));
+    // Bands of rows per task: each task owns its rows of the z-buffer. Every
+    // band sets up every triangle, so one thread takes one band.
+    const int workers = resolveThreads(threads);
+    const int bands = workers == 1 ? 1 : std::max(1, std::min(K.height, 4 * workers));
     tbb::task_arena arena(resolveThreads(threads));
     arena.execute([&] {
         tbb::parallel_for(0, bands, [&](int band) {

@@ -7,9 +7,12 @@
 #include <numeric>
 #include <optional>
 
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 #include <Eigen/Dense>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/parallel.hpp>
 
 namespace mucosa::fit {
 
@@ -179,10 +182,10 @@ struct Objective {
     const RegisterOptions& o;
     std::vector<std::size_t> pixels;  // the residual's pixels (fixed for the level)
     double videoMean = 0, videoStd = 1;
-    FrameRegistration& stats;
+    FrameRegistration* stats;  // timing and render counts go here
 
     Objective(const mesh::Mesh& m, const VideoFrame::Level& l, const RegisterOptions& opt, FrameRegistration& st)
-        : cauchy2(opt.robustScale * opt.robustScale), mesh(m), level(l), o(opt), stats(st) {
+        : cauchy2(opt.robustScale * opt.robustScale), mesh(m), level(l), o(opt), stats(&st) {
         const std::size_t n = static_cast<std::size_t>(l.K.width) * l.K.height;
         if (o.method == RegistrationMethod::PqSpace) {
             for (std::size_t i = 0; i < n; ++i)
@@ -207,8 +210,8 @@ struct Objective {
     std::vector<double> differences(const Mat4& pose, double* similarity, std::vector<std::uint8_t>* seen = nullptr) {
         auto t0 = Clock::now();
         const ModelView view = renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample);
-        stats.renderSeconds += secondsSince(t0);
-        ++stats.evaluations;
+        stats->renderSeconds += secondsSince(t0);
+        ++stats->evaluations;
         t0 = Clock::now();
         std::vector<double> d;
         if (o.method == RegistrationMethod::PqSpace) {
@@ -263,7 +266,7 @@ struct Objective {
             }
             if (similarity) *similarity = ncc;
         }
-        stats.similaritySeconds += secondsSince(t0);
+        stats->similaritySeconds += secondsSince(t0);
         return d;
     }
 
@@ -437,7 +440,9 @@ VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* satura
     }
 
     VideoFrame f;
-    for (int width : o.levels) {
+    std::vector<int> widths = o.levels;
+    if (widths.empty()) widths = {std::max(32, W / 4), std::max(32, W / 2)};
+    for (int width : widths) {
         width = std::min(width, W);
         if (!f.levels.empty() && f.levels.back().K.width == width) continue;
         const double s = static_cast<double>(width) / W;
@@ -512,6 +517,7 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
     const mesh::Mesh mesh = submesh(fullMesh, trianglesNear(fullMesh, cameraCentre(initial), o.farMm));
     const int finest = frame.levels.back().K.width;
     bool atMinimum = false;
+    double lastStep = 0;  // the finest level's last accepted step, in finite-difference steps
     for (std::size_t li = 0; li < frame.levels.size(); ++li) {
         const VideoFrame::Level& level = frame.levels[li];
         Objective obj(mesh, level, o, r);
@@ -537,6 +543,7 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
         double cost = robustCost(obj, d);
         double lambda = 1e-3;
         atMinimum = false;
+        lastStep = 0;
         const int b = obj.block();
         for (int it = 0; it < o.maxIterations; ++it) {
             ++r.iterations;
@@ -550,14 +557,32 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
             Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
             Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
             std::vector<std::vector<double>> cols(6);
+            // Central differences, half a step either side: 12 renders, run
+            // side by side (each single-threaded).
+            std::vector<std::vector<double>> ds(12);
+            std::vector<std::vector<std::uint8_t>> seens(12);
+            std::vector<FrameRegistration> timing(12);
+            tbb::task_arena arena(resolveThreads(o.threads));
+            arena.execute([&] {
+                tbb::parallel_for(0, 12, [&](int t) {
+                    Eigen::Matrix<double, 6, 1> xt = x;
+                    xt[t / 2] += t % 2 == 0 ? 0.5 : -0.5;
+                    Objective local = obj;  // its own timing counters
+                    local.stats = &timing[static_cast<std::size_t>(t)];
+                    ds[static_cast<std::size_t>(t)] =
+                        local.differences(poseAt(xt), nullptr, &seens[static_cast<std::size_t>(t)]);
+                });
+            });
+            for (const FrameRegistration& t : timing) {
+                r.renderSeconds += t.renderSeconds / resolveThreads(o.threads);
+                r.similaritySeconds += t.similaritySeconds / resolveThreads(o.threads);
+                r.evaluations += t.evaluations;
+            }
             for (int j = 0; j < 6; ++j) {
-                // Central differences: half a step either side.
-                Eigen::Matrix<double, 6, 1> xp = x, xm = x;
-                xp[j] += 0.5;
-                xm[j] -= 0.5;
-                std::vector<std::uint8_t> seenP, seenM;
-                std::vector<double> dp = obj.differences(poseAt(xp), nullptr, &seenP);
-                const std::vector<double> dm = obj.differences(poseAt(xm), nullptr, &seenM);
+                std::vector<double>& dp = ds[static_cast<std::size_t>(2 * j)];
+                const std::vector<double>& dm = ds[static_cast<std::size_t>(2 * j + 1)];
+                const auto& seenP = seens[static_cast<std::size_t>(2 * j)];
+                const auto& seenM = seens[static_cast<std::size_t>(2 * j + 1)];
                 // A pixel that enters or leaves the model's support between the
                 // two poses jumps: it carries no derivative (direct alignment's
                 // usual rule), and would swamp the smooth part of the Jacobian.
@@ -607,6 +632,7 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
                     lambda *= 5;
                 }
             }
+            lastStep = improved ? step.norm() : 0.0;
             if (!improved || step.norm() < 0.05) {
                 atMinimum = true;
                 break;
@@ -615,8 +641,11 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
         r.cameraToWorld = poseAt(x);
         r.similarity = sim;
     }
-    r.converged =
-        atMinimum && r.similarity >= (o.method == RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation);
+    // Converged: the optimiser stopped at a minimum, or its last step moved
+    // the pose by less than half a finite-difference step (the iteration cap
+    // reached while creeping), and the fields agree.
+    r.converged = (atMinimum || lastStep < 0.5) &&
+                  r.similarity >= (o.method == RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation);
     r.optimiserSeconds = std::max(0.0, secondsSince(start) - r.renderSeconds - r.similaritySeconds);
     return r;
 }
@@ -640,22 +669,6 @@ Mat4 perturbPose(const Mat4& m, const Vec3d& t, const Vec3d& w) noexcept {
         for (int c = 0; c < 3; ++c) o[r][c] = Rn(r, c);
         o[r][3] = tn[r];
     }
-    o[3] = {0, 0, 0, 1};
-    return o;
-}
-
-Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up) {
-    const Eigen::Vector3d p(position[0], position[1], position[2]);
-    Eigen::Vector3d z = Eigen::Vector3d(lookAt[0], lookAt[1], lookAt[2]) - p;
-    const Eigen::Vector3d u(up[0], up[1], up[2]);
-    if (z.norm() < 1e-12) throw InputError("look_at", "pose", "equals the position");
-    z.normalize();
-    Eigen::Vector3d y = -(u - u.dot(z) * z);
-    if (y.norm() < 1e-9) throw InputError("up", "pose", "is parallel to the viewing direction");
-    y.normalize();
-    const Eigen::Vector3d x = y.cross(z);
-    Mat4 o{};
-    for (int r = 0; r < 3; ++r) o[r] = {x[r], y[r], z[r], p[r]};
     o[3] = {0, 0, 0, 1};
     return o;
 }

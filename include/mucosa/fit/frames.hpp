@@ -24,6 +24,7 @@ struct Frame {
     std::filesystem::path image;  // resolved against the frames file's folder
     Intrinsics K;
     Mat4 cameraToWorld{};
+    bool flagged = false;  // registration.converged is false (`mucosa register` could not register it)
 };
 
 struct FrameSet {
@@ -36,6 +37,25 @@ struct FrameSet {
 // Throws InputError naming the file and the field (e.g. "frames[2].intrinsics.fx").
 FrameSet readFrames(const std::filesystem::path& path);
 void writeFrames(const std::filesystem::path& path, const FrameSet& set);
+
+// A camera file (`mucosa register --camera`): the keys a frames file uses,
+// {"intrinsics": {width, height, fx, fy, cx, cy[, k1, k2]}, "gamma",
+// "light": {"offset"}, "units": "mm"}.
+struct CameraModel {
+    Intrinsics K;
+    double gamma = 1.0;
+    Vec3d lightOffset{0, 0, 0};
+};
+CameraModel readCamera(const std::filesystem::path& path);
+
+// A pose file: {"position", "look_at", "up"} (world, mm) or a row-major 4x4
+// "camera_to_world" (OpenCV axes). Returns camera_to_world.
+Mat4 readPose(const std::filesystem::path& path);
+
+// A camera_to_world from a position, a look-at point and an up direction
+// (OpenCV axes: z toward look_at, y down, so `up` maps to -y). Throws
+// InputError when look_at = position or up is parallel to the view.
+Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up);
 
 // Camera centre in world coordinates and world -> camera transform.
 Vec3d cameraCentre(const Mat4& cameraToWorld) noexcept;

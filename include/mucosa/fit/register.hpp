@@ -14,6 +14,7 @@
 // render at the candidate pose (intensity-based registration).
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
@@ -82,7 +83,9 @@ double normalisedCrossCorrelation(const image::ImageF& a, const image::ImageF& b
 
 struct RegisterOptions {
     RegistrationMethod method = RegistrationMethod::PqSpace;
-    std::vector<int> levels = {80, 160};  // working widths, coarse to fine (capped at the frame's width)
+    // Working widths, coarse to fine (capped at the frame's width); empty: a
+    // quarter and a half of the frame's width (at least 32 pixels).
+    std::vector<int> levels;
     int maxIterations = 12;               // Levenberg-Marquardt iterations per level
     double robustScale = 0.5;             // pq: Cauchy scale of |n_video - n_model|
     int supersample = 2;                  // model renders: sub-samples per pixel side
@@ -141,8 +144,40 @@ PoseError poseError(const Mat4& a, const Mat4& b) noexcept;
 // vector (camera axes, radians): camera_to_world * [R(w) | t].
 Mat4 perturbPose(const Mat4& cameraToWorld, const Vec3d& translation, const Vec3d& rotation) noexcept;
 
-// A camera_to_world from a position, a look-at point and an up direction
-// (OpenCV axes: z toward look_at, y down, so `up` maps to -y).
-Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up);
+}  // namespace mucosa::fit
+
+namespace mucosa::fit {
+
+// A run of `mucosa register` over a video, as written after every frame (a
+// long run resumes where it stopped): the frames file `mucosa fit` reads, each
+// frame with its registration (similarity, iterations, renders, converged).
+struct RegisteredFrame {
+    std::filesystem::path image;  // absolute or relative to the working folder
+    FrameRegistration r;
+};
+struct RegistrationRun {
+    CameraModel camera;
+    RegistrationMethod method = RegistrationMethod::PqSpace;
+    std::string mesh;  // the mesh file, as given
+    std::vector<RegisteredFrame> frames;
+};
+// Image paths are written relative to the output's folder. Atomic.
+void writeRegistration(const std::filesystem::path& path, const RegistrationRun& run);
+// Reads what writeRegistration wrote (for resuming); throws InputError if the
+// file is not a registration.
+RegistrationRun readRegistration(const std::filesystem::path& path);
+
+// Refuses a starting view registration cannot work from (one InputError
+// line): the mesh's normals facing out of the lumen, a pose outside the
+// airway, looking out of an open end, or pressed against a wall.
+void checkInitialView(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& pose, const Vec3d& lightOffset,
+                      const std::string& meshFile, const std::string& poseFile);
+
+// `--report DIR`: index.html with the similarity trace (SVG) and, for up to
+// `samples` frames spread over the run, the frame with the registered model's
+// silhouette overlaid, next to the video's and the model's (p, q) fields
+// (colour-coded normals). Images are written atomically into DIR.
+void writeRegistrationReport(const std::filesystem::path& dir, const RegistrationRun& run, const mesh::Mesh& mesh,
+                             const RegisterOptions& options, int samples = 6);
 
 }  // namespace mucosa::fit

@@ -1,0 +1,219 @@
+// mucosa register: the pose of every frame of a bronchoscopy on the patient's
+// airway mesh (pq-space 2D/3D registration, or the intensity baseline).
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/fit/fit.hpp>
+#include <mucosa/fit/register.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/mesh/io.hpp>
+
+#include "commands.hpp"
+
+namespace mucosa::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RegisterArgs {
+    std::string mesh, video, camera, init, out, method = "pq", report;
+    std::vector<int> levels;
+    int maxIterations = 12, reportSamples = 6;
+    bool restart = false;
+};
+
+// The frames of a video: the PNG files of a folder, sorted by name.
+std::vector<fs::path> listFrames(const std::string& video) {
+    std::error_code ec;
+    if (!fs::exists(video, ec)) throw IoError("video", video, "does not exist");
+    if (!fs::is_directory(video, ec))
+        throw InputError("video", video,
+                         "is a file: mucosa register reads a folder of PNG frames (extract them with "
+                         "`ffmpeg -i VIDEO FOLDER/%05d.png`)");
+    std::vector<fs::path> frames;
+    for (const auto& e : fs::directory_iterator(video, ec)) {
+        std::string ext = e.path().extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+        if (e.is_regular_file() && ext == ".png") frames.push_back(e.path());
+    }
+    if (ec) throw IoError("video", video, ec.message());
+    if (frames.empty()) throw InputError("video", video, "holds no .png frames");
+    std::sort(frames.begin(), frames.end());
+    return frames;
+}
+
+void run(const RegisterArgs& a, const Global& g) {
+    fit::RegisterOptions o;
+    if (a.method == "pq")
+        o.method = fit::RegistrationMethod::PqSpace;
+    else if (a.method == "intensity")
+        o.method = fit::RegistrationMethod::Intensity;
+    else
+        throw InputError("--method", "", "must be pq or intensity, got '" + a.method + "'");
+    if (!a.levels.empty()) o.levels = a.levels;
+    o.maxIterations = a.maxIterations;
+    o.threads = g.threads;
+    const fs::path out = a.out;
+    if (out.extension() != ".json") throw InputError("--output", a.out, "must end in .json (a frames file)");
+    requireWritable(out);
+    if (!a.report.empty()) requireOutputDir(a.report);
+
+    // Everything is checked before anything is written.
+    const fit::CameraModel cam = fit::readCamera(a.camera);
+    o.gamma = cam.gamma;
+    o.lightOffset = cam.lightOffset;
+    const fit::Mat4 init = fit::readPose(a.init);
+    const std::vector<fs::path> names = listFrames(a.video);
+    for (const fs::path& f : names) {
+        const image::PngImage png = image::readPng(f);
+        if (png.pixels.width() != cam.K.width || png.pixels.height() != cam.K.height)
+            throw InputError("frame size", f.string(),
+                             fmt::format("is {}x{}, but {} says {}x{}{}", png.pixels.width(), png.pixels.height(),
+                                         a.camera, cam.K.width, cam.K.height,
+                                         f == names.front() ? "" : " (and the first frame agrees with it)"));
+    }
+    const mesh::Mesh m = mesh::load(a.mesh);
+    fit::checkInitialView(m, cam.K, init, cam.lightOffset, a.mesh, a.init);
+
+    // Resume: frames already registered in OUT (same method, same frames) are kept.
+    fit::RegistrationRun run;
+    run.camera = cam;
+    run.method = o.method;
+    run.mesh = a.mesh;
+    std::error_code ec;
+    if (fs::exists(out, ec) && !a.restart) {
+        fit::RegistrationRun old;
+        try {
+            old = fit::readRegistration(out);
+        } catch (const Error& e) {
+            throw InputError("--output", a.out,
+                             "exists and is not a registration to resume (" + e.reason() +
+                                 "): choose another file, or pass --restart to overwrite it");
+        }
+        bool same = old.method == o.method && old.frames.size() <= names.size();
+        for (std::size_t i = 0; same && i < old.frames.size(); ++i)
+            same = fs::absolute(old.frames[i].image).lexically_normal() == fs::absolute(names[i]).lexically_normal();
+        if (!same)
+            throw InputError("--output", a.out,
+                             "holds a registration of other frames or by another method: pass --restart to "
+                             "overwrite it");
+        run.frames = std::move(old.frames);
+        if (!run.frames.empty())
+            info(g, fmt::format("resuming: {} already registered in {}", count(run.frames.size(), "frame"), a.out));
+    }
+
+    const bool tty = ::isatty(STDERR_FILENO) != 0 && !g.quiet;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto lastWrite = t0;
+    fit::Mat4 pose = init;
+    for (auto it = run.frames.rbegin(); it != run.frames.rend(); ++it)
+        if (it->r.converged) {
+            pose = it->r.cameraToWorld;
+            break;
+        }
+    const std::size_t first = run.frames.size();
+    for (std::size_t i = first; i < names.size(); ++i) {
+        fit::Frame fr;
+        fr.image = names[i];
+        fr.K = cam.K;
+        image::Image8 sat;
+        const image::ImageF linear = fit::loadFrameImage(fr, cam.gamma, &sat, o.saturation);
+        const fit::VideoFrame vf = fit::prepareFrame(linear, &sat, cam.K, o);
+        const fit::FrameRegistration r = fit::registerFrame(m, vf, pose, o);
+        run.frames.push_back({names[i], r});
+        // The next frame starts from the last pose that converged: a lost
+        // frame does not drag the track away.
+        if (r.converged) pose = r.cameraToWorld;
+        const auto now = std::chrono::steady_clock::now();
+        if (std::chrono::duration<double>(now - lastWrite).count() > 2.0 || i + 1 == names.size()) {
+            fit::writeRegistration(out, run);
+            lastWrite = now;
+        }
+        if (!g.quiet) {
+            const double s = std::chrono::duration<double>(now - t0).count();
+            const double per = s / static_cast<double>(i + 1 - first);
+            const std::string line =
+                fmt::format("[register {}/{} {:.0f}%] {}: similarity {:.3f}{}, {:.2f} s/frame, ETA {}", i + 1,
+                            names.size(), 100.0 * static_cast<double>(i + 1) / static_cast<double>(names.size()),
+                            names[i].filename().string(), r.similarity, r.converged ? "" : " NOT CONVERGED", per,
+                            formatDuration(per * static_cast<double>(names.size() - i - 1)));
+            if (tty)
+                std::fprintf(stderr, "\r%s\x1b[K", line.c_str());
+            else if (!r.converged || (i + 1) % std::max<std::size_t>(1, names.size() / 10) == 0 ||
+                     i + 1 == names.size())
+                std::fprintf(stderr, "%s\n", line.c_str());
+        }
+    }
+    if (tty) std::fprintf(stderr, "\n");
+    if (first == names.size()) fit::writeRegistration(out, run);  // nothing new: rewrite as this run describes it
+
+    std::size_t converged = 0;
+    std::vector<double> sims;
+    double render = 0, similarity = 0, optimiser = 0;
+    for (const auto& f : run.frames) {
+        converged += f.r.converged ? 1 : 0;
+        sims.push_back(f.r.similarity);
+        render += f.r.renderSeconds, similarity += f.r.similaritySeconds, optimiser += f.r.optimiserSeconds;
+    }
+    std::sort(sims.begin(), sims.end());
+    const std::size_t done = names.size() - first;
+    info(g, fmt::format("registered {} ({} converged) with method {}; median similarity {:.3f}",
+                        count(names.size(), "frame"), converged, fit::methodName(o.method), sims[sims.size() / 2]));
+    if (done > 0)
+        info(g, fmt::format("per frame: {:.2f} s rendering, {:.2f} s similarity, {:.2f} s optimiser",
+                            render / static_cast<double>(done), similarity / static_cast<double>(done),
+                            optimiser / static_cast<double>(done)));
+    if (converged < names.size())
+        warn(fmt::format("{} not converged: flagged in {} (registration.converged false); mucosa fit skips them",
+                         count(names.size() - converged, "frame"), a.out));
+    if (!a.report.empty()) {
+        fit::writeRegistrationReport(a.report, run, m, o, a.reportSamples);
+        info(g, "wrote " + joinPath(a.report, "index.html"));
+    }
+    info(g, "wrote " + a.out);
+}
+
+void addRegisterCommand(CLI::App& app, Global& g) {
+    auto a = std::make_shared<RegisterArgs>();
+    CLI::App* c = app.add_subcommand(
+        "register", "Register bronchoscope video to the patient's airway mesh (pq-space 2D/3D registration)");
+    c->footer(
+        "Example: mucosa register --mesh airway.glb --video frames/ --camera camera.json --init pose.json "
+        "-o frames.json --report report/\n"
+        "camera.json: {\"intrinsics\": {\"width\", \"height\", \"fx\", \"fy\", \"cx\", \"cy\", \"k1\", \"k2\"}, "
+        "\"gamma\", \"light\": {\"offset\": [x, y, z]}}\n"
+        "pose.json: {\"position\", \"look_at\", \"up\"} (mm, world) or {\"camera_to_world\": row-major 4x4}");
+    c->add_option("--mesh", a->mesh, "The airway mesh, normals facing the lumen (any format `mucosa mesh` reads)")
+        ->required();
+    c->add_option("--video", a->video, "Folder of the video's frames as PNG, in name order")->required();
+    c->add_option("--camera", a->camera, "Camera file: intrinsics, distortion, gamma, light offset (JSON)")->required();
+    c->add_option("--init", a->init, "The first frame's pose (JSON)")->required();
+    c->add_option("-o,--output", a->out, "Frames file to write (the input of mucosa fit); resumed if it exists")
+        ->required();
+    c->add_option("--method", a->method, "pq (shape from shading, the paper's) or intensity (NCC baseline) [pq]");
+    c->add_option("--report", a->report, "Folder for an HTML report: similarity trace, overlays, pq fields");
+    c->add_option("--report-frames", a->reportSamples, "Frames shown in the report [6]")->check(wholeNumber(0, 1000));
+    c->add_option("--levels", a->levels,
+                  "Working widths in pixels, coarse to fine [a quarter and a half of the frame's]")
+        ->check(wholeNumber(16, 4096));
+    c->add_option("--max-iterations", a->maxIterations, "Optimiser iterations per level [12]")
+        ->check(wholeNumber(1, 1000));
+    c->add_flag("--restart", a->restart, "Overwrite an existing output instead of resuming it");
+    c->callback([a, &g] { run(*a, g); });
+}
+
+}  // namespace
+
+MUCOSA_REGISTER_COMMAND(68, addRegisterCommand);
+
+}  // namespace mucosa::cli

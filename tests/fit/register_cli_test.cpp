@@ -1,0 +1,193 @@
+// mucosa register end to end: frames in a folder, camera and pose files, the
+// frames file out (resumable), the report, and every bad input as one line.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/fit/frames.hpp>
+#include <mucosa/fit/register.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/mesh/io.hpp>
+#include <mucosa/mesh/repair.hpp>
+
+#include "register_scene.hpp"
+#include "test_support.hpp"
+
+using namespace mucosa;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr int kSize = 160;
+
+fit::Intrinsics camera() {
+    fit::Intrinsics K;
+    K.width = K.height = kSize;
+    K.fx = K.fy = 90;
+    K.cx = K.cy = (kSize - 1) / 2.0;
+    return K;
+}
+
+void writeText(const fs::path& p, const std::string& s) {
+    std::ofstream(p) << s;
+}
+
+json poseJson(const fit::Mat4& m) {
+    json rows = json::array();
+    for (const auto& r : m) rows.push_back(r);
+    return json{{"camera_to_world", rows}};
+}
+
+// A patient folder: airway.ply, video/NNN.png (16-bit linear), camera.json, init.json.
+struct Patient {
+    test::RegisterScene scene = test::makeRegisterScene(5);
+    test::TempDir dir;
+    Patient() {
+        mesh::save(scene.mesh, dir / "airway.ply");
+        fs::create_directories(dir / "video");
+        for (std::size_t i = 0; i < scene.poses.size(); ++i) {
+            test::VideoOptions vo;
+            vo.seed = static_cast<unsigned>(i + 3);
+            vo.gain = 0.8 + 0.1 * static_cast<double>(i % 3);
+            const image::ImageF f = test::renderVideoFrame(scene.truth, camera(), scene.poses[i], vo, 0);
+            image::Image16 px(kSize, kSize, 3);
+            for (std::size_t k = 0; k < f.size(); ++k)
+                px.data()[k] = static_cast<std::uint16_t>(std::lround(65535.0 * std::clamp(f.data()[k], 0.f, 1.f)));
+            image::writePng(dir / "video" / fmt::format("{:03d}.png", i), px);
+        }
+        const fit::Intrinsics K = camera();
+        writeText(
+            dir / "camera.json",
+            json{{"intrinsics",
+                  {{"width", K.width}, {"height", K.height}, {"fx", K.fx}, {"fy", K.fy}, {"cx", K.cx}, {"cy", K.cy}}},
+                 {"gamma", 1.0}}
+                .dump());
+        writeText(dir / "init.json",
+                  poseJson(fit::perturbPose(scene.poses[0], {0.8, -0.6, 0.5}, {0.02, -0.02, 0.01})).dump());
+    }
+    // The command line; `over` replaces a file option (--mesh, --video, --camera, --init).
+    std::string args(const std::string& extra = "", const std::map<std::string, fs::path>& over = {}) const {
+        const fs::path d = dir.path();
+        std::map<std::string, fs::path> o{{"--mesh", d / "airway.ply"},
+                                          {"--video", d / "video"},
+                                          {"--camera", d / "camera.json"},
+                                          {"--init", d / "init.json"},
+                                          {"-o", d / "out" / "frames.json"}};
+        for (const auto& [k, v] : over) o[k] = v;
+        std::string s = "register";
+        for (const auto& [k, v] : o) s += " " + k + " '" + v.string() + "'";
+        return s + " " + extra;
+    }
+};
+
+void expectOneErrorLine(const test::RunResult& r, const std::string& needle) {
+    EXPECT_NE(r.exitCode, 0) << r.err;
+    ASSERT_FALSE(r.err.empty());
+    const std::string last = r.err.substr(0, r.err.find('\n'));
+    EXPECT_EQ(last.rfind("error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+}  // namespace
+
+TEST(RegisterCli, RegistersResumesAndReports) {
+    Patient p;
+    fs::create_directories(p.dir / "out");
+    const test::RunResult r = test::runCli(p.args("--report '" + (p.dir / "report").string() + "' --report-frames 2"));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("registered 5 frames (5 converged) with method pq"), std::string::npos) << r.out;
+    // The frames file mucosa fit reads, with the registration per frame.
+    const fit::FrameSet set = fit::readFrames(p.dir / "out" / "frames.json");
+    ASSERT_EQ(set.frames.size(), 5u);
+    for (std::size_t i = 0; i < 5; ++i) {
+        const fit::PoseError e = fit::poseError(set.frames[i].cameraToWorld, p.scene.poses[i]);
+        EXPECT_LT(e.position, 0.8) << i;
+        EXPECT_LT(e.degrees, 2.5) << i;
+        EXPECT_FALSE(set.frames[i].flagged);
+        EXPECT_TRUE(fs::equivalent(set.frames[i].image, p.dir / "video" / fmt::format("{:03d}.png", i)));
+    }
+    const json j = json::parse(test::readBytes(p.dir / "out" / "frames.json"));
+    EXPECT_EQ(j["registration"]["method"], "pq");
+    EXPECT_EQ(j["frames"][0]["image"], "../video/000.png");  // relative to the frames file
+    EXPECT_GT(j["frames"][4]["registration"]["similarity"].get<double>(), 0.85);
+    EXPECT_GT(j["frames"][4]["registration"]["renders"].get<int>(), 10);
+    // The report: the trace and the sampled frames' overlays.
+    const std::string html = test::readBytes(p.dir / "report" / "index.html");
+    EXPECT_NE(html.find("<polyline"), std::string::npos);
+    EXPECT_TRUE(fs::exists(p.dir / "report" / "frame00000_overlay.png"));
+    EXPECT_TRUE(fs::exists(p.dir / "report" / "frame00004_pq_model.png"));
+
+    // Resume: cut the run to its first two frames and mark the third's image
+    // as new; only frames 2..4 are registered again, 0 and 1 are kept as they
+    // were (byte for byte in their poses).
+    json cut = j;
+    cut["frames"].erase(cut["frames"].begin() + 2, cut["frames"].end());
+    cut["frames"][1]["camera_to_world"][0][3] = j["frames"][1]["camera_to_world"][0][3].get<double>() + 0.25;
+    writeText(p.dir / "out" / "frames.json", cut.dump());
+    const test::RunResult again = test::runCli(p.args());
+    ASSERT_EQ(again.exitCode, 0) << again.err;
+    EXPECT_NE(again.out.find("resuming: 2 frames already registered"), std::string::npos) << again.out;
+    const json k = json::parse(test::readBytes(p.dir / "out" / "frames.json"));
+    ASSERT_EQ(k["frames"].size(), 5u);
+    EXPECT_EQ(k["frames"][1]["camera_to_world"], cut["frames"][1]["camera_to_world"]);  // kept, not redone
+    EXPECT_LT(fit::poseError(fit::readFrames(p.dir / "out" / "frames.json").frames[4].cameraToWorld, p.scene.poses[4])
+                  .position,
+              0.8);
+
+    // Another method on the same output is refused; --restart overwrites.
+    const test::RunResult other = test::runCli(p.args("--method intensity"));
+    expectOneErrorLine(other, "--restart");
+    const test::RunResult restart = test::runCli(p.args("--method intensity --restart"));
+    ASSERT_EQ(restart.exitCode, 0) << restart.err;
+    EXPECT_EQ(json::parse(test::readBytes(p.dir / "out" / "frames.json"))["registration"]["method"], "intensity");
+}
+
+TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
+    Patient p;
+    fs::create_directories(p.dir / "out");
+    const fs::path out = p.dir / "out" / "frames.json";
+    auto check = [&](const std::string& args, const std::string& needle) {
+        SCOPED_TRACE(needle);
+        expectOneErrorLine(test::runCli(args), needle);
+        EXPECT_FALSE(fs::exists(out));
+        EXPECT_TRUE(fs::is_empty(p.dir / "out"));
+    };
+    // Intrinsics that disagree with the frames.
+    writeText(p.dir / "cam2.json",
+              R"({"intrinsics": {"width": 200, "height": 160, "fx": 90, "fy": 90, "cx": 99.5, "cy": 79.5}})");
+    check(p.args("", {{"--camera", p.dir / "cam2.json"}}), "is 160x160, but");
+    // A frame of another size.
+    image::writePng(p.dir / "video" / "999.png", image::Image8(120, 160, 3));
+    check(p.args(), "999.png");
+    fs::remove(p.dir / "video" / "999.png");
+    // A video file instead of a folder.
+    check(p.args("", {{"--video", p.dir / "camera.json"}}), "ffmpeg");
+    // Outside the airway: 40 mm to the side of the tube, looking along it.
+    const fit::Vec3d c = fit::cameraCentre(p.scene.poses[0]);
+    writeText(p.dir / "outside.json",
+              json{{"position", {c[0] + 40, c[1], c[2]}}, {"look_at", {c[0], c[1], c[2]}}, {"up", {0, 1, 0}}}.dump());
+    check(p.args("", {{"--init", p.dir / "outside.json"}}), "initial pose");
+    // Facing a wall: 0.5 mm from it, looking at it.
+    const auto& v = p.scene.mesh.positions[5000];
+    const auto& n = p.scene.mesh.normals[5000];
+    writeText(p.dir / "wall.json", json{{"position", {v[0] + 0.5 * n[0], v[1] + 0.5 * n[1], v[2] + 0.5 * n[2]}},
+                                        {"look_at", {v[0], v[1], v[2]}},
+                                        {"up", {0, 0, 1}}}
+                                       .dump());
+    check(p.args("", {{"--init", p.dir / "wall.json"}}), "faces a wall");
+    // A mesh whose normals face out of the lumen.
+    mesh::Mesh flipped = p.scene.mesh;
+    mesh::flipOrientation(flipped);
+    mesh::save(flipped, p.dir / "flipped.ply");
+    check(p.args("", {{"--mesh", p.dir / "flipped.ply"}}), "--flip");
+    // A pose file that is not a pose; an unknown method; not a .json output.
+    writeText(p.dir / "bad.json", R"({"position": [0, 0, 0], "look_at": [0, 0, 0], "up": [0, 1, 0]})");
+    check(p.args("", {{"--init", p.dir / "bad.json"}}), "look_at");
+    check(p.args("--method sift"), "pq or intensity");
+}
