@@ -29,6 +29,7 @@ struct RegisterArgs {
     std::string mesh, video, camera, init, out, method = "pq", report;
     std::vector<int> levels;
     int maxIterations = 12, reportSamples = 6;
+    double albedoFilter = 0.0;
     bool restart = false;
 };
 
@@ -62,6 +63,7 @@ void run(const RegisterArgs& a, const Global& g) {
         throw InputError("--method", "", "must be pq or intensity, got '" + a.method + "'");
     if (!a.levels.empty()) o.levels = a.levels;
     o.maxIterations = a.maxIterations;
+    o.albedoFilterPx = a.albedoFilter;
     o.threads = g.threads;
     const fs::path out = a.out;
     if (out.extension() != ".json") throw InputError("--output", a.out, "must end in .json (a frames file)");
@@ -208,6 +210,9 @@ void addRegisterCommand(CLI::App& app, Global& g) {
         ->check(wholeNumber(16, 4096));
     c->add_option("--max-iterations", a->maxIterations, "Optimiser iterations per level [12]")
         ->check(wholeNumber(1, 1000));
+    c->add_option("--albedo-filter", a->albedoFilter,
+                  "pq: radius (frame pixels) of an opening+closing removing vessels and glints [0 = off]")
+        ->check(CLI::Range(0.0, 64.0));
     c->add_flag("--restart", a->restart, "Overwrite an existing output instead of resuming it");
     c->callback([a, &g] { run(*a, g); });
 }

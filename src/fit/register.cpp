@@ -47,6 +47,46 @@ void gaussianBlur(std::vector<double>& v, int w, int h, double sigma) {
         }
 }
 
+// Grey-scale dilation (max) or erosion (min) over a (2r+1)^2 square of the
+// usable pixels (separable); unusable pixels neither take part nor change.
+void morphology(image::ImageF& img, const std::vector<std::uint8_t>& use, int r, bool dilate) {
+    const int w = img.width(), h = img.height();
+    const float none = dilate ? -std::numeric_limits<float>::infinity() : std::numeric_limits<float>::infinity();
+    auto pick = [dilate](float a, float b) { return dilate ? std::max(a, b) : std::min(a, b); };
+    std::vector<float> t(img.size(), none);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            float v = none;
+            for (int i = std::max(0, x - r); i <= std::min(w - 1, x + r); ++i) {
+                const std::size_t j = static_cast<std::size_t>(y) * w + i;
+                if (use[j]) v = pick(v, img.data()[j]);
+            }
+            t[static_cast<std::size_t>(y) * w + x] = v;
+        }
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const std::size_t o = static_cast<std::size_t>(y) * w + x;
+            if (!use[o]) continue;
+            float v = none;
+            for (int i = std::max(0, y - r); i <= std::min(h - 1, y + r); ++i) v = pick(v, t[static_cast<std::size_t>(i) * w + x]);
+            if (std::isfinite(v)) img.data()[o] = v;
+        }
+}
+
+// Thin dark vessels and small bright glints are albedo and specularity, not
+// shape: a grey-scale opening then closing of radius r removes them and
+// leaves shading that varies over a larger scale nearly as is. Both sides
+// are filtered alike.
+image::ImageF openClose(const image::ImageF& E, const std::vector<std::uint8_t>& use, int r) {
+    image::ImageF f = E;
+    if (r <= 0) return f;
+    morphology(f, use, r, false);  // opening: erode ...
+    morphology(f, use, r, true);   // ... then dilate
+    morphology(f, use, r, true);   // closing: dilate ...
+    morphology(f, use, r, false);  // ... then erode
+    return f;
+}
+
 // The closed-form solve: log-intensity derivatives (per unit of normalised
 // image coordinate) at (x, y) -> (p, q, conditioning), or nothing if masked.
 std::optional<std::array<double, 3>> solvePq(double gx, double gy, double xn, double yn, const PqOptions& o) {
@@ -215,7 +255,7 @@ struct Objective {
         t0 = Clock::now();
         std::vector<double> d;
         if (o.method == RegistrationMethod::PqSpace) {
-            const PqField m = pqFromModel(view, level.K, o.pq, &level.pq.usable);
+            const PqField m = pqFromModel(view, level.K, level.pqOptions, &level.pq.usable);
             d.resize(3 * pixels.size());
             if (seen) seen->assign(pixels.size(), 0);
             double sw = 0, sc = 0;
@@ -311,7 +351,8 @@ PqField pqFromShading(const image::ImageF& linear, const Intrinsics& K, const Pq
         const float e = linear.data()[i];
         use[i] = (!valid || (*valid)[i]) && e > dark && e < o.saturation;
     }
-    return estimate(linear, std::move(use), K, o, dark);
+    const image::ImageF filtered = openClose(linear, use, o.albedoFilterPx);
+    return estimate(filtered, std::move(use), K, o, dark);
 }
 
 ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& L,
@@ -377,7 +418,8 @@ PqField pqFromModel(const ModelView& view, const Intrinsics& K, const PqOptions&
     std::vector<std::uint8_t> use(n);
     for (std::size_t i = 0; i < n; ++i)
         use[i] = view.seen[i] && view.shading.data()[i] > 0 && (!usable || (*usable)[i]);
-    PqField f = estimate(view.shading, std::move(use), K, o, 0);
+    const image::ImageF filtered = openClose(view.shading, use, o.albedoFilterPx);
+    PqField f = estimate(filtered, std::move(use), K, o, 0);
     for (float& w : f.weight) w = w > 0 ? 1.f : 0.f;
     return f;
 }
@@ -488,7 +530,10 @@ VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* satura
                 l.luminance.data()[i] = ok ? static_cast<float>(sum / (taps * taps)) : 0.f;
                 l.valid[i] = ok && l.luminance.data()[i] < o.saturation;
             }
-        if (o.method == RegistrationMethod::PqSpace) l.pq = pqFromShading(l.luminance, l.K, o.pq, &l.valid);
+        // The albedo filter's radius is given in the frame's pixels.
+        l.pqOptions = o.pq;
+        l.pqOptions.albedoFilterPx = static_cast<int>(std::lround(o.albedoFilterPx * s));
+        if (o.method == RegistrationMethod::PqSpace) l.pq = pqFromShading(l.luminance, l.K, l.pqOptions, &l.valid);
         f.levels.push_back(std::move(l));
     }
     return f;

@@ -229,7 +229,7 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
         const VideoFrame vf = prepareFrame(linear, &sat, run.camera.K, o);
         const VideoFrame::Level& L = vf.levels.back();
         const ModelView mv = renderModel(mesh, L.K, f.r.cameraToWorld, run.camera.lightOffset, 0, 2);
-        const PqField model = pqFromModel(mv, L.K, o.pq, &L.pq.usable);
+        const PqField model = pqFromModel(mv, L.K, L.pqOptions, &L.pq.usable);
         // The frame (display-referred) with the model's silhouette: occluding
         // contours and the edge of what it sees, where depth jumps.
         image::Image8 over(L.K.width, L.K.height, 3);

@@ -45,6 +45,7 @@ struct PqOptions {
     int borderPx = 2;              // image border (and field-of-view edge) masked, working pixels
     double minConditioning = 0.2;  // 1 + a x + b y below this: near-grazing, masked
     double maxSlope = 6.0;         // |(p, q)| above this: a fold or occluding contour, masked
+    int albedoFilterPx = 0;        // opening + closing radius removing vessels and glints, both sides (0: off)
 };
 
 // Video side: `linear` is the frame's linear luminance (1 channel) resampled to
@@ -88,6 +89,7 @@ struct RegisterOptions {
     std::vector<int> levels;
     int maxIterations = 12;               // Levenberg-Marquardt iterations per level
     double robustScale = 0.5;             // pq: Cauchy scale of |n_video - n_model|
+    double albedoFilterPx = 0.0;          // pq: vessel/glint filter radius in the frame's pixels, scaled per level (0: off)
     int supersample = 2;                  // model renders: sub-samples per pixel side
     double stepMm = 0.15, stepDeg = 0.3;  // finite-difference steps (at the finest level)
     double farMm = 120.0;                 // the depth pass sees this far
@@ -116,7 +118,8 @@ struct VideoFrame {
         Intrinsics K;
         image::ImageF luminance;
         std::vector<std::uint8_t> valid;
-        PqField pq;  // pq method only
+        PqOptions pqOptions;  // the estimator's options at this level
+        PqField pq;           // pq method only
     };
     std::vector<Level> levels;
 };
