@@ -426,17 +426,24 @@ shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptio
     }
     if (!(zmax > zmin))
         throw InputError("samples", "", "all samples are at the same distance: delta(r) cannot be fitted");
-    // zmax: a high quantile of the distances, not the farthest sample. The
-    // farthest few (the far lumen, a wall seen through an opening) are dark
-    // and too few to shape a cubic; over [zmin, zmax] the fit has data, and
-    // beyond it delta is held at delta(1) (r clamped, as the renderer does).
+    // zmax candidates: quantiles of the distances, not only the farthest
+    // sample. The farthest few (the far lumen, a wall seen through an
+    // opening) are dark and too few to shape a cubic, and a lamp's 1/z^2 is
+    // steeper than any cubic over a long range; beyond zmax delta is held at
+    // delta(1) (r clamped, as the renderer does), so every candidate predicts
+    // every sample and the one that explains them best is kept.
+    std::vector<double> zmaxCandidates;
     {
         std::vector<float> zs(samples.size());
         for (std::size_t i = 0; i < samples.size(); ++i) zs[i] = samples[i].z;
-        const auto k = static_cast<std::ptrdiff_t>(
-            std::clamp(o.zmaxQuantile, 0.5, 1.0) * static_cast<double>(zs.size() - 1) + 0.5);
-        std::nth_element(zs.begin(), zs.begin() + k, zs.end());
-        if (zs[static_cast<std::size_t>(k)] > zmin) zmax = zs[static_cast<std::size_t>(k)];
+        for (double q : o.zmaxQuantiles) {
+            const auto k = static_cast<std::ptrdiff_t>(std::clamp(q, 0.5, 1.0) * static_cast<double>(zs.size() - 1));
+            std::nth_element(zs.begin(), zs.begin() + k, zs.end());
+            const double z = zs[static_cast<std::size_t>(k)];
+            if (z > zmin && std::find(zmaxCandidates.begin(), zmaxCandidates.end(), z) == zmaxCandidates.end())
+                zmaxCandidates.push_back(z);
+        }
+        if (zmaxCandidates.empty()) zmaxCandidates.push_back(zmax);
     }
     out.zmin = zmin;
     out.zmax = zmax;
@@ -505,87 +512,112 @@ shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptio
     // [0, 1], which no lamp does (its light only spreads with distance),
     // again with delta constrained to be non-increasing, from the free
     // solution's rho and albedos (docs/theory.md, "The fall-off is a lamp's").
-    double finalCost = 0;
-    int iterations = solve(DeltaForm::Free, cd, albedo, finalCost);
-    FalloffCheck check;
-    check.freeD = {cd[3], cd[4], cd[5]};
-    check.freeCost = finalCost;
-    check.rise = deltaRise(check.freeD);
-    if (o.monotoneDelta && check.rise.amount > kRiseTolerance) {
-        check.constrained = true;
-        // Start: the lamp-shaped delta closest to the free one where the
-        // samples are (least squares over r weighted by their density, e >= 0
-        // by trying every set of steps held at 0), and each texel's albedo
-        // refitted to it; then the joint solve from there.
-        const double span = out.zmax - out.zmin;
-        constexpr int kBins = 64;
-        std::array<double, kBins> density{};
-        for (std::size_t i : usable) {
-            const double rr = std::clamp((samples[i].z - out.zmin) / span, 0.0, 1.0);
-            density[static_cast<std::size_t>(std::min(kBins - 1, static_cast<int>(rr * kBins)))] += 1;
-        }
-        std::array<double, 3> bestE{0, 0, 0};
-        double bestMisfit = 1e300;
-        for (int subset = 0; subset < 8; ++subset) {
-            Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-            Eigen::Vector3d b = Eigen::Vector3d::Zero();
-            for (int k = 0; k < kBins; ++k) {
-                const double rr = (k + 0.5) / kBins, w = density[static_cast<std::size_t>(k)];
-                const double target = check.freeD[0] * rr + check.freeD[1] * rr * rr + check.freeD[2] * rr * rr * rr;
-                Eigen::Vector3d g;  // d delta / d e at rr
+    const std::array<double, 6> cdStart = cd;
+    const std::vector<std::array<double, 3>> albedoStart = albedo;
+    std::array<double, 6> bestCd{};
+    std::vector<std::array<double, 3>> bestAlbedo;
+    FalloffCheck bestCheck;
+    double bestCost = 1e300, bestZmax = zmax;
+    int iterations = 0;
+    for (const double zmaxCandidate : zmaxCandidates) {
+        out.zmax = zmaxCandidate;
+        cd = cdStart;
+        albedo = albedoStart;
+        double finalCost = 0;
+        iterations += solve(DeltaForm::Free, cd, albedo, finalCost);
+        FalloffCheck check;
+        check.freeD = {cd[3], cd[4], cd[5]};
+        check.freeCost = finalCost;
+        check.rise = deltaRise(check.freeD);
+        if (o.monotoneDelta && check.rise.amount > kRiseTolerance) {
+            check.constrained = true;
+            // Start: the lamp-shaped delta closest to the free one where the
+            // samples are (least squares over r weighted by their density, e >= 0
+            // by trying every set of steps held at 0), and each texel's albedo
+            // refitted to it; then the joint solve from there.
+            const double span = out.zmax - out.zmin;
+            constexpr int kBins = 64;
+            std::array<double, kBins> density{};
+            for (std::size_t i : usable) {
+                const double rr = std::clamp((samples[i].z - out.zmin) / span, 0.0, 1.0);
+                density[static_cast<std::size_t>(std::min(kBins - 1, static_cast<int>(rr * kBins)))] += 1;
+            }
+            std::array<double, 3> bestE{0, 0, 0};
+            double bestMisfit = 1e300;
+            for (int subset = 0; subset < 8; ++subset) {
+                Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+                Eigen::Vector3d b = Eigen::Vector3d::Zero();
+                for (int k = 0; k < kBins; ++k) {
+                    const double rr = (k + 0.5) / kBins, w = density[static_cast<std::size_t>(k)];
+                    const double target =
+                        check.freeD[0] * rr + check.freeD[1] * rr * rr + check.freeD[2] * rr * rr * rr;
+                    Eigen::Vector3d g;  // d delta / d e at rr
+                    for (int j = 0; j < 3; ++j)
+                        g[j] = subset & (1 << j) ? rr * kBernsteinSteps[0][j] + rr * rr * kBernsteinSteps[1][j] +
+                                                       rr * rr * rr * kBernsteinSteps[2][j]
+                                                 : 0.0;
+                    A += w * g * g.transpose();
+                    b += w * target * g;
+                }
                 for (int j = 0; j < 3; ++j)
-                    g[j] = subset & (1 << j) ? rr * kBernsteinSteps[0][j] + rr * rr * kBernsteinSteps[1][j] +
-                                                   rr * rr * rr * kBernsteinSteps[2][j]
-                                             : 0.0;
-                A += w * g * g.transpose();
-                b += w * target * g;
+                    if (!(subset & (1 << j))) A(j, j) = 1.0;
+                const Eigen::Vector3d e = A.ldlt().solve(b);
+                if (!e.allFinite() || e.minCoeff() < 0) continue;
+                const DeltaMap dm = deltaMap(DeltaForm::Lamp, e.data());
+                double misfit = 0;
+                for (int k = 0; k < kBins; ++k) {
+                    const double rr = (k + 0.5) / kBins;
+                    const double diff = (dm.d[0] - check.freeD[0]) * rr + (dm.d[1] - check.freeD[1]) * rr * rr +
+                                        (dm.d[2] - check.freeD[2]) * rr * rr * rr;
+                    misfit += density[static_cast<std::size_t>(k)] * diff * diff;
+                }
+                if (misfit < bestMisfit) {
+                    bestMisfit = misfit;
+                    bestE = {e[0], e[1], e[2]};
+                }
             }
-            for (int j = 0; j < 3; ++j)
-                if (!(subset & (1 << j))) A(j, j) = 1.0;
-            const Eigen::Vector3d e = A.ldlt().solve(b);
-            if (!e.allFinite() || e.minCoeff() < 0) continue;
-            const DeltaMap dm = deltaMap(DeltaForm::Lamp, e.data());
-            double misfit = 0;
-            for (int k = 0; k < kBins; ++k) {
-                const double rr = (k + 0.5) / kBins;
-                const double diff = (dm.d[0] - check.freeD[0]) * rr + (dm.d[1] - check.freeD[1]) * rr * rr +
-                                    (dm.d[2] - check.freeD[2]) * rr * rr * rr;
-                misfit += density[static_cast<std::size_t>(k)] * diff * diff;
+            for (int i = 0; i < 3; ++i) cd[static_cast<std::size_t>(3 + i)] = bestE[static_cast<std::size_t>(i)];
+            {
+                shading::BrdfParams start = out;
+                start.c = {1.0 - cd[0] - cd[1] - cd[2], cd[0], cd[1], cd[2]};
+                start.d = deltaMap(DeltaForm::Lamp, cd.data() + 3).d;
+                std::vector<std::array<double, 4>> acc(albedo.size(), {0, 0, 0, 0});
+                for (std::size_t j = 0; j < usable.size(); ++j) {
+                    const Sample& smp = samples[usable[j]];
+                    const double m = fittedShading(start, smp.gamma, smp.z);
+                    auto& a = acc[slotOf[j]];
+                    for (int k = 0; k < 3; ++k) a[static_cast<std::size_t>(k)] += m * smp.I[k];
+                    a[3] += m * m;
+                }
+                for (std::size_t t = 0; t < albedo.size(); ++t)
+                    if (acc[t][3] > 1e-12)
+                        for (int k = 0; k < 3; ++k)
+                            albedo[t][static_cast<std::size_t>(k)] = acc[t][static_cast<std::size_t>(k)] / acc[t][3];
             }
-            if (misfit < bestMisfit) {
-                bestMisfit = misfit;
-                bestE = {e[0], e[1], e[2]};
+            iterations += solve(DeltaForm::Lamp, cd, albedo, finalCost);
+            const DeltaMap dm = deltaMap(DeltaForm::Lamp, cd.data() + 3);
+            for (int i = 0; i < 3; ++i) cd[static_cast<std::size_t>(3 + i)] = dm.d[static_cast<std::size_t>(i)];
+            check.constrainedCost = finalCost;
+            std::size_t inRise = 0;
+            for (std::size_t i : usable) {
+                const double rr = std::clamp((samples[i].z - out.zmin) / span, 0.0, 1.0);
+                inRise += rr >= check.rise.from && rr <= check.rise.to;
             }
+            check.riseSampleFraction = static_cast<double>(inRise) / static_cast<double>(usable.size());
         }
-        for (int i = 0; i < 3; ++i) cd[static_cast<std::size_t>(3 + i)] = bestE[static_cast<std::size_t>(i)];
-        {
-            shading::BrdfParams start = out;
-            start.c = {1.0 - cd[0] - cd[1] - cd[2], cd[0], cd[1], cd[2]};
-            start.d = deltaMap(DeltaForm::Lamp, cd.data() + 3).d;
-            std::vector<std::array<double, 4>> acc(albedo.size(), {0, 0, 0, 0});
-            for (std::size_t j = 0; j < usable.size(); ++j) {
-                const Sample& smp = samples[usable[j]];
-                const double m = fittedShading(start, smp.gamma, smp.z);
-                auto& a = acc[slotOf[j]];
-                for (int k = 0; k < 3; ++k) a[static_cast<std::size_t>(k)] += m * smp.I[k];
-                a[3] += m * m;
-            }
-            for (std::size_t t = 0; t < albedo.size(); ++t)
-                if (acc[t][3] > 1e-12)
-                    for (int k = 0; k < 3; ++k)
-                        albedo[t][static_cast<std::size_t>(k)] = acc[t][static_cast<std::size_t>(k)] / acc[t][3];
+        if (finalCost < bestCost) {
+            bestCost = finalCost;
+            bestCd = cd;
+            bestAlbedo = albedo;
+            bestCheck = check;
+            bestZmax = zmaxCandidate;
         }
-        iterations += solve(DeltaForm::Lamp, cd, albedo, finalCost);
-        const DeltaMap dm = deltaMap(DeltaForm::Lamp, cd.data() + 3);
-        for (int i = 0; i < 3; ++i) cd[static_cast<std::size_t>(3 + i)] = dm.d[static_cast<std::size_t>(i)];
-        check.constrainedCost = finalCost;
-        std::size_t inRise = 0;
-        for (std::size_t i : usable) {
-            const double rr = std::clamp((samples[i].z - out.zmin) / span, 0.0, 1.0);
-            inRise += rr >= check.rise.from && rr <= check.rise.to;
-        }
-        check.riseSampleFraction = static_cast<double>(inRise) / static_cast<double>(usable.size());
     }
+    cd = bestCd;
+    albedo.swap(bestAlbedo);
+    out.zmax = bestZmax;
+    const FalloffCheck check = bestCheck;
+    const double finalCost = bestCost;
 
     out.c = {1.0 - cd[0] - cd[1] - cd[2], cd[0], cd[1], cd[2]};
     out.d = {cd[3], cd[4], cd[5]};

@@ -125,6 +125,7 @@ TEST_F(Falloff, TheFreeCubicRisesAndTheFitComesOutALampsFallOffWithAWarning) {
     fit::FitOptions o;
     o.textureSize = 256;
     o.holdout = 1;
+    o.zmaxQuantiles = {1.0};  // zmax the farthest sample, as before the range was chosen
     o.monotoneDelta = false;  // the paper's free cubic
     const fit::FitResult free = fit::fitFrames(*phantom_, *frames_, o);
     o.monotoneDelta = true;
@@ -157,13 +158,28 @@ TEST_F(Falloff, TheFreeCubicRisesAndTheFitComesOutALampsFallOffWithAWarning) {
     EXPECT_NE(lamp.warnings[0].find("rose with distance"), std::string::npos);
     EXPECT_NE(lamp.warnings[0].find(" mm"), std::string::npos);
     EXPECT_DOUBLE_EQ(lamp.falloff.rise.amount, free.falloff.rise.amount);
-    // It still fits: the constraint costs little (1/z^2 over 3-57 mm is
-    // beyond any cubic, monotone or not), and held-out frames re-render well.
-    EXPECT_LE(lamp.brdf.rms, 1.3 * free.brdf.rms);
-    EXPECT_LE(lamp.falloff.constrainedCost, 1.3 * lamp.falloff.freeCost);
-    EXPECT_GT(lamp.holdout[0].psnr, 30.0);
-    // zmax is a high quantile of the distances, not the farthest sample.
-    EXPECT_LT(lamp.brdf.zmax, 0.6 * maxDistance());
+    // It still fits, at a price: over 3-122 mm no cubic follows 1/z^2, and the
+    // free one bought its lower cost with the rise and a plunge below 0.
+    EXPECT_LE(lamp.brdf.rms, 1.5 * free.brdf.rms);
+    EXPECT_LE(lamp.falloff.constrainedCost, 1.5 * lamp.falloff.freeCost);
+    EXPECT_GT(lamp.holdout[0].psnr, 28.0);
+    // With the range chosen from the data (the default), the cubic covers the
+    // distances most samples lie at, delta is flat beyond, and the fit is
+    // both a lamp's and closer to the frames than either fit above.
+    fit::FitOptions d;
+    d.textureSize = 256;
+    d.holdout = 1;
+    const fit::FitResult chosen = fit::fitFrames(*phantom_, *frames_, d);
+    std::printf(
+        "chosen range: z in [%.1f, %.1f] mm (farthest sample %.1f mm), d = (%.3f, %.3f, %.3f), rises x%.4f, "
+        "rms %.4f, held-out %.2f dB, texture %.2f dB\n",
+        chosen.brdf.zmin, chosen.brdf.zmax, maxDistance(), chosen.brdf.d[0], chosen.brdf.d[1], chosen.brdf.d[2],
+        worstRise(chosen.brdf), chosen.brdf.rms, chosen.holdout[0].psnr, texturePsnr(chosen));
+    EXPECT_LT(chosen.brdf.zmax, 0.5 * maxDistance());
+    EXPECT_LE(worstRise(chosen.brdf), 1.0 + 1e-9);
+    EXPECT_LT(chosen.brdf.rms, free.brdf.rms);
+    EXPECT_GT(chosen.holdout[0].psnr, free.holdout[0].psnr + 2.0);
+    EXPECT_GT(texturePsnr(chosen), texturePsnr(free) + 3.0);
 }
 
 TEST_F(Falloff, SchurAndCeresAgreeOnTheLampConstrainedFit) {
@@ -175,6 +191,7 @@ TEST_F(Falloff, SchurAndCeresAgreeOnTheLampConstrainedFit) {
     // (Schur's lower: it solves a coarse subset of texels first); without
     // it the constrained minimum is one, and both must find it.
     o.robust = false;
+    o.zmaxQuantiles = {0.995};  // a range on which the free cubic rises
     const fit::FitResult fast = fit::fitFrames(*phantom_, *frames_, o);
     o.solver = fit::Solver::Ceres;
     const fit::FitResult ref = fit::fitFrames(*phantom_, *frames_, o);
@@ -187,11 +204,12 @@ TEST_F(Falloff, SchurAndCeresAgreeOnTheLampConstrainedFit) {
     ASSERT_TRUE(ref.falloff.constrained);
     EXPECT_LE(worstRise(fast.brdf), 1.0 + 1e-9);
     EXPECT_LE(worstRise(ref.brdf), 1.0 + 1e-9);
-    // The same constrained minimum, to within the solvers' stopping rules (a
-    // valley along the fall-off's steepness: 1 % of cost moves delta by 0.03).
+    // The same constrained minimum, to within the solvers' stopping rules: a
+    // flat valley along the fall-off's steepness (2 % of cost moves delta by
+    // 0.03), where the specialised solver stops at least as low.
     EXPECT_LE(fast.solveCost, 1.01 * ref.solveCost);
-    EXPECT_NEAR(fast.solveCost, ref.solveCost, 0.02 * ref.solveCost);
-    for (double x = 0; x <= 1.0; x += 0.05) EXPECT_NEAR(fast.brdf.delta(x), ref.brdf.delta(x), 0.04) << x;
+    EXPECT_NEAR(fast.solveCost, ref.solveCost, 0.025 * ref.solveCost);
+    for (double x = 0; x <= 1.0; x += 0.05) EXPECT_NEAR(fast.brdf.delta(x), ref.brdf.delta(x), 0.05) << x;
     for (double g = 0.3; g <= 1.0; g += 0.05) EXPECT_NEAR(fast.brdf.rho(g), ref.brdf.rho(g), 0.06) << g;
 }
 

@@ -44,14 +44,16 @@ enum class Solver {
 
 struct FitOptions {
     Solver solver = Solver::Schur;
-    int textureSize = 1024;                // output atlas: about textureSize^2 texels, shaped to the UV rectangle
-    int holdout = 0;                       // frames held out for validation (evenly spaced)
-    bool robust = true;                    // Cauchy loss; off: plain least squares
-    double cauchyScale = 0.02;             // residual scale of the loss, linear intensity
-    double minGamma = 0.1;                 // grazing views are dropped
-    double saturation = 0.99;              // pixels at or above this (before linearising) are dropped
-    bool monotoneDelta = true;             // delta(r) non-increasing and >= 0 on [0, 1], as a lamp's (off: free cubic)
-    double zmaxQuantile = 0.995;           // zmax: this quantile of the distances (delta is flat beyond, r = 1)
+    int textureSize = 1024;     // output atlas: about textureSize^2 texels, shaped to the UV rectangle
+    int holdout = 0;            // frames held out for validation (evenly spaced)
+    bool robust = true;         // Cauchy loss; off: plain least squares
+    double cauchyScale = 0.02;  // residual scale of the loss, linear intensity
+    double minGamma = 0.1;      // grazing views are dropped
+    double saturation = 0.99;   // pixels at or above this (before linearising) are dropped
+    bool monotoneDelta = true;  // delta(r) non-increasing and >= 0 on [0, 1], as a lamp's (off: free cubic)
+    // zmax candidates, quantiles of the distances: the one whose fit explains
+    // all samples best is kept (delta is flat beyond zmax, r = 1).
+    std::vector<double> zmaxQuantiles{0.9, 0.95, 0.98, 0.995, 1.0};
     int fitGrid = 128;                     // albedo grid of the joint solve (coarser than the atlas)
     std::size_t maxSolveSamples = 150000;  // samples the joint solve uses at most (random subset)
     std::size_t minSamples = 2000;         // fewer usable samples is an error
