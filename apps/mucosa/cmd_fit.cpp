@@ -77,6 +77,7 @@ void addFitCommand(CLI::App& app, Global& g) {
             if (e.file().empty()) throw InputError(e.subject(), a->frames, e.reason());
             throw;
         }
+        for (const std::string& w : r.warnings) warn(w);
         report("writing " + joinPath(a->out, "brdf.json") + ", texture.png, ...", kWriting);
         fit::writeFitOutputs(r, a->out);
         report("done", 1.0);

@@ -72,6 +72,11 @@ std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, cons
             smp.v = static_cast<float>(s.v);
             smp.gamma = static_cast<float>(gamma);
             smp.z = static_cast<float>(z);
+            // The pixel's solid angle cos^3(theta) / (fx fy), theta off the
+            // optical axis, seen at distance z and tilted by gamma.
+            const double xn = (gx - frame.K.cx) / frame.K.fx, yn = (gy - frame.K.cy) / frame.K.fy;
+            const double c2 = 1.0 / (1.0 + xn * xn + yn * yn);
+            smp.footprint = static_cast<float>(z * z * c2 * std::sqrt(c2) / (frame.K.fx * frame.K.fy * gamma));
             smp.frame = frameIndex;
             out.push_back(smp);
         }
@@ -106,7 +111,7 @@ image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const
             const int y0 = std::clamp(static_cast<int>(std::floor(fv)), 0, th - 1);
             const int x1 = std::min(x0 + 1, tw - 1), y1 = std::min(y0 + 1, th - 1);
             const double ax = std::clamp(fu - x0, 0.0, 1.0), ay = std::clamp(fv - y0, 0.0, 1.0);
-            const double shade = brdf.shading(gamma, z);
+            const double shade = fittedShading(brdf, gamma, z);
             for (int c = 0; c < 3; ++c) {
                 const double a = (1 - ay) * ((1 - ax) * tex.at(x0, y0, c) + ax * tex.at(x1, y0, c)) +
                                  ay * ((1 - ax) * tex.at(x0, y1, c) + ax * tex.at(x1, y1, c));

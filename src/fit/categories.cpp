@@ -106,12 +106,14 @@ image::Image8 reduce(const image::Image8& img, int divisor) {
 std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& frames, const FittedModel& model,
                                             const fs::path& outDir, const CategoriesOptions& o) {
     if (!mesh.hasUvs()) throw InputError("mesh", "", "has no texture coordinates (use the mesh the fit used)");
-    // The atlas spans uvMin..uvMax: render with coordinates in atlas space.
+    // The atlas spans uvMin..uvMax: the subject texture is looked up through
+    // the frame's UV transform, while the reflectance map of category 4 keeps
+    // the mesh's own coordinates. (Rescaling the mesh's UVs into the atlas
+    // square instead squeezed the map along the longer side of the UV
+    // rectangle, 4-5x along a phantom's airway, and its highlights came out
+    // as streaks along the tube: radial in a view down the lumen.)
     const float du = model.uvMax[0] - model.uvMin[0], dv = model.uvMax[1] - model.uvMin[1];
-    for (auto& uv : mesh.uvs) {
-        uv[0] = (uv[0] - model.uvMin[0]) / du;
-        uv[1] = (uv[1] - model.uvMin[1]) / dv;
-    }
+    const std::array<float, 4> atlasTransform{1.0f / du, 1.0f / dv, -model.uvMin[0] / du, -model.uvMin[1] / dv};
     mesh::computeTangents(mesh, o.threads);
     std::error_code ec;
     fs::create_directories(outDir, ec);
@@ -173,6 +175,7 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
         setup.light = {static_cast<float>(light[0]), static_cast<float>(light[1]), static_cast<float>(light[2])};
         setup.width = f.K.width;
         setup.height = f.K.height;
+        setup.diffuseUvTransform = atlasTransform;
         auto shoot = [&](int category, shading::Mode mode, const shading::ParamSet& params) {
             setup.mode = mode;
             setup.params = params;

@@ -22,7 +22,66 @@ std::vector<std::size_t> holdoutFrames(std::size_t n, int k) {
     return out;
 }
 
+// Weighted median of (value, weight) pairs.
+double weightedMedian(std::vector<std::array<double, 2>>& v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) { return a[0] < b[0]; });
+    double total = 0;
+    for (const auto& x : v) total += x[1];
+    double acc = 0;
+    for (const auto& x : v) {
+        acc += x[1];
+        if (acc >= 0.5 * total) return x[0];
+    }
+    return v.back()[0];
+}
+
 }  // namespace
+
+AtlasShape atlasShape(const mesh::Mesh& m, std::array<float, 2> uvMin, std::array<float, 2> uvMax, int N) {
+    // |dP/du| and |dP/dv| per triangle, from its edges in space and in UV.
+    std::vector<std::array<double, 2>> su, sv;
+    su.reserve(m.indices.size() / 3);
+    sv.reserve(m.indices.size() / 3);
+    for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+        const auto i0 = m.indices[t], i1 = m.indices[t + 1], i2 = m.indices[t + 2];
+        double e1[3], e2[3];
+        for (int k = 0; k < 3; ++k) {
+            e1[k] = m.positions[i1][k] - m.positions[i0][k];
+            e2[k] = m.positions[i2][k] - m.positions[i0][k];
+        }
+        const double du1 = m.uvs[i1][0] - m.uvs[i0][0], dv1 = m.uvs[i1][1] - m.uvs[i0][1];
+        const double du2 = m.uvs[i2][0] - m.uvs[i0][0], dv2 = m.uvs[i2][1] - m.uvs[i0][1];
+        const double det = du1 * dv2 - du2 * dv1;
+        if (std::fabs(det) < 1e-12) continue;
+        double pu2 = 0, pv2 = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double pu = (e1[k] * dv2 - e2[k] * dv1) / det, pv = (e2[k] * du1 - e1[k] * du2) / det;
+            pu2 += pu * pu;
+            pv2 += pv * pv;
+        }
+        const double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+                     cz = e1[0] * e2[1] - e1[1] * e2[0];
+        const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+        if (!(area > 0)) continue;
+        su.push_back({std::sqrt(pu2), area});
+        sv.push_back({std::sqrt(pv2), area});
+    }
+    const double mmU = weightedMedian(su), mmV = weightedMedian(sv);
+    const double du = uvMax[0] - uvMin[0], dv = uvMax[1] - uvMin[1];
+    AtlasShape a{N, N, 0.0};
+    if (mmU > 0 && mmV > 0) {
+        // Width : height = the rectangle's extent on the surface along u : along v,
+        // rounded to a power of two; the texel count stays about N^2.
+        const int e = static_cast<int>(std::lround(std::log2((du * mmU) / (dv * mmV))));
+        const int wide = (std::abs(e) + 1) / 2, narrow = std::abs(e) / 2;
+        const int longSide = std::min(16384, N << wide), shortSide = std::max(8, N >> narrow);
+        a.width = e >= 0 ? longSide : shortSide;
+        a.height = e >= 0 ? shortSide : longSide;
+        a.texelMm = std::sqrt((du * mmU / a.width) * (dv * mmV / a.height));
+    }
+    return a;
+}
 
 FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOptions& o) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -39,9 +98,10 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
     // Memory: samples (one per pixel at most) and the atlas.
     std::uint64_t pixels = 0;
     for (const Frame& f : set.frames) pixels += static_cast<std::uint64_t>(f.K.width) * f.K.height;
-    requireMemory(saturatingMul(pixels, sizeof(Sample) + 24) +
-                      saturatingMul(static_cast<std::uint64_t>(o.textureSize) * o.textureSize, 64),
-                  "the fit");
+    requireMemory(
+        saturatingMul(pixels, sizeof(Sample) + 24) +
+            saturatingMul(static_cast<std::uint64_t>(o.textureSize) * o.textureSize, 128),  // up to 2 N^2 texels
+        "the fit");
 
     const auto held = holdoutFrames(set.frames.size(), o.holdout);
     // Progress: one fraction rising from 0 to 1 over the stages, each its own
@@ -87,6 +147,9 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
         r.uvMin = {umin, vmin};
         r.uvMax = {umax, vmax};
     }
+    const AtlasShape shape = atlasShape(mesh, r.uvMin, r.uvMax, o.textureSize);
+    r.atlasSize = {shape.width, shape.height};
+    r.texelMm = shape.texelMm;
     if (o.progress) o.progress("fitting rho(gamma) and delta(r)", kSolveAt);
     r.brdf = solveBrdf(samples, o, &r);
     if (o.progress) o.progress("building the texture", kTextureAt);

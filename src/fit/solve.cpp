@@ -24,30 +24,63 @@ namespace mucosa::fit {
 
 namespace {
 
+// How the last three of the six shared parameters make delta's d1..d3.
+//   Free: theta = (d1, d2, d3).
+//   Lamp: theta = (e1, e2, e3) >= 0, the steps down delta's Bernstein
+//         control polygon on [0, 1]: b0 = 1, b1 = 1 - e1, b2 = b1 - e2,
+//         b3 = b2 - e3, delta(r) = sum_i b_i C(3, i) r^i (1 - r)^(3 - i).
+//         A cubic's derivative is 3 sum_i (b_(i+1) - b_i) B_i^2(r) (Farin,
+//         "Curves and surfaces for CAGD", sec. 5.3), so e >= 0 makes delta
+//         non-increasing on [0, 1]: a sufficient condition, reached by every
+//         decreasing shape a lamp gives (1 - r)^3, the steepest with a flat
+//         end, has e = (1, 0, 0)), and linear, so both solvers handle it as
+//         bounds: Ceres natively, the Schur solver by an active set.
+//         In the power basis: d1 = -3 e1, d2 = 3 e1 - 3 e2, d3 = -e1 + 2 e2 - e3.
+enum class DeltaForm { Free, Lamp };
+
+struct DeltaMap {
+    std::array<double, 3> d;
+    std::array<std::array<double, 3>, 3> J;  // J[i][j] = d d_i / d theta_j
+};
+
+constexpr std::array<std::array<double, 3>, 3> kBernsteinSteps{{{-3.0, 0.0, 0.0}, {3.0, -3.0, 0.0}, {-1.0, 2.0, -1.0}}};
+
+DeltaMap deltaMap(DeltaForm form, const double* theta) {
+    DeltaMap m{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m.J[i][j] = form == DeltaForm::Free ? (i == j ? 1.0 : 0.0) : kBernsteinSteps[i][j];
+    for (int i = 0; i < 3; ++i) m.d[i] = m.J[i][0] * theta[0] + m.J[i][1] * theta[1] + m.J[i][2] * theta[2];
+    return m;
+}
+
 // Residual of one sample, three channels: a_k * rho(gamma) * delta(r) - I_k,
 // with rho(1) = 1 built in (c0 = 1 - c1 - c2 - c3) and delta(0) = 1.
-// Parameters: cd = [c1, c2, c3, d1, d2, d3], albedo a = [aR, aG, aB].
+// Parameters: cd = [c1, c2, c3, theta0..2] (theta: see DeltaMap), albedo a = [aR, aG, aB].
 class ShadingResidual final : public ceres::SizedCostFunction<3, 6, 3> {
 public:
-    ShadingResidual(double gamma, double r, const std::array<float, 3>& I) : gamma_(gamma), r_(r), I_(I) {}
+    ShadingResidual(double gamma, double r, const std::array<float, 3>& I, DeltaForm form)
+        : gamma_(gamma), r_(r), I_(I), form_(form) {}
 
     bool Evaluate(double const* const* p, double* residuals, double** jacobians) const override {
         const double* cd = p[0];
         const double* a = p[1];
+        const DeltaMap dm = deltaMap(form_, cd + 3);
         const double g = gamma_, g2 = g * g, g3 = g2 * g;
         const double r = r_, r2 = r * r, r3 = r2 * r;
         const double rho = 1.0 + cd[0] * (g - 1.0) + cd[1] * (g2 - 1.0) + cd[2] * (g3 - 1.0);
-        const double delta = 1.0 + cd[3] * r + cd[4] * r2 + cd[5] * r3;
+        const double delta = 1.0 + dm.d[0] * r + dm.d[1] * r2 + dm.d[2] * r3;
         const double shade = rho * delta;
         for (int k = 0; k < 3; ++k) residuals[k] = a[k] * shade - I_[k];
         if (jacobians) {
             if (jacobians[0]) {
                 const double dRho[3] = {g - 1.0, g2 - 1.0, g3 - 1.0};
-                const double dDelta[3] = {r, r2, r3};
+                const double dD[3] = {r, r2, r3};
+                double dTheta[3];
+                for (int j = 0; j < 3; ++j) dTheta[j] = dD[0] * dm.J[0][j] + dD[1] * dm.J[1][j] + dD[2] * dm.J[2][j];
                 for (int k = 0; k < 3; ++k) {
                     double* row = jacobians[0] + 6 * k;
                     for (int j = 0; j < 3; ++j) row[j] = a[k] * delta * dRho[j];
-                    for (int j = 0; j < 3; ++j) row[3 + j] = a[k] * rho * dDelta[j];
+                    for (int j = 0; j < 3; ++j) row[3 + j] = a[k] * rho * dTheta[j];
                 }
             }
             if (jacobians[1]) {
@@ -62,6 +95,7 @@ public:
 private:
     double gamma_, r_;
     std::array<float, 3> I_;
+    DeltaForm form_;
 };
 
 // Levenberg-Marquardt on the joint problem with the albedos eliminated by the
@@ -84,8 +118,9 @@ struct SolveSample {
 };
 
 int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vector<std::size_t>& usable,
-                            const std::vector<std::uint32_t>& slotOf, const shading::BrdfParams& range, const FitOptions& o,
-                            std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo, double& finalCost) {
+                            const std::vector<std::uint32_t>& slotOf, const shading::BrdfParams& range,
+                            const FitOptions& o, DeltaForm form, std::array<double, 6>& cd,
+                            std::vector<std::array<double, 3>>& albedo, double& finalCost) {
     using Vec6 = Eigen::Matrix<double, 6, 1>;
     using Mat6 = Eigen::Matrix<double, 6, 6>;
     const double span = range.zmax - range.zmin;
@@ -101,7 +136,8 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
         std::vector<std::size_t> at(begin.begin(), begin.end() - 1);
         for (std::size_t j = 0; j < usable.size(); ++j) {
             const Sample& s = samples[usable[j]];
-            ss[at[slotOf[j]]++] = {s.gamma, static_cast<float>((s.z - range.zmin) / span), {s.I[0], s.I[1], s.I[2]}};
+            ss[at[slotOf[j]]++] = {
+                s.gamma, static_cast<float>(std::clamp((s.z - range.zmin) / span, 0.0, 1.0)), {s.I[0], s.I[1], s.I[2]}};
         }
     }
     struct Cell {
@@ -126,12 +162,16 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
     std::vector<double> partCost(chunks);
     tbb::task_arena arena(resolveThreads(o.threads));
 
-    auto shading = [](const SolveSample& s, const std::array<double, 6>& p, Vec6* grad) {
+    auto shading = [](const SolveSample& s, const std::array<double, 6>& p, const DeltaMap& dm, Vec6* grad) {
         const double g = s.gamma, g2 = g * g, g3 = g2 * g;
         const double r = s.r, r2 = r * r, r3 = r2 * r;
         const double rho = 1.0 + p[0] * (g - 1) + p[1] * (g2 - 1) + p[2] * (g3 - 1);
-        const double delta = 1.0 + p[3] * r + p[4] * r2 + p[5] * r3;
-        if (grad) *grad << delta * (g - 1), delta * (g2 - 1), delta * (g3 - 1), rho * r, rho * r2, rho * r3;
+        const double delta = 1.0 + dm.d[0] * r + dm.d[1] * r2 + dm.d[2] * r3;
+        if (grad) {
+            double t[3];
+            for (int j = 0; j < 3; ++j) t[j] = rho * (r * dm.J[0][j] + r2 * dm.J[1][j] + r3 * dm.J[2][j]);
+            *grad << delta * (g - 1), delta * (g2 - 1), delta * (g3 - 1), t[0], t[1], t[2];
+        }
         return rho * delta;
     };
     // Texels t with t % stride == 0 take part (stride 1: all); the others get
@@ -139,6 +179,7 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
     auto linearise = [&](const std::array<double, 6>& p, const std::vector<std::array<double, 3>>& albedoAt,
                          std::size_t stride, Linearisation& out) {
         out.cells.resize(T);
+        const DeltaMap dm = deltaMap(form, p.data() + 3);
         arena.execute([&] {
             tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t ch) {
                 Mat6 H = Mat6::Zero();
@@ -155,7 +196,7 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
                     const double a2 = at[0] * at[0] + at[1] * at[1] + at[2] * at[2];
                     for (std::size_t j = begin[t]; j < begin[t + 1]; ++j) {
                         Vec6 g;
-                        const double m = shading(ss[j], p, &g);
+                        const double m = shading(ss[j], p, dm, &g);
                         double e[3], e2 = 0;
                         for (int k = 0; k < 3; ++k) {
                             e[k] = at[k] * m - ss[j].I[k];
@@ -212,8 +253,12 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
         for (int it = 0; it < 60; ++it) {
             ++iterations;
             // Schur complement onto the six shared parameters (LM damping on both).
+            // Marquardt's scaling, floored so that a direction the data barely
+            // constrain (the fall-off's parameters near the edge of the lamp
+            // constraint) is still damped.
+            const double floor = 1e-9 * cur.H.diagonal().maxCoeff() + 1e-12;
             Mat6 S = cur.H;
-            for (int i = 0; i < 6; ++i) S(i, i) += lambda * cur.H(i, i) + 1e-12;
+            for (int i = 0; i < 6; ++i) S(i, i) += lambda * std::max(cur.H(i, i), floor) + 1e-12;
             Vec6 rhs = cur.b;
             for (const Cell& c : cur.cells) {
                 if (c.haa <= 0) continue;
@@ -223,8 +268,39 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
                     rhs.noalias() -= (inv * c.ba[k]) * c.hta[k];
                 }
             }
-            const Vec6 dt = S.ldlt().solve(-rhs);
-            if (!dt.allFinite()) break;
+            // The step; with the lamp's bounds (theta 3..5 >= 0), an active
+            // set: a step that would cross a bound stops on it, and the other
+            // parameters are solved again with it held.
+            Vec6 dt = S.ldlt().solve(-rhs);
+            if (form == DeltaForm::Lamp) {
+                std::array<bool, 6> held{};
+                for (int round = 0; round < 3 && dt.allFinite(); ++round) {
+                    bool crossed = false;
+                    for (int i = 3; i < 6; ++i)
+                        if (!held[static_cast<std::size_t>(i)] && cd[static_cast<std::size_t>(i)] + dt[i] < 0) {
+                            held[static_cast<std::size_t>(i)] = true;
+                            crossed = true;
+                        }
+                    if (!crossed) break;
+                    Mat6 Sh = S;
+                    Vec6 bh = -rhs;
+                    for (int i = 0; i < 6; ++i) {
+                        if (!held[static_cast<std::size_t>(i)]) continue;
+                        const double fixedStep = -cd[static_cast<std::size_t>(i)];
+                        bh -= S.col(i) * fixedStep;
+                        Sh.row(i).setZero();
+                        Sh.col(i).setZero();
+                        Sh(i, i) = 1.0;
+                        bh[i] = fixedStep;
+                    }
+                    dt = Sh.ldlt().solve(bh);
+                }
+            }
+            if (!dt.allFinite()) {
+                lambda *= 10;
+                if (lambda > 1e8) break;
+                continue;
+            }
             std::array<double, 6> cdNew = cd;
             for (int i = 0; i < 6; ++i) cdNew[static_cast<std::size_t>(i)] += dt[i];
             aNew = albedo;
@@ -265,7 +341,8 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
 // general-purpose reference the specialised solver is checked against.
 int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::size_t>& usable,
                    const std::vector<std::uint32_t>& slotOf, const shading::BrdfParams& out, const FitOptions& o,
-                   std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo, double& finalCost) {
+                   DeltaForm form, std::array<double, 6>& cd, std::vector<std::array<double, 3>>& albedo,
+                   double& finalCost) {
     ceres::Problem::Options po;
     po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -276,9 +353,11 @@ int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::si
     for (std::size_t j = 0; j < usable.size(); ++j) {
         const Sample& s = samples[usable[j]];
         const std::size_t t = slotOf[j];
-        problem.AddResidualBlock(new ShadingResidual(s.gamma, (s.z - out.zmin) / span, s.I), loss, cd.data(),
-                                 albedo[t].data());
+        problem.AddResidualBlock(new ShadingResidual(s.gamma, std::clamp((s.z - out.zmin) / span, 0.0, 1.0), s.I, form),
+                                 loss, cd.data(), albedo[t].data());
     }
+    if (form == DeltaForm::Lamp)  // the Bernstein steps are bounded below by 0
+        for (int i = 3; i < 6; ++i) problem.SetParameterLowerBound(cd.data(), i, 0.0);
     auto* ordering = new ceres::ParameterBlockOrdering;
     for (auto& a : albedo) ordering->AddElementToGroup(a.data(), 0);
     ordering->AddElementToGroup(cd.data(), 1);
@@ -298,7 +377,34 @@ int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::si
     return static_cast<int>(summary.iterations.size());
 }
 
+// A free cubic's rise on [0, 1] below this is rounding, not data.
+constexpr double kRiseTolerance = 1e-9;
+// ... and above this (in delta, which is 1 at r = 0) it is worth a warning.
+constexpr double kRiseWarning = 0.02;
+
+// The largest rise of delta over [0, 1]: max over r0 < r1 of delta(r1) -
+// delta(r0), on a fine grid, with where it starts and ends.
+DeltaRise deltaRise(const std::array<double, 3>& d) {
+    auto delta = [&](double r) { return 1.0 + r * (d[0] + r * (d[1] + r * d[2])); };
+    DeltaRise best;
+    double lo = 1.0, loAt = 0.0;
+    constexpr int kSteps = 1000;
+    for (int i = 1; i <= kSteps; ++i) {
+        const double r = static_cast<double>(i) / kSteps, v = delta(r);
+        if (v - lo > best.amount) best = {v - lo, loAt, r, lo, v};
+        if (v < lo) {
+            lo = v;
+            loAt = r;
+        }
+    }
+    return best;
+}
+
 }  // namespace
+
+double fittedShading(const shading::BrdfParams& b, double gamma, double z) noexcept {
+    return b.rho(gamma) * b.delta(std::clamp(b.r(z), 0.0, 1.0));
+}
 
 shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& o, FitResult* diag) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -320,6 +426,25 @@ shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptio
     }
     if (!(zmax > zmin))
         throw InputError("samples", "", "all samples are at the same distance: delta(r) cannot be fitted");
+    // zmax candidates: quantiles of the distances, not only the farthest
+    // sample. The farthest few (the far lumen, a wall seen through an
+    // opening) are dark and too few to shape a cubic, and a lamp's 1/z^2 is
+    // steeper than any cubic over a long range; beyond zmax delta is held at
+    // delta(1) (r clamped, as the renderer does), so every candidate predicts
+    // every sample and the one that explains them best is kept.
+    std::vector<double> zmaxCandidates;
+    {
+        std::vector<float> zs(samples.size());
+        for (std::size_t i = 0; i < samples.size(); ++i) zs[i] = samples[i].z;
+        for (double q : o.zmaxQuantiles) {
+            const auto k = static_cast<std::ptrdiff_t>(std::clamp(q, 0.5, 1.0) * static_cast<double>(zs.size() - 1));
+            std::nth_element(zs.begin(), zs.begin() + k, zs.end());
+            const double z = zs[static_cast<std::size_t>(k)];
+            if (z > zmin && std::find(zmaxCandidates.begin(), zmaxCandidates.end(), z) == zmaxCandidates.end())
+                zmaxCandidates.push_back(z);
+        }
+        if (zmaxCandidates.empty()) zmaxCandidates.push_back(zmax);
+    }
     out.zmin = zmin;
     out.zmax = zmax;
 
@@ -377,12 +502,122 @@ shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptio
     std::vector<std::uint32_t> slotOf(usable.size());
     for (std::size_t j = 0; j < usable.size(); ++j)
         slotOf[j] = slot[static_cast<std::size_t>(cellOf(samples[usable[j]]))];
+    auto solve = [&](DeltaForm form, std::array<double, 6>& theta, std::vector<std::array<double, 3>>& a,
+                     double& cost) {
+        return o.solver == Solver::Schur
+                   ? schurLevenbergMarquardt(samples, usable, slotOf, out, o, form, theta, a, cost)
+                   : solveWithCeres(samples, usable, slotOf, out, o, form, theta, a, cost);
+    };
+    // First the paper's free cubic; when the data make it rise anywhere on
+    // [0, 1], which no lamp does (its light only spreads with distance),
+    // again with delta constrained to be non-increasing, from the free
+    // solution's rho and albedos (docs/theory.md, "The fall-off is a lamp's").
+    const std::array<double, 6> cdStart = cd;
+    const std::vector<std::array<double, 3>> albedoStart = albedo;
+    std::array<double, 6> bestCd{};
+    std::vector<std::array<double, 3>> bestAlbedo;
+    FalloffCheck bestCheck;
+    double bestCost = 1e300, bestZmax = zmax;
     int iterations = 0;
-    double finalCost = 0;
-    if (o.solver == Solver::Schur)
-        iterations = schurLevenbergMarquardt(samples, usable, slotOf, out, o, cd, albedo, finalCost);
-    else
-        iterations = solveWithCeres(samples, usable, slotOf, out, o, cd, albedo, finalCost);
+    for (const double zmaxCandidate : zmaxCandidates) {
+        out.zmax = zmaxCandidate;
+        cd = cdStart;
+        albedo = albedoStart;
+        double finalCost = 0;
+        iterations += solve(DeltaForm::Free, cd, albedo, finalCost);
+        FalloffCheck check;
+        check.freeD = {cd[3], cd[4], cd[5]};
+        check.freeCost = finalCost;
+        check.rise = deltaRise(check.freeD);
+        if (o.monotoneDelta && check.rise.amount > kRiseTolerance) {
+            check.constrained = true;
+            // Start: the lamp-shaped delta closest to the free one where the
+            // samples are (least squares over r weighted by their density, e >= 0
+            // by trying every set of steps held at 0), and each texel's albedo
+            // refitted to it; then the joint solve from there.
+            const double span = out.zmax - out.zmin;
+            constexpr int kBins = 64;
+            std::array<double, kBins> density{};
+            for (std::size_t i : usable) {
+                const double rr = std::clamp((samples[i].z - out.zmin) / span, 0.0, 1.0);
+                density[static_cast<std::size_t>(std::min(kBins - 1, static_cast<int>(rr * kBins)))] += 1;
+            }
+            std::array<double, 3> bestE{0, 0, 0};
+            double bestMisfit = 1e300;
+            for (int subset = 0; subset < 8; ++subset) {
+                Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+                Eigen::Vector3d b = Eigen::Vector3d::Zero();
+                for (int k = 0; k < kBins; ++k) {
+                    const double rr = (k + 0.5) / kBins, w = density[static_cast<std::size_t>(k)];
+                    const double target =
+                        check.freeD[0] * rr + check.freeD[1] * rr * rr + check.freeD[2] * rr * rr * rr;
+                    Eigen::Vector3d g;  // d delta / d e at rr
+                    for (int j = 0; j < 3; ++j)
+                        g[j] = subset & (1 << j) ? rr * kBernsteinSteps[0][j] + rr * rr * kBernsteinSteps[1][j] +
+                                                       rr * rr * rr * kBernsteinSteps[2][j]
+                                                 : 0.0;
+                    A += w * g * g.transpose();
+                    b += w * target * g;
+                }
+                for (int j = 0; j < 3; ++j)
+                    if (!(subset & (1 << j))) A(j, j) = 1.0;
+                const Eigen::Vector3d e = A.ldlt().solve(b);
+                if (!e.allFinite() || e.minCoeff() < 0) continue;
+                const DeltaMap dm = deltaMap(DeltaForm::Lamp, e.data());
+                double misfit = 0;
+                for (int k = 0; k < kBins; ++k) {
+                    const double rr = (k + 0.5) / kBins;
+                    const double diff = (dm.d[0] - check.freeD[0]) * rr + (dm.d[1] - check.freeD[1]) * rr * rr +
+                                        (dm.d[2] - check.freeD[2]) * rr * rr * rr;
+                    misfit += density[static_cast<std::size_t>(k)] * diff * diff;
+                }
+                if (misfit < bestMisfit) {
+                    bestMisfit = misfit;
+                    bestE = {e[0], e[1], e[2]};
+                }
+            }
+            for (int i = 0; i < 3; ++i) cd[static_cast<std::size_t>(3 + i)] = bestE[static_cast<std::size_t>(i)];
+            {
+                shading::BrdfParams start = out;
+                start.c = {1.0 - cd[0] - cd[1] - cd[2], cd[0], cd[1], cd[2]};
+                start.d = deltaMap(DeltaForm::Lamp, cd.data() + 3).d;
+                std::vector<std::array<double, 4>> acc(albedo.size(), {0, 0, 0, 0});
+                for (std::size_t j = 0; j < usable.size(); ++j) {
+                    const Sample& smp = samples[usable[j]];
+                    const double m = fittedShading(start, smp.gamma, smp.z);
+                    auto& a = acc[slotOf[j]];
+                    for (int k = 0; k < 3; ++k) a[static_cast<std::size_t>(k)] += m * smp.I[k];
+                    a[3] += m * m;
+                }
+                for (std::size_t t = 0; t < albedo.size(); ++t)
+                    if (acc[t][3] > 1e-12)
+                        for (int k = 0; k < 3; ++k)
+                            albedo[t][static_cast<std::size_t>(k)] = acc[t][static_cast<std::size_t>(k)] / acc[t][3];
+            }
+            iterations += solve(DeltaForm::Lamp, cd, albedo, finalCost);
+            const DeltaMap dm = deltaMap(DeltaForm::Lamp, cd.data() + 3);
+            for (int i = 0; i < 3; ++i) cd[static_cast<std::size_t>(3 + i)] = dm.d[static_cast<std::size_t>(i)];
+            check.constrainedCost = finalCost;
+            std::size_t inRise = 0;
+            for (std::size_t i : usable) {
+                const double rr = std::clamp((samples[i].z - out.zmin) / span, 0.0, 1.0);
+                inRise += rr >= check.rise.from && rr <= check.rise.to;
+            }
+            check.riseSampleFraction = static_cast<double>(inRise) / static_cast<double>(usable.size());
+        }
+        if (finalCost < bestCost) {
+            bestCost = finalCost;
+            bestCd = cd;
+            bestAlbedo = albedo;
+            bestCheck = check;
+            bestZmax = zmaxCandidate;
+        }
+    }
+    cd = bestCd;
+    albedo.swap(bestAlbedo);
+    out.zmax = bestZmax;
+    const FalloffCheck check = bestCheck;
+    const double finalCost = bestCost;
 
     out.c = {1.0 - cd[0] - cd[1] - cd[2], cd[0], cd[1], cd[2]};
     out.d = {cd[3], cd[4], cd[5]};
@@ -395,7 +630,7 @@ shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptio
     for (std::size_t i : usable) {
         const Sample& s = samples[i];
         const auto& a = albedo[slot[static_cast<std::size_t>(cellOf(s))]];
-        const double rr = out.r(s.z), rho = out.rho(s.gamma), delta = out.delta(rr);
+        const double rr = std::clamp(out.r(s.z), 0.0, 1.0), rho = out.rho(s.gamma), delta = out.delta(rr);
         double e2 = 0;
         for (int k = 0; k < 3; ++k) {
             const double e = a[k] * rho * delta - s.I[k];
@@ -419,6 +654,16 @@ shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptio
     }
     out.rms = n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
     if (diag) {
+        diag->falloff = check;
+        if (check.constrained && check.rise.amount > kRiseWarning)
+            diag->warnings.push_back(fmt::format(
+                "the fitted fall-off delta(r) rose with distance, from {:.3f} at r = {:.2f} (z = {:.1f} mm) to {:.3f} "
+                "at r = {:.2f} (z = {:.1f} mm), where {:.1f} % of the samples lie; a lamp's light cannot grow with "
+                "distance, so delta was refitted non-increasing (robust cost {:+.1f} %); check the frames' gamma and "
+                "exposure, or add frames that look down the lumen",
+                check.rise.deltaFrom, check.rise.from, out.zmin + check.rise.from * (out.zmax - out.zmin),
+                check.rise.deltaTo, check.rise.to, out.zmin + check.rise.to * (out.zmax - out.zmin),
+                100.0 * check.riseSampleFraction, 100.0 * (check.constrainedCost / check.freeCost - 1.0)));
         diag->solveSamples = usable.size();
         diag->solveTexels = albedo.size();
         diag->solverIterations = iterations;

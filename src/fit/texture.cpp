@@ -1,8 +1,11 @@
 // The albedo atlas: every sample divided by the fitted shading is an estimate
-// of its texel's albedo; estimates are blended with weight gamma * (1 - r/2)
-// (frontal and near views are sharper and less noisy), highlights rejected
-// against a first robust estimate, and texels no frame saw are filled by
-// push-pull inpainting.
+// of its texel's albedo; estimates are blended with weight
+//   w = (rho delta)^2 min(1, texel area / pixel footprint)
+// (inverse variance: I / (rho delta) carries the sensor's noise divided by the
+// shading; and a pixel that covers k texels is their blur, worth 1/k of a
+// sharp view), estimates whose shading is too dark to divide by are dropped,
+// highlights are rejected against a first robust estimate, and texels no
+// frame saw are filled by push-pull inpainting.
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -20,17 +23,27 @@ namespace mucosa::fit {
 namespace {
 
 struct Atlas {
-    int size;
+    int width, height;
     std::array<float, 2> uvMin, uvMax;
     // Texel of (u, v); the first row of the atlas is the top (v = uvMax).
     int index(float u, float v) const {
-        const int x = std::clamp(static_cast<int>((u - uvMin[0]) / (uvMax[0] - uvMin[0]) * static_cast<float>(size)), 0,
-                                 size - 1);
-        const int y = std::clamp(
-            static_cast<int>((1.0f - (v - uvMin[1]) / (uvMax[1] - uvMin[1])) * static_cast<float>(size)), 0, size - 1);
-        return y * size + x;
+        const int x = std::clamp(static_cast<int>((u - uvMin[0]) / (uvMax[0] - uvMin[0]) * static_cast<float>(width)),
+                                 0, width - 1);
+        const int y =
+            std::clamp(static_cast<int>((1.0f - (v - uvMin[1]) / (uvMax[1] - uvMin[1])) * static_cast<float>(height)),
+                       0, height - 1);
+        return y * width + x;
     }
 };
+
+// Shading below this (rho delta; 1 at zmin, head on) is too dark to divide
+// by: 8-bit quantisation alone (1/255) would be an albedo error of 0.2.
+constexpr double kMinShade = 0.02;
+// A texel's estimate has noise sigma / sqrt(sum of shade^2) for a sensor
+// noise sigma; at sigma = 1/255 this much weight keeps it below 0.03 (one
+// sharp view at shade 0.13, or seven at 0.05). Texels with less are left to
+// push-pull: far, dark views alone made coloured speckle.
+constexpr double kMinTexelWeight = 0.017;
 
 // Rows in parallel; every texel's value depends only on its own inputs, so
 // the result is the same for any thread count.
@@ -147,26 +160,33 @@ std::vector<std::uint32_t> orderByTexel(const std::vector<std::uint32_t>& texel,
 }  // namespace
 
 void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams& brdf, const FitOptions& o, FitResult& r) {
-    const int N = o.textureSize;
-    const Atlas atlas{N, r.uvMin, r.uvMax};
-    r.texture = image::ImageF(N, N, 3);
-    r.coverage = image::ImageF(N, N, 1);
+    const int W = r.atlasSize[0] > 0 ? r.atlasSize[0] : o.textureSize;
+    const int H = r.atlasSize[1] > 0 ? r.atlasSize[1] : o.textureSize;
+    const Atlas atlas{W, H, r.uvMin, r.uvMax};
+    r.texture = image::ImageF(W, H, 3);
+    r.coverage = image::ImageF(W, H, 1);
+    const double texelArea = r.texelMm * r.texelMm;
     // Texel of every sample and its albedo estimate I / shading, computed once.
     const std::size_t n = samples.size();
     std::vector<std::uint32_t> texel(n);
     std::vector<float> invShade(n), weight(n);
     for (std::size_t i = 0; i < n; ++i) {
         const Sample& s = samples[i];
-        const double shade = brdf.shading(s.gamma, s.z);
-        invShade[i] = shade > 1e-4 ? static_cast<float>(1.0 / shade) : 0.0f;
+        const double shade = fittedShading(brdf, s.gamma, s.z);
         texel[i] = static_cast<std::uint32_t>(atlas.index(s.u, s.v));
-        // Frontal and near views are sharper and less noisy.
-        weight[i] = static_cast<float>(s.gamma * (1.0 - 0.5 * std::clamp(brdf.r(s.z), 0.0, 1.0)));
+        if (!(shade >= kMinShade)) {
+            invShade[i] = 0.0f;
+            weight[i] = 0.0f;
+            continue;
+        }
+        invShade[i] = static_cast<float>(1.0 / shade);
+        const double sharp = texelArea > 0 && s.footprint > texelArea ? texelArea / s.footprint : 1.0;
+        weight[i] = static_cast<float>(shade * shade * sharp);
     }
     // Samples grouped by texel, so that every texel is one short sweep over
     // its own samples (no scattered passes over the atlas) and texels are
     // independent: groups in parallel, same result for any thread count.
-    const std::vector<std::uint32_t> order = orderByTexel(texel, static_cast<std::uint32_t>(N) * N);
+    const std::vector<std::uint32_t> order = orderByTexel(texel, static_cast<std::uint32_t>(W) * H);
     float* tex = r.texture.data();
     float* cov = r.coverage.data();
     const auto texelValue = [&](std::size_t a, std::size_t b) {
@@ -178,17 +198,18 @@ void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams&
             wsum += weight[i];
             for (int k = 0; k < 3; ++k) acc[k] += weight[i] * samples[i].I[k] * invShade[i];
         }
+        if (!(wsum > 0)) return std::size_t{0};
         const float firstLum = (acc[0] + acc[1] + acc[2]) / wsum;
         // Pass 2: drop estimates far above the first (specular highlights) and blend.
         acc[0] = acc[1] = acc[2] = wsum = 0;
         for (std::size_t j = a; j < b; ++j) {
             const std::uint32_t i = order[j];
             const float lum = (samples[i].I[0] + samples[i].I[1] + samples[i].I[2]) * invShade[i];
-            if (lum > 1.25f * firstLum + 0.03f) continue;
+            if (weight[i] <= 0 || lum > 1.25f * firstLum + 0.03f) continue;
             wsum += weight[i];
             for (int k = 0; k < 3; ++k) acc[k] += weight[i] * samples[i].I[k] * invShade[i];
         }
-        if (!(wsum > 0)) return std::size_t{0};
+        if (!(wsum >= kMinTexelWeight)) return std::size_t{0};
         const float inv = 1.0f / wsum;
         for (int k = 0; k < 3; ++k) tex[3 * static_cast<std::size_t>(t) + k] = acc[k] * inv;
         cov[t] = wsum;
@@ -211,8 +232,12 @@ void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams&
             covered += mine;
         });
     });
-    r.coveredFraction = static_cast<double>(covered.load()) / (static_cast<double>(N) * N);
-    pushPull(r.texture, r.coverage, o.threads);
+    r.coveredFraction = static_cast<double>(covered.load()) / (static_cast<double>(W) * H);
+    // Push-pull trusts every texel a usable sample saw (the blend weights are
+    // relative: their scale says nothing about how much to trust a texel).
+    image::ImageF seen(W, H, 1);
+    for (std::size_t i = 0; i < seen.size(); ++i) seen.data()[i] = cov[i] > 0 ? 1.0f : 0.0f;
+    pushPull(r.texture, seen, o.threads);
 }
 
 }  // namespace mucosa::fit

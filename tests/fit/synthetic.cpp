@@ -37,12 +37,36 @@ std::array<double, 3> trueAlbedo(double u, double v) {
     return {base * 0.95, base * 0.55, base * 0.5};
 }
 
+namespace {
+
+fit::Vec3d cross(const fit::Vec3d& a, const fit::Vec3d& b) {
+    return fit::Vec3d{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+fit::Vec3d norm(fit::Vec3d a) {
+    const double l = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    return fit::Vec3d{a[0] / l, a[1] / l, a[2] / l};
+}
+
+fit::Mat4 cameraFrom(const fit::Vec3d& eye, fit::Vec3d fwd, const fit::Vec3d& up) {
+    fwd = norm(fwd);
+    const fit::Vec3d right = norm(cross(fwd, up));  // OpenCV: x right, y down, z forward
+    const fit::Vec3d down = cross(fwd, right);
+    fit::Mat4 m{};
+    for (int r = 0; r < 3; ++r) m[r] = {right[r], down[r], fwd[r], eye[r]};
+    m[3] = {0, 0, 0, 1};
+    return m;
+}
+
+}  // namespace
+
+fit::Mat4 lookAt(const fit::Vec3d& eye, const fit::Vec3d& target, const fit::Vec3d& up) {
+    return cameraFrom(eye, {target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]}, up);
+}
+
 fit::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const SyntheticOptions& o,
                               const std::filesystem::path& dir) {
-    fit::FrameSet set;
-    std::mt19937 rng(o.seed);
-    std::normal_distribution<double> gauss(0.0, 1.0);
-    const double f = (o.size / 2.0) / std::tan(60.0 * M_PI / 180.0);  // 120 degree field of view
+    std::vector<fit::Mat4> poses;
     for (int k = 0; k < o.frames; ++k) {
         // Off-axis eye, tilted view: gamma and distance decorrelate.
         const double ang = 2 * M_PI * k / o.frames;
@@ -50,22 +74,24 @@ fit::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const 
         const fit::Vec3d eye{off * std::cos(ang), off * std::sin(ang), 10.0 + 4.0 * (k % 4)};
         const double tilt = (20.0 + 8.0 * (k % 4)) * M_PI / 180.0;
         // Forward leans away from the axis toward the opposite wall.
-        fit::Vec3d fwd{-std::sin(tilt) * std::cos(ang + 0.6), -std::sin(tilt) * std::sin(ang + 0.6), std::cos(tilt)};
-        fit::Vec3d up{0, 1, 0};
-        auto cross = [](const fit::Vec3d& a, const fit::Vec3d& b) {
-            return fit::Vec3d{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-        };
-        auto norm = [](fit::Vec3d a) {
-            const double l = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-            return fit::Vec3d{a[0] / l, a[1] / l, a[2] / l};
-        };
-        fwd = norm(fwd);
-        const fit::Vec3d right = norm(cross(fwd, up));  // OpenCV: x right, y down, z forward
-        const fit::Vec3d down = cross(fwd, right);
+        const fit::Vec3d fwd{-std::sin(tilt) * std::cos(ang + 0.6), -std::sin(tilt) * std::sin(ang + 0.6),
+                             std::cos(tilt)};
+        poses.push_back(cameraFrom(eye, fwd, {0, 1, 0}));
+    }
+    return renderSyntheticAt(tube, truth, poses, o, dir);
+}
+
+fit::FrameSet renderSyntheticAt(const mesh::Mesh& tube, const Truth& truth, const std::vector<fit::Mat4>& poses,
+                                const SyntheticOptions& o, const std::filesystem::path& dir) {
+    fit::FrameSet set;
+    std::mt19937 rng(o.seed);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    const double f = (o.size / 2.0) / std::tan(60.0 * M_PI / 180.0);  // 120 degree field of view
+    for (std::size_t k = 0; k < poses.size(); ++k) {
         fit::Frame fr;
         fr.K = {o.size, o.size, f, f, o.size / 2.0, o.size / 2.0, 0, 0};
-        for (int r = 0; r < 3; ++r) fr.cameraToWorld[r] = {right[r], down[r], fwd[r], eye[r]};
-        fr.cameraToWorld[3] = {0, 0, 0, 1};
+        fr.cameraToWorld = poses[k];
+        const fit::Vec3d eye{fr.cameraToWorld[0][3], fr.cameraToWorld[1][3], fr.cameraToWorld[2][3]};
         fr.image = dir / ("frame_" + std::to_string(k) + ".png");
 
         const fit::GBuffer g = fit::rasterize(tube, fr.K, fit::invertRigid(fr.cameraToWorld));
@@ -91,7 +117,7 @@ fit::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const 
                     const double z = std::sqrt(V[0] * V[0] + V[1] * V[1] + V[2] * V[2]);
                     V = norm(V);
                     const double gamma = N[0] * V[0] + N[1] * V[1] + N[2] * V[2];
-                    const auto a = trueAlbedo(u, v);
+                    const auto a = o.albedo ? o.albedo(u, v) : trueAlbedo(u, v);
                     // Glints: the normal perturbed by solid noise, a sharp Phong lobe.
                     const double e = 0.35;
                     fit::Vec3d Nb{N[0] + e * noise::perlin(P[0] * 1.3, P[1] * 1.3, P[2] * 1.3),
@@ -99,8 +125,11 @@ fit::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const 
                                   N[2] + e * noise::perlin(P[2] * 1.3 + 31, P[0] * 1.3, P[1] * 1.3)};
                     Nb = norm(Nb);
                     const double ndv = std::max(0.0, Nb[0] * V[0] + Nb[1] * V[1] + Nb[2] * V[2]);
-                    const double spec = o.specular * std::pow(ndv, 300.0);
-                    for (int c = 0; c < 3; ++c) I[c] = a[c] * truth.rho(std::max(0.0, gamma)) * truth.delta(z) + spec;
+                    // A lamp's highlights fade with it; the cubic truth keeps them at full strength.
+                    const double spec = o.specular * std::pow(ndv, 300.0) *
+                                        (truth.lampRadius > 0 ? std::min(1.0, truth.delta(z)) : 1.0);
+                    for (int c = 0; c < 3; ++c)
+                        I[c] = a[c] * (truth.rho(std::max(0.0, gamma)) * truth.delta(z) + truth.flare) + spec;
                 }
                 for (int c = 0; c < 3; ++c) {
                     const double n = std::clamp(I[c] + o.noise * gauss(rng), 0.0, 1.0);

@@ -26,6 +26,7 @@ namespace mucosa::fit {
 struct Sample {
     float u = 0, v = 0;        // texture coordinates (OpenGL convention)
     float gamma = 0, z = 0;    // cos(V, N) and distance to the viewpoint (mm)
+    float footprint = 0;       // area the pixel covers on the surface (mm^2); 0: unknown
     std::array<float, 3> I{};  // linear intensity, 0..1
     std::uint32_t frame = 0;
 };
@@ -43,12 +44,16 @@ enum class Solver {
 
 struct FitOptions {
     Solver solver = Solver::Schur;
-    int textureSize = 1024;                // output atlas, texels per side
-    int holdout = 0;                       // frames held out for validation (evenly spaced)
-    bool robust = true;                    // Cauchy loss; off: plain least squares
-    double cauchyScale = 0.02;             // residual scale of the loss, linear intensity
-    double minGamma = 0.1;                 // grazing views are dropped
-    double saturation = 0.99;              // pixels at or above this (before linearising) are dropped
+    int textureSize = 1024;     // output atlas: about textureSize^2 texels, shaped to the UV rectangle
+    int holdout = 0;            // frames held out for validation (evenly spaced)
+    bool robust = true;         // Cauchy loss; off: plain least squares
+    double cauchyScale = 0.02;  // residual scale of the loss, linear intensity
+    double minGamma = 0.1;      // grazing views are dropped
+    double saturation = 0.99;   // pixels at or above this (before linearising) are dropped
+    bool monotoneDelta = true;  // delta(r) non-increasing and >= 0 on [0, 1], as a lamp's (off: free cubic)
+    // zmax candidates, quantiles of the distances: the one whose fit explains
+    // all samples best is kept (delta is flat beyond zmax, r = 1).
+    std::vector<double> zmaxQuantiles{0.9, 0.95, 0.98, 0.995, 1.0};
     int fitGrid = 128;                     // albedo grid of the joint solve (coarser than the atlas)
     std::size_t maxSolveSamples = 150000;  // samples the joint solve uses at most (random subset)
     std::size_t minSamples = 2000;         // fewer usable samples is an error
@@ -64,11 +69,31 @@ struct HoldoutResult {
     std::size_t compared = 0, masked = 0;
 };
 
+// Where a fitted delta(r) rises most: delta(to) - delta(from), from < to.
+struct DeltaRise {
+    double amount = 0;  // 0: non-increasing on [0, 1]
+    double from = 0, to = 0;
+    double deltaFrom = 1, deltaTo = 1;
+};
+
+// The free cubic and, when it rose, the constrained refit.
+struct FalloffCheck {
+    std::array<double, 3> freeD{0, 0, 0};  // d1..d3 of the free fit
+    DeltaRise rise;                        // of the free fit
+    bool constrained = false;              // the result is the non-increasing refit
+    double riseSampleFraction = 0;         // solve samples with r in [rise.from, rise.to]
+    double freeCost = 0, constrainedCost = 0;
+};
+
 struct FitResult {
     shading::BrdfParams brdf;
     image::ImageF texture;                          // 3 channels, linear albedo; first row = top (v = 1)
     image::ImageF coverage;                         // 1 channel, blend weight per texel (0 = filled by inpainting)
     std::array<float, 2> uvMin{0, 0}, uvMax{1, 1};  // the atlas spans this UV rectangle
+    // Atlas width and height (0: textureSize square) and the texel's side on
+    // the surface (mm; 0: unknown), set by fitFrames from the mesh.
+    std::array<int, 2> atlasSize{0, 0};
+    double texelMm = 0;
     double coveredFraction = 0;
     std::vector<BackprojectStats> perFrame;
     std::vector<HoldoutResult> holdout;
@@ -81,7 +106,14 @@ struct FitResult {
     double solveSeconds = 0, totalSeconds = 0;
     // Binned data for the report: mean shading-normalised intensity per bin.
     std::vector<std::array<double, 3>> rhoBins, deltaBins;  // (x, mean, count)
+    FalloffCheck falloff;
+    std::vector<std::string> warnings;  // for the user: one line each, with the evidence
 };
+
+// rho(gamma) delta(r) with r clamped to [0, 1], as the renderer evaluates it
+// (common_shading.glsl, depthRatio): beyond the fitted range of distances the
+// fall-off is held at its end value, never extrapolated.
+double fittedShading(const shading::BrdfParams& brdf, double gamma, double z) noexcept;
 
 // Back-projects one frame (image already decoded and linearised, 3 channels).
 // `saturated` (optional, 1 channel) marks pixels at or above the saturation level.
@@ -96,6 +128,17 @@ image::ImageF loadFrameImage(const Frame& frame, double gamma, image::Image8* sa
 // The joint robust solve on samples (zmin/zmax from the data).
 shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& options,
                               FitResult* diagnostics = nullptr);
+
+// The atlas for a UV rectangle: about N^2 texels, the sides in a power-of-two
+// ratio that makes texels square on the surface (within a factor sqrt(2)),
+// from the mesh's millimetres per unit of u and of v (area-weighted medians
+// over its triangles). A long airway's centerline UVs span 1 turn around and
+// 3-4 along: a square atlas there had texels 3x longer along the tube.
+struct AtlasShape {
+    int width = 0, height = 0;
+    double texelMm = 0;  // sqrt of the texel's area on the surface
+};
+AtlasShape atlasShape(const mesh::Mesh& mesh, std::array<float, 2> uvMin, std::array<float, 2> uvMax, int N);
 
 // Albedo atlas from samples and fitted shading; push-pull fills the rest.
 void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams& brdf, const FitOptions& options,
