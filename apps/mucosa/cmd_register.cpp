@@ -206,7 +206,7 @@ void addRegisterCommand(CLI::App& app, Global& g) {
     c->add_option("--report", a->report, "Folder for an HTML report: similarity trace, overlays, pq fields");
     c->add_option("--report-frames", a->reportSamples, "Frames shown in the report [6]")->check(wholeNumber(0, 1000));
     c->add_option("--levels", a->levels,
-                  "Working widths in pixels, coarse to fine [a quarter and a half of the frame's]")
+                  "Working widths in pixels, coarse to fine [40 80]")
         ->check(wholeNumber(16, 4096));
     c->add_option("--max-iterations", a->maxIterations, "Optimiser iterations per level [12]")
         ->check(wholeNumber(1, 1000));

@@ -2,7 +2,7 @@
 // and p95 position and orientation error, losses), the first frame's capture
 // range, and seconds per frame split into renders, similarity and optimiser,
 // for the pq-space method and the intensity baseline in the same run.
-//   bench_register [frames=60] [size=320]
+//   bench_register [frames=60] [size=320] [working widths, coarse to fine...]
 // The airway, frames and lighting are those of tests/fit/register_scene.hpp:
 // a curved airway with rings and a fold, vessels over blotches, glints,
 // Gaussian noise, exposure +-30 % frame to frame, 8-bit gamma-2.2 frames.
@@ -54,6 +54,9 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "usage: bench_register [frames 2..90] [size 64..1024]\n");
         return 2;
     }
+    std::vector<int> levels = fit::RegisterOptions{}.levels;
+    if (argc > 3) levels.clear();
+    for (int i = 3; i < argc; ++i) levels.push_back(std::atoi(argv[i]));
     const test::RegisterScene scene = test::makeRegisterScene(frames);
     fit::Intrinsics K;
     K.width = K.height = size;
@@ -78,6 +81,7 @@ int main(int argc, char** argv) {
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
         fit::RegisterOptions o;
         o.method = method;
+        o.levels = levels;
         // Tracking from a first pose 1.5 mm and 3 degrees off.
         fit::Mat4 pose = fit::perturbPose(scene.poses[0], {0.9, -0.9, 0.7}, {0.03, -0.03, 0.02});
         std::vector<double> mm, deg;
@@ -116,6 +120,7 @@ int main(int argc, char** argv) {
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
         fit::RegisterOptions o;
         o.method = method;
+        o.levels = levels;
         const fit::VideoFrame vf = fit::prepareFrame(linear[0], &sat[0], K, o);
         std::printf("%-9s capture:", fit::methodName(method));
         for (const auto& [emm, edeg] : {std::pair{2.0, 5.0}, std::pair{5.0, 10.0}, std::pair{10.0, 20.0}}) {

@@ -482,9 +482,7 @@ VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* satura
     }
 
     VideoFrame f;
-    std::vector<int> widths = o.levels;
-    if (widths.empty()) widths = {std::max(32, W / 4), std::max(32, W / 2)};
-    for (int width : widths) {
+    for (int width : o.levels) {
         width = std::min(width, W);
         if (!f.levels.empty() && f.levels.back().K.width == width) continue;
         const double s = static_cast<double>(width) / W;

@@ -84,9 +84,11 @@ double normalisedCrossCorrelation(const image::ImageF& a, const image::ImageF& b
 
 struct RegisterOptions {
     RegistrationMethod method = RegistrationMethod::PqSpace;
-    // Working widths, coarse to fine (capped at the frame's width); empty: a
-    // quarter and a half of the frame's width (at least 32 pixels).
-    std::vector<int> levels;
+    // Working widths, coarse to fine (capped at the frame's width). The
+    // smoothing is 2 working pixels, so the width sets its angular scale:
+    // at 80 pixels across an 83-degree view, ~2 degrees (measured in
+    // bench_register: 80 and 160 lost the track at 320 x 320, 40 and 80 held).
+    std::vector<int> levels = {40, 80};
     int maxIterations = 12;               // Levenberg-Marquardt iterations per level
     double robustScale = 0.5;             // pq: Cauchy scale of |n_video - n_model|
     double albedoFilterPx = 0.0;          // pq: vessel/glint filter radius in the frame's pixels, scaled per level (0: off)
