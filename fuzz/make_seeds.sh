@@ -7,7 +7,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 mucosa="$(realpath "${1:-$here/../build/release/mucosa}")"
 c="$here/corpus"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
-mkdir -p "$c"/{png,exr,scene,frames,sidecar,brdf,ratings_csv,twoafc_csv,plan,manifest,mesh}
+mkdir -p "$c"/{png,exr,scene,frames,camera,pose,sidecar,brdf,ratings_csv,twoafc_csv,plan,manifest,mesh}
 
 # Maps: 8- and 16-bit PNGs, a 16-bit height PNG, an EXR height field, their sidecar.
 "$mucosa" -q map --size 8 --octaves 2 -o "$tmp/m8.png" --height-out "$tmp/h.exr"
@@ -36,6 +36,11 @@ printf '%s' '{"mesh": "m.ply", "reflectance_map": "maps/m.png", "mode": "brdf-no
 printf '%s' '{"units": "mm", "frames": [{"image": "f.png", "intrinsics": {"width": 32, "height": 32, "fx": 20, "fy": 20, "cx": 16, "cy": 16},
  "camera_to_world": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]}' > "$c/frames/seed_one.json"
 printf '%s' '{"frames": []}' > "$c/frames/seed_empty.json"
+# mucosa register's camera and pose files.
+printf '%s' '{"intrinsics": {"width": 320, "height": 320, "fx": 180, "fy": 180, "cx": 159.5, "cy": 159.5, "k1": -0.2, "k2": 0.05}, "gamma": 2.2, "light": {"offset": [2.5, 0, 0]}, "units": "mm"}' > "$c/camera/seed_camera.json"
+printf '%s' '{"intrinsics": {"width": 8, "height": 8, "fx": 4, "fy": 4, "cx": 3.5, "cy": 3.5}}' > "$c/camera/seed_minimal.json"
+printf '%s' '{"position": [0, 0, -10], "look_at": [0, 0, 40], "up": [0, 1, 0]}' > "$c/pose/seed_lookat.json"
+printf '%s' '{"camera_to_world": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}' > "$c/pose/seed_matrix.json"
 printf '%s' '{"c": [0.1, 0.01, -0.001, 0.00001], "d": [0.9, 0.02, 0.0, 0.0], "zmin": 2, "zmax": 45, "samples": 1000, "rms": 0.01}' > "$c/brdf/seed_brdf.json"
 
 # Study: ratings and 2AFC CSV, a manifest and the plan made from it.

@@ -234,11 +234,16 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
         // contours and the edge of what it sees, where depth jumps.
         image::Image8 over(L.K.width, L.K.height, 3);
         const double gamma = 1.0 / 2.2;
+        // Shown scaled to the frame's 99th percentile (the lamp leaves most
+        // of a frame dark in linear terms).
+        std::vector<float> lum(L.luminance.data(), L.luminance.data() + L.luminance.size());
+        std::nth_element(lum.begin(), lum.begin() + static_cast<std::ptrdiff_t>(lum.size() * 99 / 100), lum.end());
+        const double white = std::max(1e-6, double(lum[lum.size() * 99 / 100]));
         for (int y = 0; y < L.K.height; ++y)
             for (int x = 0; x < L.K.width; ++x) {
                 const std::size_t k = static_cast<std::size_t>(y) * L.K.width + x;
                 const auto v = static_cast<std::uint8_t>(
-                    std::lround(255 * std::pow(std::clamp(double(L.luminance.data()[k]), 0.0, 1.0), gamma)));
+                    std::lround(255 * std::pow(std::clamp(L.luminance.data()[k] / white, 0.0, 1.0), gamma)));
                 std::array<std::uint8_t, 3> c{v, v, v};
                 const float z = mv.depth.data()[k];
                 bool edge = false;
