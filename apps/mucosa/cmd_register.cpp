@@ -29,7 +29,7 @@ struct RegisterArgs {
     std::string mesh, video, camera, init, out, method = "pq", report;
     std::vector<int> levels;
     int maxIterations = 12, reportSamples = 6;
-    double albedoFilter = 0.0;
+    double albedoFilter = 0.0, prediction = 1.0;
     bool restart = false;
 };
 
@@ -117,12 +117,9 @@ void run(const RegisterArgs& a, const Global& g) {
     const bool tty = ::isatty(STDERR_FILENO) != 0 && !g.quiet;
     const auto t0 = std::chrono::steady_clock::now();
     auto lastWrite = t0;
-    fit::Mat4 pose = init;
-    for (auto it = run.frames.rbegin(); it != run.frames.rend(); ++it)
-        if (it->r.converged) {
-            pose = it->r.cameraToWorld;
-            break;
-        }
+    // The track: resumed from the frames already registered.
+    fit::Tracker tracker(init, a.prediction);
+    for (const auto& f : run.frames) tracker.update(f.r);
     const std::size_t first = run.frames.size();
     for (std::size_t i = first; i < names.size(); ++i) {
         fit::Frame fr;
@@ -131,11 +128,11 @@ void run(const RegisterArgs& a, const Global& g) {
         image::Image8 sat;
         const image::ImageF linear = fit::loadFrameImage(fr, cam.gamma, &sat, o.saturation);
         const fit::VideoFrame vf = fit::prepareFrame(linear, &sat, cam.K, o);
-        const fit::FrameRegistration r = fit::registerFrame(m, vf, pose, o);
+        const fit::FrameRegistration r = fit::registerFrame(m, vf, tracker.start(), o);
         run.frames.push_back({names[i], r});
-        // The next frame starts from the last pose that converged: a lost
-        // frame does not drag the track away.
-        if (r.converged) pose = r.cameraToWorld;
+        // The next frame starts from the last converged pose moved on by the
+        // last converged motion: a lost frame does not drag the track away.
+        tracker.update(r);
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastWrite).count() > 2.0 || i + 1 == names.size()) {
             fit::writeRegistration(out, run);
@@ -205,14 +202,16 @@ void addRegisterCommand(CLI::App& app, Global& g) {
     c->add_option("--method", a->method, "pq (shape from shading, the paper's) or intensity (NCC baseline) [pq]");
     c->add_option("--report", a->report, "Folder for an HTML report: similarity trace, overlays, pq fields");
     c->add_option("--report-frames", a->reportSamples, "Frames shown in the report [6]")->check(wholeNumber(0, 1000));
-    c->add_option("--levels", a->levels,
-                  "Working widths in pixels, coarse to fine [40 80]")
+    c->add_option("--levels", a->levels, "Working widths in pixels, coarse to fine [40 80]")
         ->check(wholeNumber(16, 4096));
     c->add_option("--max-iterations", a->maxIterations, "Optimiser iterations per level [12]")
         ->check(wholeNumber(1, 1000));
     c->add_option("--albedo-filter", a->albedoFilter,
                   "pq: radius (frame pixels) of an opening+closing removing vessels and glints [0 = off]")
         ->check(CLI::Range(0.0, 64.0));
+    c->add_option("--motion-prediction", a->prediction,
+                  "Start each frame from the last pose moved on by this fraction of the last motion [1; 0 = off]")
+        ->check(CLI::Range(0.0, 2.0));
     c->add_flag("--restart", a->restart, "Overwrite an existing output instead of resuming it");
     c->callback([a, &g] { run(*a, g); });
 }

@@ -54,6 +54,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "usage: bench_register [frames 2..90] [size 64..1024]\n");
         return 2;
     }
+    // MUCOSA_PREDICTION: the tracker's constant-velocity factor (default 1).
+    const double prediction = std::getenv("MUCOSA_PREDICTION") ? std::atof(std::getenv("MUCOSA_PREDICTION")) : 1.0;
     std::vector<int> levels = fit::RegisterOptions{}.levels;
     if (argc > 3) levels.clear();
     for (int i = 3; i < argc; ++i) levels.push_back(std::atoi(argv[i]));
@@ -73,9 +75,9 @@ int main(int argc, char** argv) {
         test::VideoOptions vo;
         vo.gain = gain(rng);
         vo.seed = static_cast<unsigned>(100 + i);
-        linear[static_cast<std::size_t>(i)] = through8bit(
-            test::renderVideoFrame(scene.truth, K, scene.poses[static_cast<std::size_t>(i)], vo, 0),
-            sat[static_cast<std::size_t>(i)]);
+        linear[static_cast<std::size_t>(i)] =
+            through8bit(test::renderVideoFrame(scene.truth, K, scene.poses[static_cast<std::size_t>(i)], vo, 0),
+                        sat[static_cast<std::size_t>(i)]);
     }
 
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
@@ -83,20 +85,21 @@ int main(int argc, char** argv) {
         o.method = method;
         o.levels = levels;
         // Tracking from a first pose 1.5 mm and 3 degrees off.
-        fit::Mat4 pose = fit::perturbPose(scene.poses[0], {0.9, -0.9, 0.7}, {0.03, -0.03, 0.02});
+        const fit::Mat4 pose = fit::perturbPose(scene.poses[0], {0.9, -0.9, 0.7}, {0.03, -0.03, 0.02});
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0, renders = 0;
         int converged = 0, losses = 0, lostFor = 0;
+        fit::Tracker tracker(pose, prediction);
         for (int i = 0; i < frames; ++i) {
             const auto t0 = std::chrono::steady_clock::now();
-            const fit::VideoFrame vf = fit::prepareFrame(linear[static_cast<std::size_t>(i)],
-                                                         &sat[static_cast<std::size_t>(i)], K, o);
-            const fit::FrameRegistration r = fit::registerFrame(scene.mesh, vf, pose, o);
+            const fit::VideoFrame vf =
+                fit::prepareFrame(linear[static_cast<std::size_t>(i)], &sat[static_cast<std::size_t>(i)], K, o);
+            const fit::FrameRegistration r = fit::registerFrame(scene.mesh, vf, tracker.start(), o);
+            tracker.update(r);
             wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
             renders += r.evaluations;
             converged += r.converged;
-            if (r.converged) pose = r.cameraToWorld;
             const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[static_cast<std::size_t>(i)]);
             mm.push_back(e.position);
             deg.push_back(e.degrees);

@@ -68,7 +68,8 @@ void morphology(image::ImageF& img, const std::vector<std::uint8_t>& use, int r,
             const std::size_t o = static_cast<std::size_t>(y) * w + x;
             if (!use[o]) continue;
             float v = none;
-            for (int i = std::max(0, y - r); i <= std::min(h - 1, y + r); ++i) v = pick(v, t[static_cast<std::size_t>(i) * w + x]);
+            for (int i = std::max(0, y - r); i <= std::min(h - 1, y + r); ++i)
+                v = pick(v, t[static_cast<std::size_t>(i) * w + x]);
             if (std::isfinite(v)) img.data()[o] = v;
         }
 }
@@ -691,6 +692,20 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
                   r.similarity >= (o.method == RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation);
     r.optimiserSeconds = std::max(0.0, secondsSince(start) - r.renderSeconds - r.similaritySeconds);
     return r;
+}
+
+Mat4 predictPose(const Mat4& before, const Mat4& last, double damping) noexcept {
+    // Relative motion in the camera's frame: M = before^-1 * last = [R | t].
+    const Mat3 Rb = rotationOf(before), Rl = rotationOf(last);
+    const Mat3 R = Rb.transpose() * Rl;
+    const Eigen::Vector3d t = Rb.transpose() * Eigen::Vector3d(last[0][3] - before[0][3], last[1][3] - before[1][3],
+                                                               last[2][3] - before[2][3]);
+    // Applied again after `last` (last * M: the same numbers, now in last's
+    // axes), both parts scaled by the damping.
+    const Eigen::AngleAxisd aa(R);
+    const Eigen::Vector3d w = aa.axis() * aa.angle() * damping;
+    const Eigen::Vector3d tl = t * damping;
+    return perturbPose(last, {tl[0], tl[1], tl[2]}, {w[0], w[1], w[2]});
 }
 
 PoseError poseError(const Mat4& a, const Mat4& b) noexcept {

@@ -89,10 +89,10 @@ struct RegisterOptions {
     // at 80 pixels across an 83-degree view, ~2 degrees (measured in
     // bench_register: 80 and 160 lost the track at 320 x 320, 40 and 80 held).
     std::vector<int> levels = {40, 80};
-    int maxIterations = 12;               // Levenberg-Marquardt iterations per level
-    double robustScale = 0.5;             // pq: Cauchy scale of |n_video - n_model|
-    double albedoFilterPx = 0.0;          // pq: vessel/glint filter radius in the frame's pixels, scaled per level (0: off)
-    int supersample = 2;                  // model renders: sub-samples per pixel side
+    int maxIterations = 12;       // Levenberg-Marquardt iterations per level
+    double robustScale = 0.5;     // pq: Cauchy scale of |n_video - n_model|
+    double albedoFilterPx = 0.0;  // pq: vessel/glint filter radius in the frame's pixels, scaled per level (0: off)
+    int supersample = 2;          // model renders: sub-samples per pixel side
     double stepMm = 0.15, stepDeg = 0.3;  // finite-difference steps (at the finest level)
     double farMm = 120.0;                 // the depth pass sees this far
     double minSimilarity = 0.85;          // below this (pq) a frame is flagged not converged
@@ -137,6 +137,37 @@ FrameRegistration registerFrame(const mesh::Mesh& mesh, const VideoFrame& frame,
 // The triangles within `radiusMm` of a camera centre (the depth pass of a
 // frame's neighbourhood; registration renders many poses near one point).
 std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& mesh, const Vec3d& centre, double radiusMm);
+
+// The next frame's starting pose under constant velocity: `last` moved by the
+// motion from `before` to `last` (camera axes), scaled by `damping` (0: stay at
+// `last`, 1: the full motion again).
+Mat4 predictPose(const Mat4& before, const Mat4& last, double damping = 0.5) noexcept;
+
+// Frame-to-frame tracking: each frame starts from the last converged pose
+// moved on by the last converged motion (constant velocity, times
+// `prediction`); a frame that does not converge leaves the track where it
+// was and drops the velocity.
+class Tracker {
+public:
+    explicit Tracker(const Mat4& initial, double prediction = 1.0) noexcept
+        : last_(initial), before_(initial), prediction_(prediction) {}
+    Mat4 start() const noexcept { return haveBefore_ ? predictPose(before_, last_, prediction_) : last_; }
+    void update(const FrameRegistration& r) noexcept {
+        if (!r.converged) {
+            haveBefore_ = false;
+            return;
+        }
+        before_ = last_;
+        haveBefore_ = started_;
+        last_ = r.cameraToWorld;
+        started_ = true;
+    }
+
+private:
+    Mat4 last_, before_;
+    double prediction_;
+    bool haveBefore_ = false, started_ = false;
+};
 
 // Pose error between two camera_to_world matrices: centre distance (mesh
 // units) and rotation angle (degrees).
