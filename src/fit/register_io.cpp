@@ -217,7 +217,8 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
     const int count = static_cast<int>(std::min<std::size_t>(n, static_cast<std::size_t>(std::max(0, samples))));
     RegisterOptions o = options;
     o.method = RegistrationMethod::PqSpace;  // the pq fields are shown for either method
-    o.levels = {std::min(160, run.camera.K.width)};
+    // The fields at the registration's finest working width, as it saw them.
+    o.levels = {std::min(options.levels.empty() ? 80 : options.levels.back(), run.camera.K.width)};
     for (int s = 0; s < count; ++s) {
         const std::size_t i = count > 1 ? s * (n - 1) / static_cast<std::size_t>(count - 1) : 0;
         const RegisteredFrame& f = run.frames[i];
