@@ -74,6 +74,10 @@ void run(const RegisterArgs& a, const Global& g) {
     const fit::CameraModel cam = fit::readCamera(a.camera);
     o.gamma = cam.gamma;
     o.lightOffset = cam.lightOffset;
+    if (!(cam.K.cx >= 0 && cam.K.cx <= cam.K.width - 1 && cam.K.cy >= 0 && cam.K.cy <= cam.K.height - 1))
+        throw InputError("field 'intrinsics.cx/cy'", a.camera,
+                         fmt::format("the principal point ({}, {}) lies outside the {}x{} image", cam.K.cx, cam.K.cy,
+                                     cam.K.width, cam.K.height));
     const fit::Mat4 init = fit::readPose(a.init);
     const std::vector<fs::path> names = listFrames(a.video);
     for (const fs::path& f : names) {

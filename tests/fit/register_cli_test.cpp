@@ -162,6 +162,10 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     writeText(p.dir / "cam2.json",
               R"({"intrinsics": {"width": 200, "height": 160, "fx": 90, "fy": 90, "cx": 99.5, "cy": 79.5}})");
     check(p.args("", {{"--camera", p.dir / "cam2.json"}}), "is 160x160, but");
+    // A principal point outside the image (pixels, not normalised).
+    writeText(p.dir / "cam3.json",
+              R"({"intrinsics": {"width": 160, "height": 160, "fx": 90, "fy": 90, "cx": 0.5, "cy": 240}})");
+    check(p.args("", {{"--camera", p.dir / "cam3.json"}}), "principal point");
     // A frame of another size.
     image::writePng(p.dir / "video" / "999.png", image::Image8(120, 160, 3));
     check(p.args(), "999.png");
