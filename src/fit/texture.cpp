@@ -159,7 +159,8 @@ std::vector<std::uint32_t> orderByTexel(const std::vector<std::uint32_t>& texel,
 
 }  // namespace
 
-void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams& brdf, const FitOptions& o, FitResult& r) {
+void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams& brdf, const FitOptions& o,
+                  FitResult& r) {
     const int W = r.atlasSize[0] > 0 ? r.atlasSize[0] : o.textureSize;
     const int H = r.atlasSize[1] > 0 ? r.atlasSize[1] : o.textureSize;
     const Atlas atlas{W, H, r.uvMin, r.uvMax};
