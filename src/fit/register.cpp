@@ -568,7 +568,7 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
         if (obj.pixels.size() < 50) {
             r.similarity = 0;
             r.converged = false;
-            r.optimiserSeconds = secondsSince(start) - r.renderSeconds - r.similaritySeconds;
+            r.optimiserSeconds = std::max(0.0, secondsSince(start) - r.renderSeconds - r.similaritySeconds);
             return r;
         }
         // Parameters in units of the finite-difference steps (scaled to the
