@@ -333,7 +333,8 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
     for (int m = 0; m < shading::kModeCount; ++m) impl_->programs[static_cast<std::size_t>(m)] = link(m);
     for (const shading::ModeInfo& m : shading::modes())
         if (m.headlight && !m.procedural)
-            impl_->headlight[static_cast<std::size_t>(m.id)] = link(static_cast<int>(m.id), "#define MUCOSA_HEADLIGHT 1\n");
+            impl_->headlight[static_cast<std::size_t>(m.id)] =
+                link(static_cast<int>(m.id), "#define MUCOSA_HEADLIGHT 1\n");
     impl_->post = linkCameraPass("camera_post.frag", "camera_post");
     impl_->mask = linkCameraPass("camera_mask.frag", "camera_mask");
     glGenVertexArrays(1, &impl_->postVao);

@@ -18,10 +18,14 @@ namespace glsl = shading::glsl;
 
 template <class T>
 constexpr UniformType uniformType() {
-    if constexpr (std::is_same_v<T, float>) return UniformType::Float;
-    else if constexpr (std::is_same_v<T, int>) return UniformType::Int;
-    else if constexpr (std::is_same_v<T, glm::vec3>) return UniformType::Vec3;
-    else if constexpr (std::is_same_v<T, glm::vec4>) return UniformType::Vec4;
+    if constexpr (std::is_same_v<T, float>)
+        return UniformType::Float;
+    else if constexpr (std::is_same_v<T, int>)
+        return UniformType::Int;
+    else if constexpr (std::is_same_v<T, glm::vec3>)
+        return UniformType::Vec3;
+    else if constexpr (std::is_same_v<T, glm::vec4>)
+        return UniformType::Vec4;
     else {
         static_assert(std::is_same_v<T, glm::mat4>, "a uniform of a type the renderer cannot upload");
         return UniformType::Mat4;
@@ -29,10 +33,9 @@ constexpr UniformType uniformType() {
 }
 
 // u<Struct>.<field>: name, offset and type from the one C++ member.
-#define MUCOSA_UNIFORM(Struct, field)                                      \
-    UniformField {                                                         \
-        "u" #Struct "." #field, offsetof(glsl::Struct, field),             \
-            uniformType<decltype(glsl::Struct::field)>()                   \
+#define MUCOSA_UNIFORM(Struct, field)                                                                       \
+    UniformField {                                                                                          \
+        "u" #Struct "." #field, offsetof(glsl::Struct, field), uniformType<decltype(glsl::Struct::field)>() \
     }
 
 static_assert(std::is_standard_layout_v<glsl::Frame> && std::is_standard_layout_v<glsl::Material> &&
@@ -73,12 +76,12 @@ constexpr std::array kCamera = {
     MUCOSA_UNIFORM(Camera, frameSeed),   MUCOSA_UNIFORM(Camera, saturation),
 };
 constexpr std::array kProcedural = {
-    MUCOSA_UNIFORM(Procedural, frequency), MUCOSA_UNIFORM(Procedural, octaves),
+    MUCOSA_UNIFORM(Procedural, frequency),  MUCOSA_UNIFORM(Procedural, octaves),
     MUCOSA_UNIFORM(Procedural, lacunarity), MUCOSA_UNIFORM(Procedural, gain),
-    MUCOSA_UNIFORM(Procedural, z),         MUCOSA_UNIFORM(Procedural, turbulence),
-    MUCOSA_UNIFORM(Procedural, tileable),  MUCOSA_UNIFORM(Procedural, strength),
-    MUCOSA_UNIFORM(Procedural, space),     MUCOSA_UNIFORM(Procedural, scaleMm),
-    MUCOSA_UNIFORM(Procedural, antialias), MUCOSA_UNIFORM(Procedural, texels),
+    MUCOSA_UNIFORM(Procedural, z),          MUCOSA_UNIFORM(Procedural, turbulence),
+    MUCOSA_UNIFORM(Procedural, tileable),   MUCOSA_UNIFORM(Procedural, strength),
+    MUCOSA_UNIFORM(Procedural, space),      MUCOSA_UNIFORM(Procedural, scaleMm),
+    MUCOSA_UNIFORM(Procedural, antialias),  MUCOSA_UNIFORM(Procedural, texels),
 };
 #undef MUCOSA_UNIFORM
 
@@ -117,9 +120,12 @@ struct Varying {
 };
 template <class T>
 constexpr std::string_view glslType() {
-    if constexpr (std::is_same_v<T, float>) return "float";
-    else if constexpr (std::is_same_v<T, glm::vec2>) return "vec2";
-    else if constexpr (std::is_same_v<T, glm::vec3>) return "vec3";
+    if constexpr (std::is_same_v<T, float>)
+        return "float";
+    else if constexpr (std::is_same_v<T, glm::vec2>)
+        return "vec2";
+    else if constexpr (std::is_same_v<T, glm::vec3>)
+        return "vec3";
     else {
         static_assert(std::is_same_v<T, glm::vec4>, "a varying of a type the renderer cannot declare");
         return "vec4";
@@ -127,7 +133,7 @@ constexpr std::string_view glslType() {
 }
 #define MUCOSA_VARYING(field)                                                                   \
     Varying {                                                                                   \
-        #field, glslType<decltype(glsl::Varyings::field)>(), offsetof(glsl::Varyings, field), \
+#field, glslType < decltype(glsl::Varyings::field)>(), offsetof(glsl::Varyings, field), \
             sizeof(glsl::Varyings::field)                                                       \
     }
 constexpr std::array kVaryings = {
@@ -223,7 +229,8 @@ std::string varyingDeclarations(bool vertexStage) {
     for (const Varying& v : kVaryings) {
         const std::string var = fmt::format("v{}{}", static_cast<char>(std::toupper(v.name[0])), v.name.substr(1));
         decl += fmt::format("{} {} {};\n", vertexStage ? "out" : "in", v.type, var);
-        copy += vertexStage ? fmt::format("    {} = v.{};\n", var, v.name) : fmt::format("    v.{} = {};\n", v.name, var);
+        copy +=
+            vertexStage ? fmt::format("    {} = v.{};\n", var, v.name) : fmt::format("    v.{} = {};\n", v.name, var);
     }
     return vertexStage ? decl + "void writeVaryings(Varyings v) {\n" + copy + "}\n"
                        : decl + "Varyings readVaryings() {\n    Varyings v;\n" + copy + "    return v;\n}\n";
@@ -241,19 +248,24 @@ void checkActiveUniforms(GLuint program, const std::string& name) {
         glGetActiveUniform(program, static_cast<GLuint>(i), longest, &length, &size, &type, buffer.data());
         const std::string_view uniform(buffer.data(), static_cast<std::size_t>(length));
         std::span<const UniformField> table;
-        if (uniform.starts_with("uFrame.")) table = kFrame;
-        else if (uniform.starts_with("uMaterial.")) table = kMaterial;
-        else if (uniform.starts_with("uProcedural.")) table = kProcedural;
+        if (uniform.starts_with("uFrame."))
+            table = kFrame;
+        else if (uniform.starts_with("uMaterial."))
+            table = kMaterial;
+        else if (uniform.starts_with("uProcedural."))
+            table = kProcedural;
         else if (uniform.starts_with("uCamera."))
             table = kCamera;
-        else continue;  // samplers and the permutation arrays are set by name where they are used
+        else
+            continue;  // samplers and the permutation arrays are set by name where they are used
         const UniformField* field = nullptr;
         for (const UniformField& f : table)
             if (f.name == uniform) field = &f;
         if (field == nullptr)
-            throw InternalError(fmt::format("shader {}: active uniform '{}' is not in the uniform tables "
-                                            "(src/render/uniforms.cpp)",
-                                            name, uniform));
+            throw InternalError(
+                fmt::format("shader {}: active uniform '{}' is not in the uniform tables "
+                            "(src/render/uniforms.cpp)",
+                            name, uniform));
         if (glType(field->type) != type || size != 1)
             throw InternalError(fmt::format("shader {}: uniform '{}' has GL type 0x{:x} x {}, the table says 0x{:x}",
                                             name, uniform, type, size, glType(field->type)));

@@ -10,8 +10,8 @@
 #include <cmath>
 
 #include <mucosa/camera/camera.hpp>
-#include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/mesh/primitives.hpp>
+#include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/render/renderer.hpp>
 #include <mucosa/shading/reference.hpp>
 

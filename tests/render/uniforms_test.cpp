@@ -10,9 +10,9 @@
 #include <mucosa/render/context.hpp>
 
 #include "render/gl.hpp"
-#include "render_test_support.hpp"
 #include "render/shader.hpp"
 #include "render/uniforms.hpp"
+#include "render_test_support.hpp"
 
 namespace mucosa {
 namespace {
@@ -47,8 +47,8 @@ TEST(UniformTables, NameTheFieldThatIsMissingOrOfAnotherType) {
         EXPECT_NE(m.find("'uMaterial.albedo' is not in the uniform tables"), std::string::npos) << m;
     }
     // The right name with another type.
-    const GLuint retyped = linkFragment(
-        "struct Frame { vec4 eye; };\nuniform Frame uFrame;\nvoid main() { color = uFrame.eye; }\n");
+    const GLuint retyped =
+        linkFragment("struct Frame { vec4 eye; };\nuniform Frame uFrame;\nvoid main() { color = uFrame.eye; }\n");
     const std::string m = checkMessage(retyped);
     EXPECT_NE(m.find("uniform 'uFrame.eye' has GL type"), std::string::npos) << m;
     for (GLuint p : {good, renamed, retyped}) glDeleteProgram(p);
