@@ -33,6 +33,14 @@ void addRegisteredCommands(CLI::App& app, Global& global) {
     for (const auto& [order, add] : r) add(app, global);
 }
 
+void runCommand(Global& global, const std::vector<std::string>& args) {
+    CLI::App app{"", "mucosa"};
+    app.require_subcommand(1);
+    addRegisteredCommands(app, global);
+    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them last first
+    app.parse(reversed);
+}
+
 void info(const Global& g, const std::string& line) {
     if (!g.quiet) std::fprintf(stdout, "%s\n", line.c_str());
 }

@@ -72,7 +72,6 @@ void run(const RegisterArgs& a, const Global& g) {
 
     // Everything is checked before anything is written.
     const fit::CameraModel cam = fit::readCamera(a.camera);
-    o.gamma = cam.gamma;
     o.lightOffset = cam.lightOffset;
     if (!(cam.K.cx >= 0 && cam.K.cx <= cam.K.width - 1 && cam.K.cy >= 0 && cam.K.cy <= cam.K.height - 1))
         throw InputError("field 'intrinsics.cx/cy'", a.camera,
@@ -130,7 +129,7 @@ void run(const RegisterArgs& a, const Global& g) {
         fr.image = names[i];
         fr.K = cam.K;
         image::Image8 sat;
-        const image::ImageF linear = fit::loadFrameImage(fr, cam.gamma, &sat, o.saturation);
+        const image::ImageF linear = fit::loadFrameImage(fr, cam.response, &sat, o.saturation);
         const fit::VideoFrame vf = fit::prepareFrame(linear, &sat, cam.K, o);
         const fit::FrameRegistration r = fit::registerFrame(m, vf, tracker.start(), o);
         run.frames.push_back({names[i], r});

@@ -29,6 +29,11 @@ struct CommandRegistration {
 // All registered subcommands, sorted by order.
 void addRegisteredCommands(CLI::App& app, Global& global);
 
+// Runs a subcommand as if typed after `mucosa` ({"register", "--mesh", ...}),
+// with its checks, progress and messages: how `mucosa demo` chains the steps
+// a user would run.
+void runCommand(Global& global, const std::vector<std::string>& args);
+
 // Messages: stdout for results, stderr for progress, warnings and errors.
 void info(const Global& g, const std::string& line);
 void warn(const std::string& line);

@@ -10,7 +10,8 @@
 
 namespace mucosa::fit {
 
-image::ImageF loadFrameImage(const Frame& frame, double gamma, image::Image8* saturatedMask, double saturation) {
+image::ImageF loadFrameImage(const Frame& frame, const Response& response, image::Image8* saturatedMask,
+                             double saturation) {
     const image::PngImage png = image::readPng(frame.image);
     const image::Image16& px = png.pixels;
     if (px.width() != frame.K.width || px.height() != frame.K.height)
@@ -23,11 +24,15 @@ image::ImageF loadFrameImage(const Frame& frame, double gamma, image::Image8* sa
     const int colour = px.channels() >= 3 ? 3 : 1;
     for (int y = 0; y < px.height(); ++y)
         for (int x = 0; x < px.width(); ++x) {
+            // cos^k of the field angle (shaders/camera.glsl): pixel centres at integer coordinates.
+            const double tx = (x - frame.K.cx) / frame.K.fx, ty = (y - frame.K.cy) / frame.K.fy;
+            const double vignette =
+                response.vignetting == 0 ? 1.0 : std::pow(1.0 + tx * tx + ty * ty, -0.5 * response.vignetting);
             bool sat = false;
             for (int c = 0; c < 3; ++c) {
                 const double v = px.at(x, y, colour == 3 ? c : 0) / maxv;
                 sat = sat || v >= saturation;
-                out.at(x, y, c) = static_cast<float>(gamma == 1.0 ? v : std::pow(v, gamma));
+                out.at(x, y, c) = static_cast<float>(response.linear(v) / vignette);
             }
             if (saturatedMask) saturatedMask->at(x, y) = sat ? 1 : 0;
         }

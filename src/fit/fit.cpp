@@ -118,7 +118,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
                        kSolveAt * static_cast<double>(i) / static_cast<double>(set.frames.size()));
         const bool isHeld = std::find(held.begin(), held.end(), i) != held.end();
         image::Image8 sat;
-        const image::ImageF img = loadFrameImage(f, set.gamma, &sat, o.saturation);
+        const image::ImageF img = loadFrameImage(f, set.response, &sat, o.saturation);
         BackprojectStats st;
         std::vector<Sample> s = backproject(mesh, f, img, &sat, o, static_cast<std::uint32_t>(i), &st);
         r.perFrame[i] = st;
@@ -162,7 +162,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
             o.progress(fmt::format("validating on held-out frame {} ({}/{})", i, k + 1, held.size()),
                        kHoldoutAt + (1.0 - kHoldoutAt) * static_cast<double>(k) / static_cast<double>(held.size()));
         image::Image8 sat;
-        const image::ImageF real = loadFrameImage(f, set.gamma, &sat, o.saturation);
+        const image::ImageF real = loadFrameImage(f, set.response, &sat, o.saturation);
         std::vector<std::uint8_t> seen;
         const image::ImageF pred = renderPrediction(mesh, f, r.brdf, r.texture, r.uvMin, r.uvMax, &seen, o.threads);
         HoldoutResult h;

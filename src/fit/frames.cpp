@@ -7,8 +7,10 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/shading/reference.hpp>
 
 #include "core/json_parse.hpp"
+#include "frames_json.hpp"
 
 namespace mucosa::fit {
 
@@ -78,15 +80,27 @@ Mat4 parseMatrix(const json& m, const std::string& field, const std::string& fil
 }
 
 // units, gamma and light.offset: shared by frames and camera files.
-void parseCommon(const json& j, const std::string& file, double& gamma, Vec3d& lightOffset) {
+void parseCommon(const json& j, const std::string& file, Response& response, Vec3d& lightOffset) {
     if (j.contains("units")) {
         if (!j["units"].is_string()) throw InputError("field 'units'", file, "must be a string");
         const std::string units = j["units"].get<std::string>();
         if (units != "mm")
             throw InputError("field 'units'", file, "'" + units + "' is not supported: give poses in mm");
     }
-    gamma = number(j, "gamma", "", file, false, 1.0);
-    if (!(gamma > 0)) throw InputError("field 'gamma'", file, "must be positive");
+    response.gamma = number(j, "gamma", "", file, false, 1.0);
+    if (!(response.gamma > 0)) throw InputError("field 'gamma'", file, "must be positive");
+    response.vignetting = number(j, "vignetting", "", file, false, 0.0);
+    if (!(response.vignetting >= 0 && response.vignetting <= 16))
+        throw InputError("field 'vignetting'", file, "must be between 0 and 16 (k of cos^k of the field angle)");
+    if (j.contains("tone_curve")) {
+        const json& t = j["tone_curve"];
+        for (int c = 0; c < 3 && t.is_string(); ++c)
+            if (t.get<std::string>() == toneCurveName(c)) response.toneCurve = c;
+        if (response.toneCurve < 0)
+            throw InputError("field 'tone_curve'", file, "must be \"linear\", \"bt709\" or \"srgb\"");
+        if (j.contains("gamma"))
+            throw InputError("field 'gamma'", file, "and 'tone_curve' both say how to linearise: give one");
+    }
     if (j.contains("light")) {
         const json& l = j["light"];
         if (!l.is_object()) throw InputError("field 'light'", file, "must be an object");
@@ -109,7 +123,7 @@ FrameSet readFrames(const fs::path& path) {
     const json j = detail::parseJsonFile(readTextFile(path), file);
     if (!j.is_object()) throw InputError("frames file", file, "must be a JSON object");
     FrameSet set;
-    parseCommon(j, file, set.gamma, set.lightOffset);
+    parseCommon(j, file, set.response, set.lightOffset);
     if (!j.contains("frames") || !j["frames"].is_array() || j["frames"].empty())
         throw InputError("field 'frames'", file, "must be a non-empty array");
     const fs::path dir = path.parent_path();
@@ -142,7 +156,7 @@ CameraModel readCamera(const fs::path& path) {
     const json j = detail::parseJsonFile(readTextFile(path), file);
     if (!j.is_object()) throw InputError("camera file", file, "must be a JSON object");
     CameraModel c;
-    parseCommon(j, file, c.gamma, c.lightOffset);
+    parseCommon(j, file, c.response, c.lightOffset);
     if (!j.contains("intrinsics") || !j["intrinsics"].is_object())
         throw InputError("field 'intrinsics'", file, "is missing (width, height, fx, fy, cx, cy[, k1, k2])");
     c.K = parseIntrinsics(j["intrinsics"], "intrinsics.", file);
@@ -192,10 +206,8 @@ Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up) {
 }
 
 void writeFrames(const fs::path& path, const FrameSet& set) {
-    json j{{"units", set.units},
-           {"gamma", set.gamma},
-           {"light", {{"offset", set.lightOffset}}},
-           {"frames", json::array()}};
+    json j{{"units", set.units}, {"light", {{"offset", set.lightOffset}}}, {"frames", json::array()}};
+    writeResponse(j, set.response);
     for (const Frame& f : set.frames) {
         json m = json::array();
         for (const auto& row : f.cameraToWorld) m.push_back(row);
@@ -205,9 +217,35 @@ void writeFrames(const fs::path& path, const FrameSet& set) {
             k["k1"] = f.K.k1;
             k["k2"] = f.K.k2;
         }
-        j["frames"].push_back(json{{"image", f.image.filename().string()}, {"intrinsics", k}, {"camera_to_world", m}});
+        j["frames"].push_back(
+            json{{"image", relativePath(f.image, path.parent_path())}, {"intrinsics", k}, {"camera_to_world", m}});
     }
     writeFileAtomic(path, j.dump(2) + "\n");
+}
+
+std::string relativePath(const fs::path& target, const fs::path& folder) {
+    std::error_code ec;
+    const fs::path base = fs::absolute(folder.empty() ? fs::path(".") : folder, ec);
+    const fs::path rel = fs::relative(fs::absolute(target, ec), base, ec);
+    return ec || rel.empty() ? fs::absolute(target).string() : rel.generic_string();
+}
+
+void writeResponse(nlohmann::json& j, const Response& response) {
+    if (response.toneCurve >= 0)
+        j["tone_curve"] = toneCurveName(response.toneCurve);
+    else
+        j["gamma"] = response.gamma;
+    if (response.vignetting != 0) j["vignetting"] = response.vignetting;
+}
+
+const char* toneCurveName(int curve) noexcept {
+    constexpr const char* kNames[] = {"linear", "bt709", "srgb"};
+    return curve >= 0 && curve < 3 ? kNames[curve] : "";
+}
+
+double Response::linear(double value) const noexcept {
+    if (toneCurve >= 0) return shading::inverseToneCurve(static_cast<float>(value), toneCurve);
+    return gamma == 1.0 ? value : std::pow(value, gamma);
 }
 
 Vec3d cameraCentre(const Mat4& m) noexcept {

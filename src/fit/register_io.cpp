@@ -16,22 +16,14 @@
 #include <mucosa/mesh/analysis.hpp>
 
 #include "core/json_parse.hpp"
+#include "frames_json.hpp"
 
 namespace mucosa::fit {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-namespace {
-
-std::string relativeTo(const fs::path& target, const fs::path& folder) {
-    std::error_code ec;
-    const fs::path base = fs::absolute(folder.empty() ? fs::path(".") : folder, ec);
-    const fs::path rel = fs::relative(fs::absolute(target, ec), base, ec);
-    return ec || rel.empty() ? fs::absolute(target).string() : rel.generic_string();
-}
-
-}  // namespace
+namespace {}  // namespace
 
 void writeRegistration(const fs::path& path, const RegistrationRun& run) {
     const fs::path folder = path.parent_path();
@@ -42,7 +34,6 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
         k["k2"] = run.camera.K.k2;
     }
     json j{{"units", "mm"},
-           {"gamma", run.camera.gamma},
            {"light", {{"offset", run.camera.lightOffset}}},
            {"registration",
             {{"method", methodName(run.method)},
@@ -52,10 +43,11 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
              {"frames_converged", std::count_if(run.frames.begin(), run.frames.end(),
                                                 [](const RegisteredFrame& f) { return f.r.converged; })}}},
            {"frames", json::array()}};
+    writeResponse(j, run.camera.response);
     for (const RegisteredFrame& f : run.frames) {
         json m = json::array();
         for (const auto& row : f.r.cameraToWorld) m.push_back(row);
-        j["frames"].push_back(json{{"image", relativeTo(f.image, folder)},
+        j["frames"].push_back(json{{"image", relativePath(f.image, folder)},
                                    {"intrinsics", k},
                                    {"camera_to_world", m},
                                    {"registration",
@@ -85,7 +77,7 @@ RegistrationRun readRegistration(const fs::path& path) {
     run.method = method == "pq" ? RegistrationMethod::PqSpace : RegistrationMethod::Intensity;
     if (j["registration"].contains("mesh") && j["registration"]["mesh"].is_string())
         run.mesh = j["registration"]["mesh"].get<std::string>();
-    run.camera.gamma = set.gamma;
+    run.camera.response = set.response;
     run.camera.lightOffset = set.lightOffset;
     if (!set.frames.empty()) run.camera.K = set.frames.front().K;
     for (std::size_t i = 0; i < set.frames.size(); ++i) {
@@ -226,7 +218,7 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
         fr.image = f.image;
         fr.K = run.camera.K;
         image::Image8 sat;
-        const image::ImageF linear = loadFrameImage(fr, run.camera.gamma, &sat, o.saturation);
+        const image::ImageF linear = loadFrameImage(fr, run.camera.response, &sat, o.saturation);
         const VideoFrame vf = prepareFrame(linear, &sat, run.camera.K, o);
         const VideoFrame::Level& L = vf.levels.back();
         const ModelView mv = renderModel(mesh, L.K, f.r.cameraToWorld, run.camera.lightOffset, 0, 2);

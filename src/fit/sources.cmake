@@ -12,5 +12,6 @@ target_sources(mucosa_fit PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/highlight_stats.cpp
   ${CMAKE_CURRENT_LIST_DIR}/tune.cpp
   ${CMAKE_CURRENT_LIST_DIR}/register.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/register_io.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/register_io.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/patient.cpp)
 target_link_libraries(mucosa_fit PRIVATE Ceres::ceres Eigen3::Eigen)

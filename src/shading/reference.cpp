@@ -301,6 +301,14 @@ float meterLuminance(const float* rgb, const FrameSetup& frame) {
     return (1.0f - w) * static_cast<float>(sum / weights) + w * peak;
 }
 
+float toneCurve(float signal, int curve) noexcept {
+    return glsl::toneCurve(signal, curve);
+}
+
+float inverseToneCurve(float value, int curve) noexcept {
+    return glsl::inverseToneCurve(value, curve);
+}
+
 float exposureFor(const FrameSetup& frame, float metered, ExposureState& state) {
     const ParamSet& p = frame.params;
     if (p[Param::AutoExposure] == 0.0f) {
@@ -339,8 +347,7 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
     const int mode = static_cast<int>(frame.mode);
     const bool photographic = info(frame.mode).photographic;
     const bool develop = photographic && !cameraIsIdentity(frame.params);
-    const bool derivatives =
-        glsl::modeIsProcedural(mode) && frame.specularAA;
+    const bool derivatives = glsl::modeIsProcedural(mode) && frame.specularAA;
 
     std::vector<ClipVertex> verts(mesh.vertexCount());
     for (std::size_t i = 0; i < verts.size(); ++i) {

@@ -122,7 +122,7 @@ std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, cons
                                 BackprojectStats* stats);
 
 // Reads, checks and linearises a frame's image (8/16-bit grey or RGB PNG).
-image::ImageF loadFrameImage(const Frame& frame, double gamma, image::Image8* saturatedMask = nullptr,
+image::ImageF loadFrameImage(const Frame& frame, const Response& response, image::Image8* saturatedMask = nullptr,
                              double saturation = 0.99);
 
 // The joint robust solve on samples (zmin/zmax from the data).

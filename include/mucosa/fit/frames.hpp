@@ -27,9 +27,28 @@ struct Frame {
     bool flagged = false;  // registration.converged is false (`mucosa register` could not register it)
 };
 
+// How a frame's pixel values (0..1) go back to the sensor's linear signal:
+// a power law, linear = value^gamma (the file's "gamma"), or the inverse of a
+// standard camera response (the file's "tone_curve": "linear", "bt709" or
+// "srgb": the curves of shaders/camera.glsl; video bronchoscopes put out
+// BT.709).
+// A frame's natural vignetting, cos^k of the field angle (the file's
+// "vignetting": k), is divided out too.
+struct Response {
+    double gamma = 1.0;
+    int toneCurve = -1;     // -1: the power law; else camera.tone_curve's choice (0 linear, 1 BT.709, 2 sRGB)
+    double vignetting = 0;  // k of cos^k(field angle); 0 = none
+    Response() = default;
+    Response(double powerLaw) : gamma(powerLaw) {}  // NOLINT(google-explicit-constructor): a number is a power law
+    double linear(double value) const noexcept;
+};
+
+// "linear", "bt709", "srgb" for 0, 1, 2 (camera.tone_curve's choices); "" otherwise.
+const char* toneCurveName(int curve) noexcept;
+
 struct FrameSet {
     std::string units = "mm";
-    double gamma = 1.0;  // linear = (value / max) ^ gamma
+    Response response;
     Vec3d lightOffset{0, 0, 0};
     std::vector<Frame> frames;
 };
@@ -39,11 +58,11 @@ FrameSet readFrames(const std::filesystem::path& path);
 void writeFrames(const std::filesystem::path& path, const FrameSet& set);
 
 // A camera file (`mucosa register --camera`): the keys a frames file uses,
-// {"intrinsics": {width, height, fx, fy, cx, cy[, k1, k2]}, "gamma",
-// "light": {"offset"}, "units": "mm"}.
+// {"intrinsics": {width, height, fx, fy, cx, cy[, k1, k2]}, "gamma" or
+// "tone_curve", "light": {"offset"}, "units": "mm"}.
 struct CameraModel {
     Intrinsics K;
-    double gamma = 1.0;
+    Response response;
     Vec3d lightOffset{0, 0, 0};
 };
 CameraModel readCamera(const std::filesystem::path& path);

@@ -98,7 +98,6 @@ struct RegisterOptions {
     double minSimilarity = 0.85;          // below this (pq) a frame is flagged not converged
     double minCorrelation = 0.8;          // the same for the intensity method
     double saturation = 0.97;             // linear, specular/clipped
-    double gamma = 1.0;                   // frames' linearisation (FrameSet::gamma)
     Vec3d lightOffset{0, 0, 0};
     PqOptions pq;
     int threads = 0;

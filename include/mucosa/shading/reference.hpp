@@ -99,6 +99,10 @@ void setCameraIdentity(ParamSet& p);
 // The linear exposure factor for this frame given its metered luminance;
 // updates `state`. Fixed exposure (camera.auto_exposure 0): 2^exposure_ev.
 float exposureFor(const FrameSetup& frame, float metered, ExposureState& state);
+// The camera's response camera.tone_curve (0 linear, 1 BT.709, 2 sRGB): a
+// sensor signal in [0, 1] to the display value, and back.
+float toneCurve(float signal, int curve) noexcept;
+float inverseToneCurve(float value, int curve) noexcept;
 
 enum class Filter {
     Nearest,    // GL_NEAREST

@@ -1,0 +1,18 @@
+#pragma once
+// The JSON keys frames, camera and registration files share (frames.cpp).
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include <mucosa/fit/frames.hpp>
+
+namespace mucosa::fit {
+
+// `target` relative to `folder` ('/' separators), or absolute when it cannot be.
+std::string relativePath(const std::filesystem::path& target, const std::filesystem::path& folder);
+
+// "gamma" or "tone_curve", and "vignetting" when not 0.
+void writeResponse(nlohmann::json& j, const Response& response);
+
+}  // namespace mucosa::fit

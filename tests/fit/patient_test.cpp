@@ -1,0 +1,221 @@
+// The camera's response in frames and camera files (tone curve, vignetting),
+// and the synthetic patient `mucosa demo` and bench_patient run the patient
+// pipeline on: its path, its video, what it writes.
+#include <cmath>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/fit/fit.hpp>
+#include <mucosa/fit/patient.hpp>
+#include <mucosa/fit/register.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/shading/reference.hpp>
+
+#include "test_support.hpp"
+
+using namespace mucosa;
+
+namespace {
+
+void writeText(const std::filesystem::path& p, const std::string& text) {
+    std::ofstream(p) << text;
+}
+
+const char* kFrame =
+    R"("frames": [{"image": "f.png", "intrinsics": {"width": 33, "height": 33, "fx": 20, "fy": 20, "cx": 16, "cy": 16},
+                   "camera_to_world": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}])";
+
+// The synthetic patient of the tests: short, small, quick.
+fit::PatientOptions smallPatient() {
+    fit::PatientOptions o;
+    o.frames = 160;
+    o.size = 96;
+    o.startMm = 70;
+    return o;
+}
+
+}  // namespace
+
+TEST(Response, ToneCurvesAreInvertedExactlyAndAPowerLawIsAPowerLaw) {
+    for (int curve = 0; curve < 3; ++curve) {
+        fit::Response r;
+        r.toneCurve = curve;
+        for (double s : {0.0, 0.001, 0.01, 0.018, 0.05, 0.2, 0.5, 0.9, 1.0})
+            EXPECT_NEAR(r.linear(shading::toneCurve(static_cast<float>(s), curve)), s, 2e-5) << curve << " " << s;
+    }
+    // BT.709 at its published points: 0.018 -> 0.081, 1 -> 1, 0.5 -> 0.7055.
+    EXPECT_NEAR(shading::toneCurve(0.5f, 1), 1.099 * std::pow(0.5, 0.45) - 0.099, 1e-5);
+    const fit::Response power(2.2);
+    EXPECT_NEAR(power.linear(0.5), std::pow(0.5, 2.2), 1e-12);
+}
+
+TEST(Response, FramesAndCameraFilesReadAndWriteToneCurveAndVignetting) {
+    test::TempDir dir;
+    writeText(dir / "frames.json", std::string(R"({"tone_curve": "bt709", "vignetting": 1.5, )") + kFrame + "}");
+    const fit::FrameSet set = fit::readFrames(dir / "frames.json");
+    EXPECT_EQ(set.response.toneCurve, 1);
+    EXPECT_DOUBLE_EQ(set.response.vignetting, 1.5);
+    // Written back: the same keys (and the image relative to the file).
+    fit::writeFrames(dir / "again.json", set);
+    const auto j = nlohmann::json::parse(std::ifstream(dir / "again.json"));
+    EXPECT_EQ(j["tone_curve"], "bt709");
+    EXPECT_EQ(j["vignetting"], 1.5);
+    EXPECT_FALSE(j.contains("gamma"));
+    EXPECT_EQ(j["frames"][0]["image"], "f.png");
+    const fit::FrameSet back = fit::readFrames(dir / "again.json");
+    EXPECT_EQ(back.response.toneCurve, 1);
+    EXPECT_DOUBLE_EQ(back.response.vignetting, 1.5);
+
+    writeText(dir / "camera.json",
+              R"({"intrinsics": {"width": 33, "height": 33, "fx": 20, "fy": 20, "cx": 16, "cy": 16},
+                  "tone_curve": "srgb"})");
+    EXPECT_EQ(fit::readCamera(dir / "camera.json").response.toneCurve, 2);
+    EXPECT_EQ(fit::readCamera(dir / "camera.json").response.vignetting, 0.0);
+
+    // Errors name the field.
+    auto refused = [&](const std::string& keys, const std::string& field) {
+        writeText(dir / "bad.json", "{" + keys + ", " + kFrame + "}");
+        try {
+            fit::readFrames(dir / "bad.json");
+            ADD_FAILURE() << keys;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+        }
+    };
+    refused(R"("tone_curve": "log")", "'tone_curve'");
+    refused(R"("tone_curve": 1)", "'tone_curve'");
+    refused(R"("tone_curve": "bt709", "gamma": 2.2)", "'gamma'");
+    refused(R"("vignetting": -1)", "'vignetting'");
+    refused(R"("vignetting": 1e999)", "out of range");
+}
+
+TEST(Response, LoadFrameImageDividesTheVignettingOut) {
+    // A frame that is the vignetting cos^2 of the field angle itself (sRGB
+    // encoded, 16 bits) decodes to a flat field.
+    test::TempDir dir;
+    fit::Frame f;
+    f.image = dir / "f.png";
+    f.K = {33, 33, 20, 20, 16, 16};
+    image::Image16 img(33, 33, 3);
+    for (int y = 0; y < 33; ++y)
+        for (int x = 0; x < 33; ++x) {
+            const double tx = (x - 16) / 20.0, ty = (y - 16) / 20.0;
+            const double s = 0.5 / (1 + tx * tx + ty * ty);
+            for (int c = 0; c < 3; ++c)
+                img.at(x, y, c) = static_cast<std::uint16_t>(std::lround(65535 * shading::toneCurve(float(s), 2)));
+        }
+    image::writePng(f.image, img);
+    fit::Response r;
+    r.toneCurve = 2;
+    r.vignetting = 2;
+    const image::ImageF lin = fit::loadFrameImage(f, r);
+    for (int y = 0; y < 33; y += 4)
+        for (int x = 0; x < 33; x += 4) EXPECT_NEAR(lin.at(x, y, 1), 0.5, 2e-3) << x << " " << y;
+    r.vignetting = 0;
+    EXPECT_NEAR(fit::loadFrameImage(f, r).at(0, 0, 1), 0.5 / (1 + 2 * 0.8 * 0.8), 2e-3);
+}
+
+TEST(SyntheticPatient, PathGoesForwardPausesPullsBackAndRollsInsideTheAirway) {
+    const fit::PatientOptions o = smallPatient();
+    const fit::SyntheticPatient p = fit::makeSyntheticPatient(o);
+    ASSERT_EQ(p.poses.size(), 160u);
+    ASSERT_EQ(p.exposureFactors.size(), 160u);
+    int still = 0, back = 0, forward = 0;
+    double minRoll = 0, maxRoll = 0;
+    const fit::Vec3d start = fit::cameraCentre(p.poses.front());
+    double lastFromStart = 0;
+    for (std::size_t i = 1; i < p.poses.size(); ++i) {
+        const fit::PoseError step = fit::poseError(p.poses[i - 1], p.poses[i]);
+        EXPECT_LE(step.position, o.speedMm * 1.2 + 0.05) << i;  // a scope, not a jump
+        EXPECT_LE(step.degrees, 6.0) << i;
+        const fit::Vec3d c = fit::cameraCentre(p.poses[i]);
+        const double fromStart = std::hypot(c[0] - start[0], c[1] - start[1], c[2] - start[2]);
+        still += step.position < 1e-6;
+        back += fromStart < lastFromStart - 0.1;
+        forward += fromStart > lastFromStart + 0.1;
+        lastFromStart = fromStart;
+    }
+    EXPECT_GE(still, 20);  // two cycles of 8 + 7 still frames
+    EXPECT_GE(back, 15);   // and two pull-backs of 10 frames
+    EXPECT_GE(forward, 90);
+    // Rolls: the camera's x axis turns about the view both ways.
+    for (std::size_t i = 0; i < p.poses.size(); ++i) {
+        const auto& m = p.poses[i];
+        const double roll = std::atan2(m[1][0], m[0][0]) * 180 / M_PI;  // not a pure roll angle, but it swings
+        minRoll = std::min(minRoll, roll - std::atan2(p.poses[0][1][0], p.poses[0][0][0]) * 180 / M_PI);
+        maxRoll = std::max(maxRoll, roll - std::atan2(p.poses[0][1][0], p.poses[0][0][0]) * 180 / M_PI);
+    }
+    EXPECT_GT(maxRoll - minRoll, 20.0);
+    for (double e : p.exposureFactors) {
+        EXPECT_GE(e, 0.7);
+        EXPECT_LE(e, 1.3);
+    }
+    // Every pose is one registration can start from: inside, facing the lumen.
+    for (std::size_t i = 0; i < p.poses.size(); i += 20)
+        EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "m", "p")) << i;
+    // Deterministic.
+    EXPECT_EQ(fit::makeSyntheticPatient(o).poses, p.poses);
+    // Out of range: refused before any work.
+    fit::PatientOptions bad = o;
+    bad.exposureJitter = 1.5;
+    EXPECT_THROW(fit::makeSyntheticPatient(bad), InputError);
+    bad = o;
+    bad.startMm = 1000;
+    EXPECT_THROW(fit::makeSyntheticPatient(bad), InputError);
+}
+
+TEST(SyntheticPatient, WritesTheVideoCameraInitialPoseAndTheTruth) {
+    fit::PatientOptions o = smallPatient();
+    o.frames = 6;
+    const fit::SyntheticPatient p = fit::makeSyntheticPatient(o);
+    test::TempDir dir;
+    int shown = 0;
+    fit::PatientWriteOptions wo;
+    wo.progress = [&](int done, int total) {
+        EXPECT_EQ(total, 6);
+        shown = done;
+    };
+    fit::writeSyntheticPatient(p, dir.path(), wo);
+    EXPECT_EQ(shown, 6);
+    const fit::CameraModel cam = fit::readCamera(dir / "camera.json");
+    EXPECT_EQ(cam.K.width, 96);
+    EXPECT_EQ(cam.response.toneCurve, 1);  // BT.709, the scope's video
+    EXPECT_NEAR(cam.lightOffset[1], 1.2, 1e-12);
+    // The initial pose is the truth moved by 1 mm and 2 degrees.
+    const fit::PoseError e = fit::poseError(fit::readPose(dir / "init.json"), p.poses.front());
+    EXPECT_NEAR(e.position, 1.0, 1e-6);
+    EXPECT_NEAR(e.degrees, 2.0, 0.01);
+    const fit::FrameSet truth = fit::readFrames(dir / "truth" / "frames.json");
+    ASSERT_EQ(truth.frames.size(), 6u);
+    EXPECT_EQ(truth.frames[3].cameraToWorld, p.poses[3]);
+    EXPECT_TRUE(std::filesystem::exists(dir / "truth" / "brdf.json"));
+    EXPECT_TRUE(std::filesystem::exists(dir / "airway.glb"));
+    // The frames: the scope's round field of view (black corners), lit tissue
+    // inside, a dark lumen ahead, and the exposure differs frame to frame.
+    double previousMean = -1;
+    int differ = 0;
+    for (const fit::Frame& f : truth.frames) {
+        const image::PngImage png = image::readPng(f.image);
+        ASSERT_EQ(png.pixels.width(), 96);
+        EXPECT_EQ(png.pixels.at(0, 0, 0), 0);
+        EXPECT_EQ(png.pixels.at(95, 95, 1), 0);
+        double sum = 0;
+        int n = 0, bright = 0, dark = 0;
+        for (int y = 20; y < 76; ++y)
+            for (int x = 20; x < 76; ++x) {
+                const int v = png.pixels.at(x, y, 1);
+                sum += v, ++n;
+                bright += v > 60;
+                dark += v < 15;
+            }
+        EXPECT_GT(bright, n / 5) << f.image;
+        EXPECT_GT(dark, 0) << f.image;
+        const double mean = sum / n;
+        differ += previousMean >= 0 && std::abs(mean - previousMean) > 1.0;
+        previousMean = mean;
+    }
+    EXPECT_GE(differ, 2);
+}
