@@ -335,8 +335,12 @@ Plan readPlan(const fs::path& path) {
     try {
         if (!j.is_object() || j.value("format", "") != kPlanFormat)
             throw InputError("plan", file, "not a study plan (make one with `mucosa study plan`)");
-        if (j.value("version", 0) != kPlanVersion)
-            throw InputError("plan", file, fmt::format("unsupported plan version {}", j.value("version", 0)));
+        // An integer first: get<int> of a float out of int's range is undefined.
+        if (!j.contains("version") || !j["version"].is_number_integer() ||
+            j["version"].get<std::int64_t>() != kPlanVersion)
+            throw InputError(
+                "plan", file,
+                fmt::format("unsupported plan version {}", j.contains("version") ? j["version"].dump() : "(none)"));
         Plan plan;
         const json& o = j.at("options");
         if (!o.at("seed").is_number_unsigned())

@@ -166,6 +166,24 @@ TEST(studyPlan, WritesAndReadsBack) {
     EXPECT_NE(planError(dir.path(), text), "");
 }
 
+// Found by the fuzzing campaign (fuzz/corpus/plan/regress-version-2e90.json):
+// a version that is a float beyond int's range was converted to int (UB).
+TEST(studyPlan, RefusesAVersionThatIsNotTheIntegerItShouldBe) {
+    test::TempDir dir;
+    const nlohmann::json plan = writtenPlan(dir.path());
+    for (const std::string v : {"2e90", "1.5", "-1e300", "\"1\"", "null"}) {
+        std::string text = plan.dump();
+        const auto at = text.find("\"version\":");
+        ASSERT_NE(at, std::string::npos);
+        const auto end = text.find_first_of(",}", at);
+        text.replace(at, end - at, "\"version\":" + v);
+        EXPECT_NE(planError(dir.path(), text).find("unsupported plan version"), std::string::npos) << v;
+    }
+    nlohmann::json j = plan;
+    j.erase("version");
+    EXPECT_NE(planError(dir.path(), j.dump()).find("unsupported plan version"), std::string::npos);
+}
+
 TEST(studyPlan, RefusesImagesOutsideThePlansFolder) {
     test::TempDir root;
     const std::filesystem::path dir = root / "study", outside = root / "outside";
