@@ -73,6 +73,7 @@ void run(const RegisterArgs& a, const Global& g) {
     // Everything is checked before anything is written.
     const fit::CameraModel cam = fit::readCamera(a.camera);
     o.lightOffset = cam.lightOffset;
+    o.lamp = cam.lamp;
     if (!(cam.K.cx >= 0 && cam.K.cx <= cam.K.width - 1 && cam.K.cy >= 0 && cam.K.cy <= cam.K.height - 1))
         throw InputError("field 'intrinsics.cx/cy'", a.camera,
                          fmt::format("the principal point ({}, {}) lies outside the {}x{} image", cam.K.cx, cam.K.cy,

@@ -4,7 +4,7 @@
 // and the exposure jittered +-30 % frame to frame; the pq-space method and
 // the intensity baseline on the same frames, tracking from a first pose 1 mm
 // and 2 degrees off (what `mucosa demo` hands to `mucosa register`).
-//   bench_patient [look=category4|lamp] [frames=300] [size=320] [start_mm=60]
+//   bench_patient [look=lamp|category4] [frames=300] [size=320] [start_mm=60]
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -38,14 +38,14 @@ double quantile(std::vector<double> v, double q) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    const std::string look = argc > 1 ? argv[1] : "category4";
+    const std::string look = argc > 1 ? argv[1] : "lamp";
     fit::PatientOptions po;
     po.look = look == "lamp" ? fit::PatientLook::Lamp : fit::PatientLook::Category4;
     po.frames = argc > 2 ? std::atoi(argv[2]) : 300;
     po.size = argc > 3 ? std::atoi(argv[3]) : 320;
     po.startMm = argc > 4 ? std::atof(argv[4]) : 60.0;
     if ((look != "lamp" && look != "category4") || po.frames < 2 || po.size < 64) {
-        std::fprintf(stderr, "usage: bench_patient [category4|lamp] [frames] [size] [start_mm]\n");
+        std::fprintf(stderr, "usage: bench_patient [lamp|category4] [frames] [size] [start_mm]\n");
         return 2;
     }
     const fit::SyntheticPatient patient = fit::makeSyntheticPatient(po);
@@ -62,10 +62,13 @@ int main(int argc, char** argv) {
         linear.push_back(fit::loadFrameImage(truth.frames[i], truth.response, &sat[i], 0.97));
     std::fflush(stdout);
 
+    // MUCOSA_TRACE=FILE: one line per frame and method (error, similarity, converged).
+    FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
         fit::RegisterOptions o;
         o.method = method;
         o.lightOffset = truth.lightOffset;
+        o.lamp = patient.camera.lamp;
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0;
         int converged = 0, losses = 0, lostFor = 0;
@@ -81,6 +84,9 @@ int main(int argc, char** argv) {
             const fit::PoseError e = fit::poseError(r.cameraToWorld, truth.frames[i].cameraToWorld);
             mm.push_back(e.position);
             deg.push_back(e.degrees);
+            if (trace)
+                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d\n", fit::methodName(method), i, e.position, e.degrees,
+                             r.similarity, r.converged ? 1 : 0);
             lostFor = (e.position > 5 || e.degrees > 10) ? lostFor + 1 : 0;
             if (lostFor == 11) ++losses;
         }
@@ -93,6 +99,7 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
     }
 
+    if (trace) std::fclose(trace);
     // Capture range of the first frame: 2, 5, 10 mm with 5, 10, 20 degrees,
     // 6 random directions each; success = within 1 mm and 2 degrees.
     std::mt19937 dirRng(3);
@@ -102,6 +109,7 @@ int main(int argc, char** argv) {
         fit::RegisterOptions o;
         o.method = method;
         o.lightOffset = truth.lightOffset;
+        o.lamp = patient.camera.lamp;
         const fit::VideoFrame vf = fit::prepareFrame(linear[0], &sat[0], patient.camera.K, o);
         std::printf("%-9s capture:", fit::methodName(method));
         for (const auto& [emm, edeg] : {std::pair{2.0, 5.0}, std::pair{5.0, 10.0}, std::pair{10.0, 20.0}}) {

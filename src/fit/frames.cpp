@@ -157,6 +157,14 @@ CameraModel readCamera(const fs::path& path) {
     if (!j.is_object()) throw InputError("camera file", file, "must be a JSON object");
     CameraModel c;
     parseCommon(j, file, c.response, c.lightOffset);
+    if (j.contains("light")) {
+        c.lamp.spread = number(j["light"], "spread", "light.", file, false, 0.0);
+        c.lamp.radiusMm = number(j["light"], "source_radius_mm", "light.", file, false, 0.0);
+        if (!(c.lamp.spread >= 0 && c.lamp.spread <= 50))
+            throw InputError("field 'light.spread'", file, "must be between 0 and 50 (mu of exp(-mu (1 - cos theta)))");
+        if (!(c.lamp.radiusMm >= 0 && c.lamp.radiusMm <= 100))
+            throw InputError("field 'light.source_radius_mm'", file, "must be between 0 and 100 mm");
+    }
     if (!j.contains("intrinsics") || !j["intrinsics"].is_object())
         throw InputError("field 'intrinsics'", file, "is missing (width, height, fx, fy, cx, cy[, k1, k2])");
     c.K = parseIntrinsics(j["intrinsics"], "intrinsics.", file);

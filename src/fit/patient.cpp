@@ -76,6 +76,7 @@ scene::Scene patientScene(const PatientOptions& o, int branch) {
         s.params.set(P::Ambient, 0.0f);
         s.params.set(P::MucusOpacity, 0.0f);
     }
+    for (const auto& [param, value] : o.params) s.params.set(param, value);
     return s;
 }
 
@@ -179,6 +180,10 @@ SyntheticPatient makeSyntheticPatient(const PatientOptions& o) {
     p.camera.response.toneCurve = static_cast<int>(s.params[shading::Param::ToneCurve]);
     p.camera.response.vignetting = s.params[shading::Param::Vignetting];
     p.camera.lightOffset = o.lightOffset;
+    if (o.look == PatientLook::Lamp) {  // the patient-specific modes have delta(r) instead of a lamp
+        p.camera.lamp.spread = s.params[shading::Param::LightSpread];
+        p.camera.lamp.radiusMm = s.params[shading::Param::LightSourceRadius];
+    }
 
     std::uint64_t rng = o.seed * 0x2545f4914f6cdd1dULL + 17;
     const std::vector<double> at = schedule(o.frames, o.pauses, o.speedMm / 0.1, static_cast<double>(path.size() - 1));
@@ -289,7 +294,10 @@ void writeSyntheticPatient(const SyntheticPatient& p, const fs::path& dir, const
                {"cy", p.camera.K.cy}}},
              {"tone_curve", toneCurveName(p.camera.response.toneCurve)},
              {"vignetting", p.camera.response.vignetting},
-             {"light", {{"offset", p.camera.lightOffset}}}};
+             {"light",
+              {{"offset", p.camera.lightOffset},
+               {"spread", p.camera.lamp.spread},
+               {"source_radius_mm", p.camera.lamp.radiusMm}}}};
     writeFileAtomic(dir / "camera.json", cam.dump(2) + "\n");
     // The user's first pose: the truth, off by a hand's placement.
     const double deg = o.initErrorDeg * kPi / 180.0, mm = o.initErrorMm;

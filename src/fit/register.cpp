@@ -250,7 +250,7 @@ struct Objective {
     // `seen` (optional): 1 where the model has an estimate at the pixel.
     std::vector<double> differences(const Mat4& pose, double* similarity, std::vector<std::uint8_t>* seen = nullptr) {
         auto t0 = Clock::now();
-        const ModelView view = renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample);
+        const ModelView view = renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample, o.lamp);
         stats->renderSeconds += secondsSince(t0);
         ++stats->evaluations;
         t0 = Clock::now();
@@ -357,7 +357,7 @@ PqField pqFromShading(const image::ImageF& linear, const Intrinsics& K, const Pq
 }
 
 ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& L,
-                      int threads, int supersample) {
+                      int threads, int supersample, const LampProfile& lamp) {
     // Rendered at `supersample` x the resolution and box-filtered, as the
     // video's pixels integrate the scene: without it the model is point-
     // sampled, and the comparison favours a pose that aliases alike.
@@ -401,7 +401,9 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
                     const Eigen::Vector3d l = Eigen::Vector3d(L[0], L[1], L[2]) - P;
                     const double d = l.norm();
                     const double cosine = nc.dot(l) / d;
-                    if (cosine > 0) sum += cosine / (d * d), ++lit;
+                    // The lamp's profile: theta from its axis (the optical axis).
+                    const double profile = lamp.spread == 0 ? 1.0 : std::exp(-lamp.spread * (1.0 + l.z() / d));
+                    if (cosine > 0) sum += cosine * profile / (d * d + lamp.radiusMm * lamp.radiusMm), ++lit;
                 }
             const std::size_t o = static_cast<std::size_t>(y) * K.width + x;
             v.shading.data()[o] = static_cast<float>(sum / (ss * ss));

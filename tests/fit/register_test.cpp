@@ -4,13 +4,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <random>
 
+#include <mucosa/core/error.hpp>
 #include <mucosa/fit/register.hpp>
 #include <mucosa/mesh/primitives.hpp>
 #include <mucosa/mesh/repair.hpp>
 
 #include "register_scene.hpp"
+#include "test_support.hpp"
 
 using namespace mucosa;
 using fit::Intrinsics;
@@ -304,4 +307,50 @@ TEST(RegisterPq, SimilarityPeaksAtTheTruePose) {
             std::printf("\n");
         }
     }
+}
+
+// The model side lights the surface with the lamp's profile: off the optical
+// axis by theta, exp(-spread (1 - cos theta)); at distance d, 1 / (d^2 + a^2).
+TEST(RegisterPq, ModelShadingFollowsTheLampsSpreadAndDisk) {
+    mesh::Mesh quad = mesh::makeQuad(400.0f, 40);  // z = 0, normal +z
+    const Intrinsics K = pinhole(81, 81);
+    const Mat4 pose = fit::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});  // 20 mm above, facing it
+    const fit::ModelView point = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1);
+    fit::LampProfile lamp;
+    lamp.spread = 0.8;
+    lamp.radiusMm = 1.5;
+    const fit::ModelView spot = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
+    int checked = 0;
+    for (int y = 0; y < K.height; y += 10)
+        for (int x = 0; x < K.width; x += 10) {
+            const double tx = (x - K.cx) / K.fx, ty = (y - K.cy) / K.fy;
+            const double cosTheta = 1.0 / std::sqrt(1 + tx * tx + ty * ty);
+            const double d = 20.0 / cosTheta;  // along the ray to the plane
+            const double expected = std::exp(-0.8 * (1 - cosTheta)) * d * d / (d * d + 1.5 * 1.5);
+            const float a = point.shading.at(x, y), b = spot.shading.at(x, y);
+            if (a <= 0) continue;
+            EXPECT_NEAR(b / a, expected, 2e-3 * expected) << x << " " << y;
+            ++checked;
+        }
+    EXPECT_GT(checked, 50);
+}
+
+TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
+    test::TempDir dir;
+    const std::string k = R"("intrinsics": {"width": 64, "height": 64, "fx": 40, "fy": 40, "cx": 31.5, "cy": 31.5})";
+    std::ofstream(dir / "c.json") << "{" << k
+                                  << R"(, "light": {"offset": [0, 1, 0], "spread": 0.5, "source_radius_mm": 1.5}})";
+    const fit::CameraModel c = fit::readCamera(dir / "c.json");
+    EXPECT_DOUBLE_EQ(c.lamp.spread, 0.5);
+    EXPECT_DOUBLE_EQ(c.lamp.radiusMm, 1.5);
+    EXPECT_DOUBLE_EQ(c.lightOffset[1], 1.0);
+    std::ofstream(dir / "d.json") << "{" << k << R"(, "light": {"spread": -1}})";
+    try {
+        fit::readCamera(dir / "d.json");
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("light.spread"), std::string::npos) << e.what();
+    }
+    std::ofstream(dir / "e.json") << "{" << k << R"(, "light": {"source_radius_mm": "big"}})";
+    EXPECT_THROW(fit::readCamera(dir / "e.json"), InputError);
 }

@@ -59,11 +59,22 @@ void writeFrames(const std::filesystem::path& path, const FrameSet& set);
 
 // A camera file (`mucosa register --camera`): the keys a frames file uses,
 // {"intrinsics": {width, height, fx, fy, cx, cy[, k1, k2]}, "gamma" or
-// "tone_curve", "light": {"offset"}, "units": "mm"}.
+// "tone_curve", "vignetting", "light": {"offset", "spread",
+// "source_radius_mm"}, "units": "mm"}.
+// The lamp's profile beyond its position (the renderer's lamp, docs/theory.md
+// "The endoscope's lamp"): irradiance exp(-spread (1 - cos theta)) /
+// (d^2 + radiusMm^2), theta from the optical axis. Both 0: a point source,
+// the paper's model.
+struct LampProfile {
+    double spread = 0;
+    double radiusMm = 0;
+};
+
 struct CameraModel {
     Intrinsics K;
     Response response;
     Vec3d lightOffset{0, 0, 0};
+    LampProfile lamp;  // "light": {"spread", "source_radius_mm"}
 };
 CameraModel readCamera(const std::filesystem::path& path);
 

@@ -15,31 +15,34 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
 #include <mucosa/shading/brdf.hpp>
+#include <mucosa/shading/params.hpp>
 
 namespace mucosa::fit {
 
 // How the video is shaded.
 enum class PatientLook {
+    // The photographic `noise` mode: the lamp's own inverse-square fall-off
+    // and angular spread, wrap, the mucus sheen, the method's highlights,
+    // through the GL camera (a bronchoscopy as the scope shows it).
+    Lamp,
     // The study's category 4: the albedo texture, rho(gamma) delta(r) with the
     // truth's brdf (whose cubic delta(r) is the closest a cubic comes to the
     // lamp's fall-off, see theory.md), the method's noise-shaped highlights.
     Category4,
-    // The photographic `noise` mode: the lamp's own inverse-square fall-off
-    // and angular spread, wrap, the mucus sheen, the method's highlights.
-    Lamp,
 };
 
 struct PatientOptions {
     int frames = 300;
     int size = 320;         // square frames, pixels
     double fovDeg = 110.0;  // across the frame
-    PatientLook look = PatientLook::Category4;
+    PatientLook look = PatientLook::Lamp;
     double exposureJitter = 0.3;       // each frame's exposure x a factor uniform in [1 - j, 1 + j]
     double startMm = 60.0;             // where the path starts, along the trachea's centerline (mm)
     double stopMm = 12.0;              // how far before the lobar bronchus's end it stops (mm)
@@ -48,6 +51,9 @@ struct PatientOptions {
     bool pauses = true;                // the scope stops, pulls back and goes on, now and then
     Vec3d lightOffset{0.0, 1.2, 0.0};  // the lamp in camera coordinates (OpenCV axes, mm)
     std::uint64_t seed = 1;
+    // Registry parameters set on the video's scene after the look's own
+    // (e.g. light.spread 0: a lamp without angular fall-off).
+    std::vector<std::pair<shading::Param, float>> params;
     int threads = 0;
 };
 

@@ -63,8 +63,11 @@ struct ModelView {
     image::ImageF depth;             // 1 channel, mean z of the sub-samples that hit (inf: none)
     std::vector<std::uint8_t> seen;  // 1: every sub-sample sees a lit surface
 };
+// `lamp`: the lamp's angular fall-off and disk (camera.json's light.spread,
+// light.source_radius_mm), modelled so that the model's shading varies across
+// the frame as the video's does.
 ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& lightOffset,
-                      int threads = 1, int supersample = 2);
+                      int threads = 1, int supersample = 2, const LampProfile& lamp = {});
 // The same estimator on the model's shading: like is compared with like, so
 // the estimator's own biases (curvature breaks local planarity; smoothing)
 // and the lamp's offset from the lens are modelled exactly, not assumed away.
@@ -95,10 +98,11 @@ struct RegisterOptions {
     int supersample = 2;          // model renders: sub-samples per pixel side
     double stepMm = 0.15, stepDeg = 0.3;  // finite-difference steps (at the finest level)
     double farMm = 120.0;                 // the depth pass sees this far
-    double minSimilarity = 0.85;          // below this (pq) a frame is flagged not converged
+    double minSimilarity = 0.78;          // below this (pq) a frame is flagged not converged
     double minCorrelation = 0.8;          // the same for the intensity method
     double saturation = 0.97;             // linear, specular/clipped
     Vec3d lightOffset{0, 0, 0};
+    LampProfile lamp;  // the lamp's spread and disk (CameraModel::lamp)
     PqOptions pq;
     int threads = 0;
 };
