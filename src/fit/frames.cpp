@@ -219,16 +219,20 @@ void writeFrames(const fs::path& path, const FrameSet& set) {
     for (const Frame& f : set.frames) {
         json m = json::array();
         for (const auto& row : f.cameraToWorld) m.push_back(row);
-        json k{{"width", f.K.width}, {"height", f.K.height}, {"fx", f.K.fx},
-               {"fy", f.K.fy},       {"cx", f.K.cx},         {"cy", f.K.cy}};
-        if (f.K.k1 != 0 || f.K.k2 != 0) {
-            k["k1"] = f.K.k1;
-            k["k2"] = f.K.k2;
-        }
+        const json k = intrinsicsJson(f.K);
         j["frames"].push_back(
             json{{"image", relativePath(f.image, path.parent_path())}, {"intrinsics", k}, {"camera_to_world", m}});
     }
     writeFileAtomic(path, j.dump(2) + "\n");
+}
+
+json intrinsicsJson(const Intrinsics& K) {
+    json k{{"width", K.width}, {"height", K.height}, {"fx", K.fx}, {"fy", K.fy}, {"cx", K.cx}, {"cy", K.cy}};
+    if (K.k1 != 0 || K.k2 != 0) {
+        k["k1"] = K.k1;
+        k["k2"] = K.k2;
+    }
+    return k;
 }
 
 std::string relativePath(const fs::path& target, const fs::path& folder) {

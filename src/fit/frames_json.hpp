@@ -12,6 +12,9 @@ namespace mucosa::fit {
 // `target` relative to `folder` ('/' separators), or absolute when it cannot be.
 std::string relativePath(const std::filesystem::path& target, const std::filesystem::path& folder);
 
+// {"width", "height", "fx", "fy", "cx", "cy"[, "k1", "k2"]}: k1, k2 when not 0.
+nlohmann::json intrinsicsJson(const Intrinsics& K);
+
 // "gamma" or "tone_curve", and "vignetting" when not 0.
 void writeResponse(nlohmann::json& j, const Response& response);
 

@@ -17,6 +17,8 @@
 #include <mucosa/scene/scene.hpp>
 #include <mucosa/shading/reference.hpp>
 
+#include "frames_json.hpp"
+
 namespace mucosa::fit {
 
 namespace fs = std::filesystem;
@@ -285,13 +287,7 @@ void writeSyntheticPatient(const SyntheticPatient& p, const fs::path& dir, const
     }
     mesh::save(p.mesh, dir / "airway.glb");
     json cam{{"units", "mm"},
-             {"intrinsics",
-              {{"width", p.camera.K.width},
-               {"height", p.camera.K.height},
-               {"fx", p.camera.K.fx},
-               {"fy", p.camera.K.fy},
-               {"cx", p.camera.K.cx},
-               {"cy", p.camera.K.cy}}},
+             {"intrinsics", intrinsicsJson(p.camera.K)},
              {"tone_curve", toneCurveName(p.camera.response.toneCurve)},
              {"vignetting", p.camera.response.vignetting},
              {"light",

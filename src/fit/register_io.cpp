@@ -27,12 +27,7 @@ namespace {}  // namespace
 
 void writeRegistration(const fs::path& path, const RegistrationRun& run) {
     const fs::path folder = path.parent_path();
-    json k{{"width", run.camera.K.width}, {"height", run.camera.K.height}, {"fx", run.camera.K.fx},
-           {"fy", run.camera.K.fy},       {"cx", run.camera.K.cx},         {"cy", run.camera.K.cy}};
-    if (run.camera.K.k1 != 0 || run.camera.K.k2 != 0) {
-        k["k1"] = run.camera.K.k1;
-        k["k2"] = run.camera.K.k2;
-    }
+    const json k = intrinsicsJson(run.camera.K);
     json j{{"units", "mm"},
            {"light", {{"offset", run.camera.lightOffset}}},
            {"registration",
