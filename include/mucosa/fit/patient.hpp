@@ -95,8 +95,8 @@ private:
 //   dir/video/frame_NNNN.png  the bronchoscopy
 //   dir/truth/frames.json     the true poses (a frames file of the video)
 //   dir/truth/brdf.json, dir/truth/texture.png
-// Frames already in dir/video with the right size are kept (a resumed run);
-// progress(done, total) after each frame.
+// Every frame is rendered afresh, in order (auto-exposure carries from frame
+// to frame), each PNG written atomically; progress(done, total) after each.
 struct PatientWriteOptions {
     double initErrorMm = 1.0, initErrorDeg = 2.0;
     std::function<void(int done, int total)> progress;
