@@ -16,6 +16,7 @@
 #include <mucosa/fit/register.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
+#include <mucosa/shading/brdf.hpp>
 
 #include "commands.hpp"
 
@@ -26,7 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct RegisterArgs {
-    std::string mesh, video, camera, init, out, method = "pq", report;
+    std::string mesh, video, camera, init, out, method = "pq", report, brdf;
     std::vector<int> levels;
     int maxIterations = 12, reportSamples = 6;
     double albedoFilter = 0.0, prediction = 1.0;
@@ -74,6 +75,7 @@ void run(const RegisterArgs& a, const Global& g) {
     const fit::CameraModel cam = fit::readCamera(a.camera);
     o.lightOffset = cam.lightOffset;
     o.lamp = cam.lamp;
+    if (!a.brdf.empty()) o.brdf = shading::readBrdf(a.brdf);
     if (!(cam.K.cx >= 0 && cam.K.cx <= cam.K.width - 1 && cam.K.cy >= 0 && cam.K.cy <= cam.K.height - 1))
         throw InputError("field 'intrinsics.cx/cy'", a.camera,
                          fmt::format("the principal point ({}, {}) lies outside the {}x{} image", cam.K.cx, cam.K.cy,
@@ -204,6 +206,9 @@ void addRegisterCommand(CLI::App& app, Global& g) {
     c->add_option("-o,--output", a->out, "Frames file to write (the input of mucosa fit); resumed if it exists")
         ->required();
     c->add_option("--method", a->method, "pq (shape from shading, the paper's) or intensity (NCC baseline) [pq]");
+    c->add_option("--brdf", a->brdf,
+                  "Shade the model with a fitted brdf.json (mucosa fit) instead of the lamp model: for video whose "
+                  "fall-off is not the lamp's inverse square");
     c->add_option("--report", a->report, "Folder for an HTML report: similarity trace, overlays, pq fields");
     c->add_option("--report-frames", a->reportSamples, "Frames shown in the report [6]")->check(wholeNumber(0, 1000));
     c->add_option("--levels", a->levels, "Working widths in pixels, coarse to fine [40 80]")

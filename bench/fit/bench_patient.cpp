@@ -4,7 +4,11 @@
 // and the exposure jittered +-30 % frame to frame; the pq-space method and
 // the intensity baseline on the same frames, tracking from a first pose 1 mm
 // and 2 degrees off (what `mucosa demo` hands to `mucosa register`).
-//   bench_patient [look=lamp|category4] [frames=300] [size=320] [start_mm=60]
+//   bench_patient [look=lamp|category4] [frames=300] [size=320] [start_mm=60] [model] [mesh]
+// model: how registration shades the mesh: `lamp` (the lamp model, from
+// camera.json) or `brdf` (the truth's rho(gamma) delta(z), as `mucosa register
+// --brdf` with a fitted brdf.json); default: brdf for category4, lamp for lamp.
+// mesh: a CT airway file instead of the phantom (tests/data/airway/...).
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -44,16 +48,20 @@ int main(int argc, char** argv) {
     po.frames = argc > 2 ? std::atoi(argv[2]) : 300;
     po.size = argc > 3 ? std::atoi(argv[3]) : 320;
     po.startMm = argc > 4 ? std::atof(argv[4]) : 60.0;
-    if ((look != "lamp" && look != "category4") || po.frames < 2 || po.size < 64) {
-        std::fprintf(stderr, "usage: bench_patient [lamp|category4] [frames] [size] [start_mm]\n");
+    const std::string model = argc > 5 ? argv[5] : look == "lamp" ? "lamp" : "brdf";
+    if (argc > 6) po.meshFile = argv[6];
+    if ((look != "lamp" && look != "category4") || (model != "lamp" && model != "brdf") || po.frames < 2 ||
+        po.size < 64) {
+        std::fprintf(stderr, "usage: bench_patient [lamp|category4] [frames] [size] [start_mm] [lamp|brdf] [mesh]\n");
         return 2;
     }
     const fit::SyntheticPatient patient = fit::makeSyntheticPatient(po);
     const fs::path dir = fs::temp_directory_path() / ("mucosa_bench_patient_" + std::to_string(::getpid()));
     fit::writeSyntheticPatient(patient, dir);
-    std::printf("phantom: %zu triangles; %s look, %d frames %dx%d from %.0f mm to the %s\n",
-                patient.mesh.triangleCount(), look.c_str(), po.frames, po.size, po.size, po.startMm,
-                patient.branch.c_str());
+    std::printf("%s: %zu triangles; %s look, %d frames %dx%d from %.0f mm to the %s; model shaded by the %s\n",
+                po.meshFile.empty() ? "phantom" : po.meshFile.string().c_str(), patient.mesh.triangleCount(),
+                look.c_str(), po.frames, po.size, po.size, po.startMm, patient.branch.c_str(),
+                model == "lamp" ? "lamp model" : "truth's brdf");
     const fit::FrameSet truth = fit::readFrames(dir / "truth" / "frames.json");
     const fit::Mat4 init = fit::readPose(dir / "init.json");
     std::vector<image::ImageF> linear;
@@ -62,13 +70,18 @@ int main(int argc, char** argv) {
         linear.push_back(fit::loadFrameImage(truth.frames[i], truth.response, &sat[i], 0.97));
     std::fflush(stdout);
 
-    // MUCOSA_TRACE=FILE: one line per frame and method (error, similarity, converged).
-    FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;
-    for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
+    auto options = [&](fit::RegistrationMethod method) {
         fit::RegisterOptions o;
         o.method = method;
         o.lightOffset = truth.lightOffset;
         o.lamp = patient.camera.lamp;
+        if (model == "brdf") o.brdf = patient.brdf;
+        return o;
+    };
+    // MUCOSA_TRACE=FILE: one line per frame and method (error, similarity, converged).
+    FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;
+    for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
+        const fit::RegisterOptions o = options(method);
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0;
         int converged = 0, losses = 0, lostFor = 0;
@@ -106,10 +119,7 @@ int main(int argc, char** argv) {
     std::normal_distribution<double> g(0, 1);
     const fit::Mat4& first = truth.frames[0].cameraToWorld;
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
-        fit::RegisterOptions o;
-        o.method = method;
-        o.lightOffset = truth.lightOffset;
-        o.lamp = patient.camera.lamp;
+        const fit::RegisterOptions o = options(method);
         const fit::VideoFrame vf = fit::prepareFrame(linear[0], &sat[0], patient.camera.K, o);
         std::printf("%-9s capture:", fit::methodName(method));
         for (const auto& [emm, edeg] : {std::pair{2.0, 5.0}, std::pair{5.0, 10.0}, std::pair{10.0, 20.0}}) {

@@ -13,6 +13,8 @@
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/phantom.hpp>
+#include <mucosa/mesh/tangents.hpp>
+#include <mucosa/mesh/uv.hpp>
 #include <mucosa/render/offscreen.hpp>
 #include <mucosa/scene/scene.hpp>
 #include <mucosa/shading/reference.hpp>
@@ -59,6 +61,7 @@ scene::Scene patientScene(const PatientOptions& o, int branch) {
     s.path.fly.speedMm = 0.1f;
     s.path.fly.startMm = static_cast<float>(o.startMm);
     s.path.fly.stopMm = static_cast<float>(o.stopMm);
+    s.path.stopMm = static_cast<float>(o.stopMm);  // not the scene's default (the lumen's end radius)
     s.path.fly.wander = 0.3f;
     s.path.fly.lookAroundDeg = 15.0f;
     s.path.fly.seed = o.seed;
@@ -151,20 +154,36 @@ SyntheticPatient makeSyntheticPatient(const PatientOptions& o) {
     SyntheticPatient p;
     p.options = o;
     p.brdf = truthBrdf();
-    p.branch = kLobarBronchus;
-    const scene::Scene probe = scene::defaultScene();
-    mesh::PhantomParams pp;
-    pp.generations = probe.mesh.phantomGenerations;
-    pp.seed = probe.mesh.phantomSeed;
-    pp.resolution = probe.mesh.phantomResolution;
-    const mesh::Centerline tree = mesh::phantomCenterline(pp);
-    int branch = -1;
-    for (std::size_t b = 0; b < tree.branches.size(); ++b)
-        if (tree.branches[b].name == kLobarBronchus) branch = static_cast<int>(b);
-    if (branch < 0) throw InputError("phantom", "", std::string("has no ") + kLobarBronchus);
-
-    const scene::Scene s = patientScene(o, branch);
-    scene::SceneAssets assets = scene::loadAssets(s, o.threads, false);
+    scene::Scene s;
+    scene::SceneAssets assets;
+    if (o.meshFile.empty()) {
+        p.branch = kLobarBronchus;
+        const scene::Scene probe = scene::defaultScene();
+        mesh::PhantomParams pp;
+        pp.generations = probe.mesh.phantomGenerations;
+        pp.seed = probe.mesh.phantomSeed;
+        pp.resolution = probe.mesh.phantomResolution;
+        const mesh::Centerline tree = mesh::phantomCenterline(pp);
+        int branch = -1;
+        for (std::size_t b = 0; b < tree.branches.size(); ++b)
+            if (tree.branches[b].name == kLobarBronchus) branch = static_cast<int>(b);
+        if (branch < 0) throw InputError("phantom", "", std::string("has no ") + kLobarBronchus);
+        s = patientScene(o, branch);
+        assets = scene::loadAssets(s, o.threads, false);
+    } else {
+        // A CT airway: its own centerline and centerline UVs (the texture
+        // wraps around each branch), tangents for the method's map.
+        mesh::Mesh m = mesh::load(o.meshFile);
+        if (!m.hasNormals()) throw InputError("mesh", o.meshFile.string(), "has no normals (facing the lumen)");
+        const mesh::CenterlineUvReport uv = mesh::computeCenterlineUvs(m);
+        mesh::computeTangents(m, o.threads);
+        s = patientScene(o, -1);
+        scene::Scene textureOnly = s;  // the scene's generated tissue texture
+        textureOnly.mesh.kind = scene::MeshKind::Tube;
+        assets = scene::loadAssets(textureOnly, o.threads, false);
+        assets.mesh = std::move(m);
+        p.branch = scene::setFlightPath(assets, uv.centerline, -1, o.meshFile.string());
+    }
     p.mesh = std::move(assets.mesh);
     p.texture = std::move(assets.diffuse);
     const float length = camera::pathLength(assets.centerline);
@@ -172,7 +191,7 @@ SyntheticPatient makeSyntheticPatient(const PatientOptions& o) {
     if (dense < 10)
         throw InputError("start", "",
                          fmt::format("{} mm + stop {} mm leave no path in the {:.0f} mm to the {}", o.startMm, o.stopMm,
-                                     length, kLobarBronchus));
+                                     length, p.branch));
     assets.mesh = {};
     const std::vector<camera::Pose> path = scene::cameraPoses(s, assets, dense);
 

@@ -13,6 +13,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/parallel.hpp>
+#include <mucosa/fit/fit.hpp>
 
 namespace mucosa::fit {
 
@@ -250,7 +251,8 @@ struct Objective {
     // `seen` (optional): 1 where the model has an estimate at the pixel.
     std::vector<double> differences(const Mat4& pose, double* similarity, std::vector<std::uint8_t>* seen = nullptr) {
         auto t0 = Clock::now();
-        const ModelView view = renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample, o.lamp);
+        const ModelView view =
+            renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample, o.lamp, o.brdf ? &*o.brdf : nullptr);
         stats->renderSeconds += secondsSince(t0);
         ++stats->evaluations;
         t0 = Clock::now();
@@ -357,7 +359,7 @@ PqField pqFromShading(const image::ImageF& linear, const Intrinsics& K, const Pq
 }
 
 ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& L,
-                      int threads, int supersample, const LampProfile& lamp) {
+                      int threads, int supersample, const LampProfile& lamp, const shading::BrdfParams* brdf) {
     // Rendered at `supersample` x the resolution and box-filtered, as the
     // video's pixels integrate the scene: without it the model is point-
     // sampled, and the comparison favours a pose that aliases alike.
@@ -398,6 +400,12 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
                         nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
                     }
                     const Eigen::Vector3d nc = (R * nw).normalized();
+                    if (brdf) {
+                        // The fitted model: lit from the viewpoint.
+                        const double z = P.norm(), gamma = -nc.dot(P) / z;
+                        if (gamma > 0) sum += fittedShading(*brdf, gamma, z), ++lit;
+                        continue;
+                    }
                     const Eigen::Vector3d l = Eigen::Vector3d(L[0], L[1], L[2]) - P;
                     const double d = l.norm();
                     const double cosine = nc.dot(l) / d;

@@ -216,7 +216,8 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
         const image::ImageF linear = loadFrameImage(fr, run.camera.response, &sat, o.saturation);
         const VideoFrame vf = prepareFrame(linear, &sat, run.camera.K, o);
         const VideoFrame::Level& L = vf.levels.back();
-        const ModelView mv = renderModel(mesh, L.K, f.r.cameraToWorld, run.camera.lightOffset, 0, 2, run.camera.lamp);
+        const ModelView mv = renderModel(mesh, L.K, f.r.cameraToWorld, run.camera.lightOffset, 0, 2, run.camera.lamp,
+                                         options.brdf ? &*options.brdf : nullptr);
         const PqField model = pqFromModel(mv, L.K, L.pqOptions, &L.pq.usable);
         // The frame (display-referred) with the model's silhouette: occluding
         // contours and the edge of what it sees, where depth jumps.

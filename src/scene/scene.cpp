@@ -810,6 +810,18 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
     return a;
 }
 
+std::string setFlightPath(SceneAssets& a, const mesh::Centerline& centerline, int branch, const std::string& file) {
+    const mesh::Centerline c = withoutStubs(centerline);
+    const FlightPath p = longestPath(c, branch, file);
+    a.centerline = p.points;
+    a.centerlineEndRadius = p.endRadius;
+    a.centerlineRadii = p.radii;
+    // The branch the path ends in: the one whose last point it ends on.
+    for (const mesh::CenterlineBranch& b : c.branches)
+        if (!b.points.empty() && !p.points.empty() && b.points.back() == p.points.back()) return b.name;
+    return {};
+}
+
 std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& assets, int frames) {
     if (frames < 1) throw InputError("frames", "", "must be at least 1");
     if (scene.path.kind == PathKind::None || (scene.pose && frames == 1)) {

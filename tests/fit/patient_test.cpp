@@ -220,3 +220,37 @@ TEST(SyntheticPatient, WritesTheVideoCameraInitialPoseAndTheTruth) {
     }
     EXPECT_GE(differ, 2);
 }
+
+// A patient's CT airway instead of the phantom: centerline UVs computed on
+// it, the path along its own centerline's longest branch, every pose inside
+// the lumen facing along it, and the video renders the tissue there.
+TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
+    fit::PatientOptions o;
+    o.meshFile = test::testdata("airway/vh_m_airway_lumen.obj");
+    o.frames = 90;
+    o.size = 96;
+    o.startMm = 30;
+    const fit::SyntheticPatient p = fit::makeSyntheticPatient(o);
+    ASSERT_EQ(p.poses.size(), 90u);
+    EXPECT_TRUE(p.mesh.hasUvs());
+    EXPECT_TRUE(p.mesh.hasTangents());
+    EXPECT_FALSE(p.branch.empty());
+    for (std::size_t i = 1; i < p.poses.size(); ++i) {
+        const fit::PoseError step = fit::poseError(p.poses[i - 1], p.poses[i]);
+        EXPECT_LE(step.position, o.speedMm * 1.2 + 0.05) << i;
+        EXPECT_LE(step.degrees, 6.0) << i;
+    }
+    for (std::size_t i = 0; i < p.poses.size(); i += 15)
+        EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "ct", "p")) << i;
+    // The trachea runs along +y (504..660 mm), the scope goes down it.
+    EXPECT_LT(fit::cameraCentre(p.poses.back())[1], fit::cameraCentre(p.poses.front())[1] - 20);
+    fit::PatientVideo video(p);
+    const image::Image8 f = video.frame(10);
+    int lit = 0;
+    for (int y = 20; y < 76; ++y)
+        for (int x = 20; x < 76; ++x) lit += f.at(x, y, 0) > 60;
+    EXPECT_GT(lit, 56 * 56 / 4);
+    // A file that is not there: one InputError/IoError, nothing built.
+    o.meshFile = "/nonexistent/airway.obj";
+    EXPECT_THROW(fit::makeSyntheticPatient(o), Error);
+}

@@ -194,4 +194,7 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     writeText(p.dir / "bad.json", R"({"position": [0, 0, 0], "look_at": [0, 0, 0], "up": [0, 1, 0]})");
     check(p.args("", {{"--init", p.dir / "bad.json"}}), "look_at");
     check(p.args("--method sift"), "pq or intensity");
+    // A model shading that is not a brdf.json.
+    writeText(p.dir / "brdf.json", R"({"c": [1, 0, 0], "d": [0, 0, 0], "zmin": 1, "zmax": 2})");
+    check(p.args("", {{"--brdf", p.dir / "brdf.json"}}), "field 'c'");
 }

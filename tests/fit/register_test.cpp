@@ -335,6 +335,36 @@ TEST(RegisterPq, ModelShadingFollowsTheLampsSpreadAndDisk) {
     EXPECT_GT(checked, 50);
 }
 
+// With a fitted brdf.json the model is shaded as the categories render it:
+// rho(cos(V, N)) delta(r(z)), z the distance to the viewpoint, r clamped to
+// [0, 1]; the lamp's offset and profile no longer enter.
+TEST(RegisterPq, ModelShadedByAFittedBrdfIsRhoTimesDelta) {
+    mesh::Mesh quad = mesh::makeQuad(400.0f, 40);  // z = 0, normal +z
+    const Intrinsics K = pinhole(81, 81);
+    const Mat4 pose = fit::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});
+    shading::BrdfParams b;
+    b.c = {0.1, 0.6, 0.3, 0.0};
+    b.d = {-1.5, 0.9, -0.2};  // non-increasing on [0, 1], not an inverse square
+    b.zmin = 18.0;
+    b.zmax = 40.0;
+    fit::LampProfile lamp;
+    lamp.spread = 0.8;
+    const fit::ModelView v = fit::renderModel(quad, K, pose, {0, 3, 0}, 1, 1, lamp, &b);
+    int checked = 0;
+    for (int y = 0; y < K.height; y += 8)
+        for (int x = 0; x < K.width; x += 8) {
+            const double tx = (x - K.cx) / K.fx, ty = (y - K.cy) / K.fy;
+            const double gamma = 1.0 / std::sqrt(1 + tx * tx + ty * ty);  // cos(V, N) on the plane
+            const double z = 20.0 / gamma;
+            const double r = std::clamp((z - 18.0) / 22.0, 0.0, 1.0);
+            const double expected = (0.1 + gamma * (0.6 + 0.3 * gamma)) * (1 + r * (-1.5 + r * (0.9 - 0.2 * r)));
+            if (!v.seen[static_cast<std::size_t>(y) * K.width + x]) continue;
+            EXPECT_NEAR(v.shading.at(x, y), expected, 1e-4 * expected) << x << " " << y;
+            ++checked;
+        }
+    EXPECT_GT(checked, 80);
+}
+
 TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
     test::TempDir dir;
     const std::string k = R"("intrinsics": {"width": 64, "height": 64, "fx": 40, "fy": 40, "cx": 31.5, "cy": 31.5})";

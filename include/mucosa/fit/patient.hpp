@@ -51,6 +51,10 @@ struct PatientOptions {
     bool pauses = true;                // the scope stops, pulls back and goes on, now and then
     Vec3d lightOffset{0.0, 1.2, 0.0};  // the lamp in camera coordinates (OpenCV axes, mm)
     std::uint64_t seed = 1;
+    // Empty: the phantom. Else a patient's CT airway (any format mesh::load
+    // reads, mm, normals facing the lumen): centerline UVs are computed on it,
+    // and the path follows the longest branch of its computed centerline.
+    std::filesystem::path meshFile;
     // Registry parameters set on the video's scene after the look's own
     // (e.g. light.spread 0: a lamp without angular fall-off).
     std::vector<std::pair<shading::Param, float>> params;
@@ -58,13 +62,13 @@ struct PatientOptions {
 };
 
 struct SyntheticPatient {
-    mesh::Mesh mesh;                      // the "CT" airway (the phantom, centerline UVs, normals into the lumen)
-    CameraModel camera;                   // what the scope's calibration says (intrinsics, response, lamp offset)
-    std::vector<Mat4> poses;              // the truth: each frame's camera_to_world (OpenCV axes, mm)
+    mesh::Mesh mesh;          // the "CT" airway (the phantom or meshFile; centerline UVs, normals into the lumen)
+    CameraModel camera;       // what the scope's calibration says (intrinsics, response, lamp offset)
+    std::vector<Mat4> poses;  // the truth: each frame's camera_to_world (OpenCV axes, mm)
     std::vector<double> exposureFactors;  // the per-frame jitter on top of auto-exposure
     shading::BrdfParams brdf;             // the truth's rho and delta (Category4)
     image::Image8 texture;                // the truth's albedo (sRGB, tileable; the mesh's UVs wrap it)
-    std::string branch;                   // the lobar bronchus the path ends in
+    std::string branch;                   // the bronchus the path ends in
     PatientOptions options;
 };
 

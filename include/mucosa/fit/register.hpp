@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include <mucosa/fit/raster.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
+#include <mucosa/shading/brdf.hpp>
 
 namespace mucosa::fit {
 
@@ -66,8 +68,15 @@ struct ModelView {
 // `lamp`: the lamp's angular fall-off and disk (camera.json's light.spread,
 // light.source_radius_mm), modelled so that the model's shading varies across
 // the frame as the video's does.
+// `brdf` (optional): shade with the patient's fitted rho(gamma) delta(z)
+// instead (`mucosa fit`'s brdf.json), as the renderer's categories evaluate
+// it: gamma = cos(V, N), z the distance to the viewpoint, the fall-off held
+// at its ends beyond [zmin, zmax]; the lamp's offset and profile are then
+// unused. A shading the lamp model does not describe (a measured fall-off
+// that is not an inverse square) is then compared like with like.
 ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& lightOffset,
-                      int threads = 1, int supersample = 2, const LampProfile& lamp = {});
+                      int threads = 1, int supersample = 2, const LampProfile& lamp = {},
+                      const shading::BrdfParams* brdf = nullptr);
 // The same estimator on the model's shading: like is compared with like, so
 // the estimator's own biases (curvature breaks local planarity; smoothing)
 // and the lamp's offset from the lens are modelled exactly, not assumed away.
@@ -103,6 +112,9 @@ struct RegisterOptions {
     double saturation = 0.97;             // linear, specular/clipped
     Vec3d lightOffset{0, 0, 0};
     LampProfile lamp;  // the lamp's spread and disk (CameraModel::lamp)
+    // The model's shading from a fitted brdf.json instead of the lamp
+    // (`mucosa register --brdf`; see renderModel).
+    std::optional<shading::BrdfParams> brdf;
     PqOptions pq;
     int threads = 0;
 };

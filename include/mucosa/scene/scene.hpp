@@ -11,6 +11,7 @@
 
 #include <mucosa/camera/camera.hpp>
 #include <mucosa/image/image.hpp>
+#include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/mesh.hpp>
 #include <mucosa/reflectance/appearance.hpp>
 #include <mucosa/reflectance/map.hpp>
@@ -147,6 +148,14 @@ struct SceneAssets {
 // spent generating it; shading::info(mode).readsMap tells which modes read
 // one); the renderer then keeps its flat default map.
 SceneAssets loadAssets(const Scene& scene, int threads = 0, bool reflectanceMap = true);
+
+// A fly-through along a centerline tree, as a scene of a mesh file flies
+// along its computed one: into `branch` (-1: the longest path from the
+// root), leaf stubs (shorter than their radius: level-set rings at a cap or
+// an open end) removed first. Sets assets' centerline, end radius and radii;
+// returns the name of the branch the path ends in. `file` names the tree in
+// errors.
+std::string setFlightPath(SceneAssets& assets, const mesh::Centerline& centerline, int branch, const std::string& file);
 
 // Camera poses for `frames` frames (scene.pose alone when frames == 1 and a
 // pose is given; else along the path).
