@@ -39,9 +39,8 @@ constexpr double kLengthPerDiameter = 3.0;
 // bronchoscopic view in Ernst & Herth, "Principles and Practice of
 // Interventional Pulmonology", 2013): 16-20 C-shaped rings over the
 // trachea's ~11 cm, seen from the lumen as broad low whitish ridges with
-// narrower furrows (the annular ligaments) between them. Mean period along
-// the airway (mm; 22 rings on the trachea, 4.4-6.1 mm apart: see
-// cartilageRingPhase) and ridge height as a fraction of the
+// narrower furrows (the annular ligaments) between them. Period along the
+// airway (mm; 22 rings on the trachea) and ridge height as a fraction of the
 // radius (0.35 mm on the 9 mm trachea): the steepest flank then tilts 16 deg,
 // so the distal flanks, seen at grazing angles down the tube, darken without
 // drawing black lines (0.45 mm on a 4.5 mm period tilted 22 deg and read as
@@ -246,17 +245,6 @@ double nearestS(const Tube& t, const Vec3d& p) {
     return s;
 }
 
-}  // namespace
-
-// Two slow sines on the phase: d(phase)/ds = 1/5 +- 0.027 +- 0.020 per mm,
-// always positive (the rings stay in order): crests 4.4-6.1 mm apart on the
-// trachea (standard deviation 0.54 mm), 4.0-6.6 mm at the extremes.
-double cartilageRingPhase(double s) noexcept {
-    return s / kRingSpacing + 0.1 * std::sin(2 * kPi * s / 23.0) + 0.035 * std::sin(2 * kPi * s / 11.0 + 1.3);
-}
-
-namespace {
-
 // Where the surface detail sits on a tube at axial position s, radial unit rn.
 struct WallDetail {
     double ring = 0;      // cartilage ridge, 0..1 (profile x C-shape x fade)
@@ -274,7 +262,7 @@ WallDetail wallDetail(const Tube& t, double s, const Vec3d& rn) {
     // broad ridges (3.2 mm at half height) and narrower furrows between them,
     // two harmonics only, so `render`'s 1 cell/mm grid follows it without
     // the sawtooth a sharper profile shows.
-    const double g = 0.5 - 0.5 * std::cos(2 * kPi * cartilageRingPhase(s));
+    const double g = 0.5 - 0.5 * std::cos(2 * kPi * s / kRingSpacing);
     const double ridge = 1 - g * g;
     // The C: cartilage over the anterior and lateral ~270 deg, absent on the
     // posterior membranous wall (-e1), its ends tapering.

@@ -36,14 +36,6 @@ using Progress = std::function<void(double fraction, std::string_view stage)>;
 // grid would not fit in memory (checked before allocating).
 Phantom makePhantom(const PhantomParams& params, int threads = 0, const Progress& progress = {});
 
-// The cartilage rings' phase at axial position s (mm along a tube from its
-// start): ring crests at whole numbers. The rings are about 5 mm apart but
-// not exactly (4.4-6.1 mm on the trachea, as a real trachea's rings vary in
-// width), so that
-// no stretch of airway looks like the one a ring further on: with a strict
-// period, registration could not tell a pose from one a ring away.
-double cartilageRingPhase(double s) noexcept;
-
 // Only the centerline tree (cheap; the same tree makePhantom builds).
 Centerline phantomCenterline(const PhantomParams& params);
 
