@@ -30,7 +30,7 @@ struct RegisterArgs {
     std::string mesh, video, camera, init, out, method = "pq", report, brdf;
     std::vector<int> levels;
     int maxIterations = 12, reportSamples = 6;
-    double albedoFilter = 0.0, prediction = 1.0;
+    double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior;
     bool restart = false;
 };
 
@@ -65,6 +65,7 @@ void run(const RegisterArgs& a, const Global& g) {
     if (!a.levels.empty()) o.levels = a.levels;
     o.maxIterations = a.maxIterations;
     o.albedoFilterPx = a.albedoFilter;
+    o.motionPrior = a.motionPrior;
     o.threads = g.threads;
     const fs::path out = a.out;
     if (out.extension() != ".json") throw InputError("--output", a.out, "must end in .json (a frames file)");
@@ -221,6 +222,10 @@ void addRegisterCommand(CLI::App& app, Global& g) {
     c->add_option("--motion-prediction", a->prediction,
                   "Start each frame from the last pose moved on by this fraction of the last motion [1; 0 = off]")
         ->check(CLI::Range(0.0, 2.0));
+    c->add_option("--motion-prior", a->motionPrior,
+                  "Weight of the prior holding each frame near its predicted pose (1 mm, 2 degrees), where the "
+                  "frame leaves the pose free (roll in a round tube) [0.0005; 0 = off]")
+        ->check(CLI::Range(0.0, 1.0));
     c->add_flag("--restart", a->restart, "Overwrite an existing output instead of resuming it");
     c->callback([a, &g] { run(*a, g); });
 }

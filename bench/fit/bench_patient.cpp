@@ -9,6 +9,8 @@
 // camera.json) or `brdf` (the truth's rho(gamma) delta(z), as `mucosa register
 // --brdf` with a fitted brdf.json); default: brdf for category4, lamp for lamp.
 // mesh: a CT airway file instead of the phantom (tests/data/airway/...).
+// MUCOSA_PRIOR=K sets RegisterOptions::motionPrior (default: the option's);
+// MUCOSA_PQ_ONLY=1 runs pq alone, without the capture test.
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -62,6 +64,8 @@ int main(int argc, char** argv) {
                 po.meshFile.empty() ? "phantom" : po.meshFile.string().c_str(), patient.mesh.triangleCount(),
                 look.c_str(), po.frames, po.size, po.size, po.startMm, patient.branch.c_str(),
                 model == "lamp" ? "lamp model" : "truth's brdf");
+    if (patient.pathStopMm > 0)
+        std::printf("the centerline's path leaves the lumen: the scope stops at %.1f mm\n", patient.pathStopMm);
     const fit::FrameSet truth = fit::readFrames(dir / "truth" / "frames.json");
     const fit::Mat4 init = fit::readPose(dir / "init.json");
     std::vector<image::ImageF> linear;
@@ -76,11 +80,14 @@ int main(int argc, char** argv) {
         o.lightOffset = truth.lightOffset;
         o.lamp = patient.camera.lamp;
         if (model == "brdf") o.brdf = patient.brdf;
+        if (const char* k = std::getenv("MUCOSA_PRIOR")) o.motionPrior = std::atof(k);
         return o;
     };
     // MUCOSA_TRACE=FILE: one line per frame and method (error, similarity, converged).
     FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;
+    const bool pqOnly = std::getenv("MUCOSA_PQ_ONLY") != nullptr;
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
+        if (pqOnly && method != fit::RegistrationMethod::PqSpace) continue;
         const fit::RegisterOptions o = options(method);
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0;
@@ -119,6 +126,7 @@ int main(int argc, char** argv) {
     std::normal_distribution<double> g(0, 1);
     const fit::Mat4& first = truth.frames[0].cameraToWorld;
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
+        if (pqOnly) break;
         const fit::RegisterOptions o = options(method);
         const fit::VideoFrame vf = fit::prepareFrame(linear[0], &sat[0], patient.camera.K, o);
         std::printf("%-9s capture:", fit::methodName(method));

@@ -164,6 +164,10 @@ CameraModel readCamera(const fs::path& path) {
             throw InputError("field 'light.spread'", file, "must be between 0 and 50 (mu of exp(-mu (1 - cos theta)))");
         if (!(c.lamp.radiusMm >= 0 && c.lamp.radiusMm <= 100))
             throw InputError("field 'light.source_radius_mm'", file, "must be between 0 and 100 mm");
+        c.lamp.ambient = number(j["light"], "ambient", "light.", file, false, 0.0);
+        if (!(c.lamp.ambient >= 0 && c.lamp.ambient <= 1))
+            throw InputError("field 'light.ambient'", file,
+                             "must be between 0 and 1 (of the lamp's irradiance at 10 mm)");
     }
     if (!j.contains("intrinsics") || !j["intrinsics"].is_object())
         throw InputError("field 'intrinsics'", file, "is missing (width, height, fx, fy, cx, cy[, k1, k2])");

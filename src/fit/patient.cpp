@@ -193,7 +193,7 @@ SyntheticPatient makeSyntheticPatient(const PatientOptions& o) {
                          fmt::format("{} mm + stop {} mm leave no path in the {:.0f} mm to the {}", o.startMm, o.stopMm,
                                      length, p.branch));
     assets.mesh = {};
-    const std::vector<camera::Pose> path = scene::cameraPoses(s, assets, dense);
+    std::vector<camera::Pose> path = scene::cameraPoses(s, assets, dense);
 
     p.camera.K.width = p.camera.K.height = o.size;
     p.camera.K.fx = p.camera.K.fy = 0.5 * o.size / std::tan(0.5 * o.fovDeg * kPi / 180.0);
@@ -204,6 +204,33 @@ SyntheticPatient makeSyntheticPatient(const PatientOptions& o) {
     if (o.look == PatientLook::Lamp) {  // the patient-specific modes have delta(r) instead of a lamp
         p.camera.lamp.spread = s.params[shading::Param::LightSpread];
         p.camera.lamp.radiusMm = s.params[shading::Param::LightSourceRadius];
+        p.camera.lamp.ambient = s.params[shading::Param::Ambient];
+    }
+
+    if (!o.meshFile.empty()) {
+        // A centerline computed on a CT surface can leave the lumen (where
+        // the segmentation's pieces meet with a gap, or at a cut end): every
+        // millimetre of the path is checked as registration checks a first
+        // pose, and the scope stops 2 mm before the first that fails.
+        for (std::size_t i = 0; i < path.size(); i += 10) {
+            const camera::Pose& q = path[i];
+            const Vec3d eye{q.position[0], q.position[1], q.position[2]};
+            const Mat4 pose = lookAtPose(eye, {eye[0] + q.forward[0], eye[1] + q.forward[1], eye[2] + q.forward[2]},
+                                         {q.up[0], q.up[1], q.up[2]});
+            try {
+                checkInitialView(p.mesh, p.camera.K, pose, o.lightOffset, o.meshFile.string(), "path");
+            } catch (const InputError& e) {
+                if (i < 30)
+                    throw InputError("mesh", o.meshFile.string(),
+                                     fmt::format("the path along its centerline leaves the lumen {:.1f} mm from "
+                                                 "the start ({}): start elsewhere",
+                                                 0.1 * static_cast<double>(i), e.reason()));
+                // The last pose is then 1 mm before the last one that passed.
+                path.resize(i - 19);
+                p.pathStopMm = o.startMm + 0.1 * static_cast<double>(i - 20);
+                break;
+            }
+        }
     }
 
     std::uint64_t rng = o.seed * 0x2545f4914f6cdd1dULL + 17;
@@ -312,7 +339,8 @@ void writeSyntheticPatient(const SyntheticPatient& p, const fs::path& dir, const
              {"light",
               {{"offset", p.camera.lightOffset},
                {"spread", p.camera.lamp.spread},
-               {"source_radius_mm", p.camera.lamp.radiusMm}}}};
+               {"source_radius_mm", p.camera.lamp.radiusMm},
+               {"ambient", p.camera.lamp.ambient}}}};
     writeFileAtomic(dir / "camera.json", cam.dump(2) + "\n");
     // The user's first pose: the truth, off by a hand's placement.
     const double deg = o.initErrorDeg * kPi / 180.0, mm = o.initErrorMm;

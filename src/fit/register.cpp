@@ -378,6 +378,8 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
     v.depth = image::ImageF(K.width, K.height, 1);
     v.seen.assign(static_cast<std::size_t>(K.width) * K.height, 0);
     const Mat3 R = rotationOf(W);
+    // The walls' back-scatter: the renderer's ambient, k_a x the lamp at 10 mm.
+    const double ambient = brdf ? 0.0 : lamp.ambient / 100.0;
     for (int y = 0; y < K.height; ++y)
         for (int x = 0; x < K.width; ++x) {
             double sum = 0, depth = 0;
@@ -411,6 +413,7 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
                     const double cosine = nc.dot(l) / d;
                     // The lamp's profile: theta from its axis (the optical axis).
                     const double profile = lamp.spread == 0 ? 1.0 : std::exp(-lamp.spread * (1.0 + l.z() / d));
+                    sum += ambient;
                     if (cosine > 0) sum += cosine * profile / (d * d + lamp.radiusMm * lamp.radiusMm), ++lit;
                 }
             const std::size_t o = static_cast<std::size_t>(y) * K.width + x;
@@ -591,10 +594,39 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
             return perturbPose(base, {x[0] * ht, x[1] * ht, x[2] * ht}, {x[3] * hw, x[4] * hw, x[5] * hw});
         };
         Eigen::Matrix<double, 6, 1> x = Eigen::Matrix<double, 6, 1>::Zero();
+        // The motion prior: residuals (d0 + h x) / sigma per axis, d0 the
+        // level's starting pose relative to the frame's (mm, radians, in the
+        // starting camera's axes), h the step, to first order in x.
+        Eigen::Matrix<double, 6, 1> d0 = Eigen::Matrix<double, 6, 1>::Zero(), h, sigma;
+        double priorWeight = 0;
+        if (o.motionPrior > 0) {
+            const Mat3 R0 = rotationOf(initial);
+            const Eigen::Vector3d t =
+                R0.transpose() *
+                Eigen::Vector3d(base[0][3] - initial[0][3], base[1][3] - initial[1][3], base[2][3] - initial[2][3]);
+            const Eigen::AngleAxisd aa(R0.transpose() * rotationOf(base));
+            const Eigen::Vector3d w = aa.axis() * aa.angle();
+            d0 << t[0], t[1], t[2], w[0], w[1], w[2];
+            // In units of the data cost of a mean squared residual of 1: pq's
+            // cost sums over the pixels' weights, the intensity cost is a mean.
+            double total = 1;
+            if (o.method == RegistrationMethod::PqSpace) {
+                total = 0;
+                for (std::size_t k = 0; k < obj.pixels.size(); ++k) total += obj.weight(k);
+            }
+            priorWeight = o.motionPrior * total;
+        }
+        h << ht, ht, ht, hw, hw, hw;
+        sigma << o.priorMm, o.priorMm, o.priorMm, o.priorDeg * M_PI / 180, o.priorDeg * M_PI / 180,
+            o.priorDeg * M_PI / 180;
+        auto priorCost = [&](const Eigen::Matrix<double, 6, 1>& xx) {
+            if (priorWeight <= 0) return 0.0;
+            return priorWeight * ((d0 + h.cwiseProduct(xx)).cwiseQuotient(sigma)).squaredNorm();
+        };
         double sim = 0;
         std::vector<std::uint8_t> seen;
         std::vector<double> d = obj.differences(poseAt(x), &sim, &seen);
-        double cost = robustCost(obj, d);
+        double cost = robustCost(obj, d) + priorCost(x);
         double lambda = 1e-3;
         atMinimum = false;
         lastStep = 0;
@@ -653,6 +685,12 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
             }
             for (int a = 0; a < 6; ++a)
                 for (int c = 0; c < a; ++c) A(a, c) = A(c, a);
+            if (priorWeight > 0)
+                for (int a = 0; a < 6; ++a) {
+                    const double ja = h[a] / sigma[a];  // d residual / d x
+                    A(a, a) += priorWeight * ja * ja;
+                    g[a] += priorWeight * ja * (d0[a] + h[a] * x[a]) / sigma[a];
+                }
             bool improved = false;
             Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
             for (int tries = 0; tries < 6 && !improved; ++tries) {
@@ -666,7 +704,7 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
                 double s2 = 0;
                 std::vector<std::uint8_t> seen2;
                 std::vector<double> d2 = obj.differences(poseAt(x + step), &s2, &seen2);
-                const double c2 = robustCost(obj, d2);
+                const double c2 = robustCost(obj, d2) + priorCost(x + step);
                 if (c2 < cost) {
                     x += step, d = std::move(d2), cost = c2, sim = s2, seen = std::move(seen2);
                     lambda = std::max(1e-6, lambda / 3);
@@ -678,7 +716,7 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
                         double s3 = 0;
                         std::vector<std::uint8_t> seen3;
                         std::vector<double> d3 = obj.differences(poseAt(x + step), &s3, &seen3);
-                        const double c3 = robustCost(obj, d3);
+                        const double c3 = robustCost(obj, d3) + priorCost(x + step);
                         if (!(c3 < cost)) break;
                         x += step, d = std::move(d3), cost = c3, sim = s3, seen = std::move(seen3);
                     }

@@ -222,16 +222,20 @@ TEST(SyntheticPatient, WritesTheVideoCameraInitialPoseAndTheTruth) {
 }
 
 // A patient's CT airway instead of the phantom: centerline UVs computed on
-// it, the path along its own centerline's longest branch, every pose inside
-// the lumen facing along it, and the video renders the tissue there.
+// it, the path along its own centerline's longest branch, cut where it
+// leaves the lumen, every pose inside facing along it, and the video
+// renders the tissue there.
 TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
     fit::PatientOptions o;
     o.meshFile = test::testdata("airway/vh_m_airway_lumen.obj");
-    o.frames = 90;
+    o.frames = 300;  // long enough to reach where its centerline leaves the lumen
     o.size = 96;
     o.startMm = 30;
     const fit::SyntheticPatient p = fit::makeSyntheticPatient(o);
-    ASSERT_EQ(p.poses.size(), 90u);
+    ASSERT_EQ(p.poses.size(), 300u);
+    // The VH airway's longest computed path crosses a gap between its pieces
+    // about 130 mm from the start: the scope stops before it.
+    EXPECT_GT(p.pathStopMm, 100.0);
     EXPECT_TRUE(p.mesh.hasUvs());
     EXPECT_TRUE(p.mesh.hasTangents());
     EXPECT_FALSE(p.branch.empty());
@@ -242,6 +246,7 @@ TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
     }
     for (std::size_t i = 0; i < p.poses.size(); i += 15)
         EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "ct", "p")) << i;
+    EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses.back(), p.camera.lightOffset, "ct", "p"));
     // The trachea runs along +y (504..660 mm), the scope goes down it.
     EXPECT_LT(fit::cameraCentre(p.poses.back())[1], fit::cameraCentre(p.poses.front())[1] - 20);
     fit::PatientVideo video(p);

@@ -335,6 +335,28 @@ TEST(RegisterPq, ModelShadingFollowsTheLampsSpreadAndDisk) {
     EXPECT_GT(checked, 50);
 }
 
+// The walls' back-scatter: the renderer's ambient k_a adds k_a / 10^2 (the
+// lamp's on-axis irradiance at 10 mm, for unit power) wherever the model
+// sees the surface, lit by the lamp or not.
+TEST(RegisterPq, ModelShadingAddsTheWallsBackScatter) {
+    mesh::Mesh quad = mesh::makeQuad(400.0f, 40);
+    const Intrinsics K = pinhole(41, 41);
+    const Mat4 pose = fit::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});
+    fit::LampProfile lamp;
+    lamp.spread = 0.5;
+    const fit::ModelView direct = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
+    lamp.ambient = 0.2;
+    const fit::ModelView both = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
+    int checked = 0;
+    for (int y = 0; y < K.height; y += 4)
+        for (int x = 0; x < K.width; x += 4) {
+            if (direct.shading.at(x, y) <= 0) continue;
+            EXPECT_NEAR(both.shading.at(x, y) - direct.shading.at(x, y), 0.002, 1e-6) << x << " " << y;
+            ++checked;
+        }
+    EXPECT_GT(checked, 50);
+}
+
 // With a fitted brdf.json the model is shaded as the categories render it:
 // rho(cos(V, N)) delta(r(z)), z the distance to the viewpoint, r clamped to
 // [0, 1]; the lamp's offset and profile no longer enter.
@@ -368,11 +390,12 @@ TEST(RegisterPq, ModelShadedByAFittedBrdfIsRhoTimesDelta) {
 TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
     test::TempDir dir;
     const std::string k = R"("intrinsics": {"width": 64, "height": 64, "fx": 40, "fy": 40, "cx": 31.5, "cy": 31.5})";
-    std::ofstream(dir / "c.json") << "{" << k
-                                  << R"(, "light": {"offset": [0, 1, 0], "spread": 0.5, "source_radius_mm": 1.5}})";
+    std::ofstream(dir / "c.json")
+        << "{" << k << R"(, "light": {"offset": [0, 1, 0], "spread": 0.5, "source_radius_mm": 1.5, "ambient": 0.03}})";
     const fit::CameraModel c = fit::readCamera(dir / "c.json");
     EXPECT_DOUBLE_EQ(c.lamp.spread, 0.5);
     EXPECT_DOUBLE_EQ(c.lamp.radiusMm, 1.5);
+    EXPECT_DOUBLE_EQ(c.lamp.ambient, 0.03);
     EXPECT_DOUBLE_EQ(c.lightOffset[1], 1.0);
     std::ofstream(dir / "d.json") << "{" << k << R"(, "light": {"spread": -1}})";
     try {
@@ -383,4 +406,11 @@ TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
     }
     std::ofstream(dir / "e.json") << "{" << k << R"(, "light": {"source_radius_mm": "big"}})";
     EXPECT_THROW(fit::readCamera(dir / "e.json"), InputError);
+    std::ofstream(dir / "f.json") << "{" << k << R"(, "light": {"ambient": 3}})";
+    try {
+        fit::readCamera(dir / "f.json");
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("light.ambient"), std::string::npos) << e.what();
+    }
 }

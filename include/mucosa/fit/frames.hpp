@@ -60,7 +60,7 @@ void writeFrames(const std::filesystem::path& path, const FrameSet& set);
 // A camera file (`mucosa register --camera`): the keys a frames file uses,
 // {"intrinsics": {width, height, fx, fy, cx, cy[, k1, k2]}, "gamma" or
 // "tone_curve", "vignetting", "light": {"offset", "spread",
-// "source_radius_mm"}, "units": "mm"}.
+// "source_radius_mm", "ambient"}, "units": "mm"}.
 // The lamp's profile beyond its position (the renderer's lamp, docs/theory.md
 // "The endoscope's lamp"): irradiance exp(-spread (1 - cos theta)) /
 // (d^2 + radiusMm^2), theta from the optical axis. Both 0: a point source,
@@ -68,13 +68,18 @@ void writeFrames(const std::filesystem::path& path, const FrameSet& set);
 struct LampProfile {
     double spread = 0;
     double radiusMm = 0;
+    // Light the airway's walls scatter back onto each other: a constant
+    // irradiance, as a fraction of the lamp's on-axis irradiance at 10 mm
+    // (the renderer's material.ambient). It flattens the far lumen's shading,
+    // which the pq estimator reads as shape unless the model has it too.
+    double ambient = 0;
 };
 
 struct CameraModel {
     Intrinsics K;
     Response response;
     Vec3d lightOffset{0, 0, 0};
-    LampProfile lamp;  // "light": {"spread", "source_radius_mm"}
+    LampProfile lamp;  // "light": {"spread", "source_radius_mm", "ambient"}
 };
 CameraModel readCamera(const std::filesystem::path& path);
 

@@ -69,6 +69,9 @@ struct SyntheticPatient {
     shading::BrdfParams brdf;             // the truth's rho and delta (Category4)
     image::Image8 texture;                // the truth's albedo (sRGB, tileable; the mesh's UVs wrap it)
     std::string branch;                   // the bronchus the path ends in
+    // A CT airway's path is cut where it leaves the lumen (checked every mm):
+    // the arc length (mm from the centerline's start) where the scope stops; 0 = not cut.
+    double pathStopMm = 0;
     PatientOptions options;
 };
 

@@ -117,6 +117,19 @@ struct RegisterOptions {
     std::optional<shading::BrdfParams> brdf;
     PqOptions pq;
     int threads = 0;
+    // A prior on the frame's motion: the pose is drawn towards where it
+    // started (the tracker's prediction) with a cost of `motionPrior` x (the
+    // data cost of a mean squared residual of 1) x ((dt / priorMm)^2 +
+    // (dw / priorDeg)^2), summed over the axes. Where the frame constrains the pose the data outweigh it; where it
+    // does not (the roll looking down a round tube, the axial position in a
+    // smooth one) the pose stays at the prediction instead of drifting to
+    // whatever the noise favours. 0: off. Measured on the synthetic patient's
+    // first 100 frames (bench_patient, pq): off, the roll wandered up to 70
+    // degrees in the round trachea before the track settled (p95 7.8 deg);
+    // 0.0005: p95 2.8 deg, 0.59 mm; 0.002 and 0.01 held the roll back as the
+    // scope rolled (p95 5.1 and 37 deg).
+    double motionPrior = 0.0005;
+    double priorMm = 1.0, priorDeg = 2.0;
 };
 
 struct FrameRegistration {
