@@ -135,7 +135,7 @@ void run(const RegisterArgs& a, const Global& g) {
         image::Image8 sat;
         const image::ImageF linear = fit::loadFrameImage(fr, cam.response, &sat, o.saturation);
         const fit::VideoFrame vf = fit::prepareFrame(linear, &sat, cam.K, o);
-        const fit::FrameRegistration r = fit::registerFrame(m, vf, tracker.start(), o);
+        const fit::FrameRegistration r = fit::registerFrame(m, vf, tracker.start(), tracker.options(o));
         run.frames.push_back({names[i], r});
         // The next frame starts from the last converged pose moved on by the
         // last converged motion: a lost frame does not drag the track away.
@@ -224,7 +224,7 @@ void addRegisterCommand(CLI::App& app, Global& g) {
         ->check(CLI::Range(0.0, 2.0));
     c->add_option("--motion-prior", a->motionPrior,
                   "Weight of the prior holding each frame near its predicted pose (1 mm, 2 degrees), where the "
-                  "frame leaves the pose free (roll in a round tube) [0.0005; 0 = off]")
+                  "frame leaves the pose free (roll in a round tube), e.g. 0.0005 [0 = off]")
         ->check(CLI::Range(0.0, 1.0));
     c->add_flag("--restart", a->restart, "Overwrite an existing output instead of resuming it");
     c->callback([a, &g] { run(*a, g); });

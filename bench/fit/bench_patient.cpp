@@ -96,7 +96,7 @@ int main(int argc, char** argv) {
         for (std::size_t i = 0; i < truth.frames.size(); ++i) {
             const auto t0 = std::chrono::steady_clock::now();
             const fit::VideoFrame vf = fit::prepareFrame(linear[i], &sat[i], patient.camera.K, o);
-            const fit::FrameRegistration r = fit::registerFrame(patient.mesh, vf, tracker.start(), o);
+            const fit::FrameRegistration r = fit::registerFrame(patient.mesh, vf, tracker.start(), tracker.options(o));
             tracker.update(r);
             wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;

@@ -241,7 +241,7 @@ TEST_P(RegisterTracking, RecoversTheSequence) {
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[i], vo, 1, &sat);
         const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
-        const fit::FrameRegistration r = fit::registerFrame(scene.mesh, vf, tracker.start(), ro);
+        const fit::FrameRegistration r = fit::registerFrame(scene.mesh, vf, tracker.start(), tracker.options(ro));
         tracker.update(r);
         const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[i]);
         std::printf("%s frame %zu: %.3f mm %.3f deg, similarity %.4f, %d iterations, %d renders, converged %d\n",

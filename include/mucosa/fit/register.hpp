@@ -123,12 +123,10 @@ struct RegisterOptions {
     // (dw / priorDeg)^2), summed over the axes. Where the frame constrains the pose the data outweigh it; where it
     // does not (the roll looking down a round tube, the axial position in a
     // smooth one) the pose stays at the prediction instead of drifting to
-    // whatever the noise favours. 0: off. Measured on the synthetic patient's
-    // first 100 frames (bench_patient, pq): off, the roll wandered up to 70
-    // degrees in the round trachea before the track settled (p95 7.8 deg);
-    // 0.0005: p95 2.8 deg, 0.59 mm; 0.002 and 0.01 held the roll back as the
-    // scope rolled (p95 5.1 and 37 deg).
-    double motionPrior = 0.0005;
+    // whatever the noise favours. 0: off (the default: on 300-frame
+    // sequences it helped on the phantom and hurt on the CT airway, see
+    // docs/theory.md "A motion prior"; 0.0005 is the value measured best).
+    double motionPrior = 0.0;
     double priorMm = 1.0, priorDeg = 2.0;
 };
 
@@ -180,7 +178,17 @@ public:
     explicit Tracker(const Mat4& initial, double prediction = 1.0) noexcept
         : last_(initial), before_(initial), prediction_(prediction) {}
     Mat4 start() const noexcept { return haveBefore_ ? predictPose(before_, last_, prediction_) : last_; }
+    // The options for the next frame: the motion prior only around a fresh
+    // prediction. After a flagged frame the start is where the track last
+    // was, which the scope has left: a prior there would hold the pose back
+    // (on the CT airway, where frames score low at their true pose, a prior
+    // around every start froze the track: median 57 mm; without it, 0.93 mm).
+    RegisterOptions options(RegisterOptions o) const noexcept {
+        if (!fresh_) o.motionPrior = 0;
+        return o;
+    }
     void update(const FrameRegistration& r) noexcept {
+        fresh_ = r.converged;
         if (!r.converged) {
             haveBefore_ = false;
             return;
@@ -194,7 +202,7 @@ public:
 private:
     Mat4 last_, before_;
     double prediction_;
-    bool haveBefore_ = false, started_ = false;
+    bool haveBefore_ = false, started_ = false, fresh_ = true;
 };
 
 // Pose error between two camera_to_world matrices: centre distance (mesh
