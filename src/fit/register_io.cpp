@@ -2,6 +2,8 @@
 // starting-view checks, and the HTML report.
 #include <algorithm>
 #include <cmath>
+#include <regex>
+#include <set>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -200,6 +202,7 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
     fs::create_directories(dir, ec);
     if (ec) throw IoError("report folder", dir.string(), ec.message());
     std::string rows;
+    std::set<std::string> written;  // the sampled frames' image stems
     const std::size_t n = run.frames.size();
     const int count = static_cast<int>(std::min<std::size_t>(n, static_cast<std::size_t>(std::max(0, samples))));
     RegisterOptions o = options;
@@ -248,6 +251,7 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
             }
         const int up = std::max(1, 320 / L.K.width);
         const std::string stem = fmt::format("frame{:05d}", i);
+        written.insert(stem);
         image::writePng(dir / (stem + "_overlay.png"), upscale(over, up));
         image::writePng(dir / (stem + "_pq_video.png"), upscale(pqImage(L.pq), up));
         image::writePng(dir / (stem + "_pq_model.png"), upscale(pqImage(model), up));
@@ -273,6 +277,18 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
         n, methodName(run.method), escapeXml(run.mesh), converged, n,
         run.method == RegistrationMethod::PqSpace ? "pq" : "NCC", svgTrace(run), rows, version());
     writeFileAtomic(dir / "index.html", html);
+    // Images an earlier report of another run left (other frames sampled)
+    // would sit beside this one's: removed. Only files named as the report
+    // names its images; nothing else in the folder is touched.
+    static const std::regex own(R"(^(frame[0-9]{5})_(overlay|pq_video|pq_model)\.png$)");
+    std::vector<fs::path> stale;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+        std::smatch m;
+        const std::string name = e.path().filename().string();
+        if (e.is_regular_file(ec) && std::regex_match(name, m, own) && !written.count(m[1].str()))
+            stale.push_back(e.path());
+    }
+    for (const fs::path& f : stale) fs::remove(f, ec);
 }
 
 }  // namespace mucosa::fit

@@ -99,6 +99,10 @@ void expectOneErrorLine(const test::RunResult& r, const std::string& needle) {
 TEST(RegisterCli, RegistersResumesAndReports) {
     Patient p;
     fs::create_directories(p.dir / "out");
+    // An earlier report in the folder: its images go, the user's files stay.
+    fs::create_directories(p.dir / "report");
+    writeText(p.dir / "report" / "frame00077_overlay.png", "stale");
+    writeText(p.dir / "report" / "notes.txt", "mine");
     const test::RunResult r = test::runCli(p.args("--report '" + (p.dir / "report").string() + "' --report-frames 2"));
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("registered 5 frames (5 converged) with method pq"), std::string::npos) << r.out;
@@ -122,6 +126,8 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     EXPECT_NE(html.find("<polyline"), std::string::npos);
     EXPECT_TRUE(fs::exists(p.dir / "report" / "frame00000_overlay.png"));
     EXPECT_TRUE(fs::exists(p.dir / "report" / "frame00004_pq_model.png"));
+    EXPECT_FALSE(fs::exists(p.dir / "report" / "frame00077_overlay.png"));
+    EXPECT_TRUE(fs::exists(p.dir / "report" / "notes.txt"));
 
     // Resume: cut the run to its first two frames and mark the third's image
     // as new; only frames 2..4 are registered again, 0 and 1 are kept as they
