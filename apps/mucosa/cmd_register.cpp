@@ -84,12 +84,12 @@ void run(const RegisterArgs& a, const Global& g) {
     const fit::Mat4 init = fit::readPose(a.init);
     const std::vector<fs::path> names = listFrames(a.video);
     for (const fs::path& f : names) {
-        const image::PngImage png = image::readPng(f);
-        if (png.pixels.width() != cam.K.width || png.pixels.height() != cam.K.height)
-            throw InputError("frame size", f.string(),
-                             fmt::format("is {}x{}, but {} says {}x{}{}", png.pixels.width(), png.pixels.height(),
-                                         a.camera, cam.K.width, cam.K.height,
-                                         f == names.front() ? "" : " (and the first frame agrees with it)"));
+        const image::PngHeader png = image::readPngHeader(f);  // the header only: frames are decoded once, later
+        if (png.width != cam.K.width || png.height != cam.K.height)
+            throw InputError(
+                "frame size", f.string(),
+                fmt::format("is {}x{}, but {} says {}x{}{}", png.width, png.height, a.camera, cam.K.width, cam.K.height,
+                            f == names.front() ? "" : " (and the first frame agrees with it)"));
     }
     const mesh::Mesh m = mesh::load(a.mesh);
     fit::checkInitialView(m, cam.K, init, cam.lightOffset, a.mesh, a.init);

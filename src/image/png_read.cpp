@@ -3,8 +3,10 @@
 #include <png.h>
 
 #include <algorithm>
+#include <array>
 #include <csetjmp>
 #include <cstring>
+#include <fstream>
 #include <string>
 
 #include <fmt/format.h>
@@ -150,6 +152,27 @@ PngImage decodePng(const std::vector<std::byte>& bytes, const std::string& name)
         for (std::size_t i = 0; i < n; ++i) dst[i] = buffer[i];
     }
     return result;
+}
+
+PngHeader readPngHeader(const std::filesystem::path& path) {
+    const std::string name = path.string();
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw IoError("image", name, "cannot be opened");
+    std::array<std::byte, 33> b{};
+    in.read(reinterpret_cast<char*>(b.data()), static_cast<std::streamsize>(b.size()));
+    static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    if (in.gcount() < static_cast<std::streamsize>(b.size()) || std::memcmp(b.data(), kSignature, 8) != 0 ||
+        be32(b.data() + 8) != 13 || std::memcmp(b.data() + 12, "IHDR", 4) != 0)
+        throw InputError("image", name, "is not a PNG (no PNG signature and header)");
+    PngHeader h;
+    const std::uint32_t w = be32(b.data() + 16), hh = be32(b.data() + 20);
+    if (w == 0 || hh == 0 || w > 0x7fffffffu || hh > 0x7fffffffu)
+        throw InputError("image", name, fmt::format("declares a {}x{} image", w, hh));
+    h.width = static_cast<int>(w);
+    h.height = static_cast<int>(hh);
+    h.bitDepth = static_cast<int>(b[24]);
+    h.colorType = static_cast<int>(b[25]);
+    return h;
 }
 
 PngImage readPng(const std::filesystem::path& path) {

@@ -136,6 +136,30 @@ TEST(Png, RejectsFilesThatAreNotPng) {
     EXPECT_THROW(decodePng(bytes), InputError);
 }
 
+// The header alone gives the size, depth and colour type the full decode
+// gives; a file that is not a PNG, a short one or a missing one is refused.
+TEST(Png, HeaderReadsWhatTheDecodeFinds) {
+    test::TempDir dir;
+    writePng(dir / "rgb.png", noiseImage<std::uint8_t>(37, 21, 3, 1));
+    writePng(dir / "grey16.png", noiseImage<std::uint16_t>(5, 64, 1, 2));
+    for (const char* name : {"rgb.png", "grey16.png"}) {
+        const PngHeader h = readPngHeader(dir / name);
+        const PngImage full = readPng(dir / name);
+        EXPECT_EQ(h.width, full.pixels.width()) << name;
+        EXPECT_EQ(h.height, full.pixels.height()) << name;
+        EXPECT_EQ(h.bitDepth, full.bitDepth) << name;
+    }
+    EXPECT_EQ(readPngHeader(dir / "rgb.png").colorType, 2);
+    EXPECT_EQ(readPngHeader(dir / "grey16.png").colorType, 0);
+    EXPECT_THROW(readPngHeader(dir / "missing.png"), IoError);
+    writeFileAtomic(dir / "text.png", std::string("hello, not a png, but long enough to hold a header"));
+    EXPECT_THROW(readPngHeader(dir / "text.png"), InputError);
+    auto bytes = encodePng(noiseImage<std::uint8_t>(8, 8, 3, 5));
+    bytes.resize(20);  // cut inside the IHDR chunk
+    writeFileAtomic(dir / "short.png", std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    EXPECT_THROW(readPngHeader(dir / "short.png"), InputError);
+}
+
 TEST(Png, WritesAtomicallyAndLeavesNoTemporaryOnError) {
     test::TempDir dir;
     const Image8 img = noiseImage<std::uint8_t>(16, 16, 3, 6);

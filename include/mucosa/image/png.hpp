@@ -59,4 +59,15 @@ PngImage decodePng(const std::vector<std::byte>& bytes, const std::string& nameF
 
 Image8 to8(const PngImage& png);  // 16-bit values rounded to 8
 
+// What a PNG's header (its IHDR chunk, the first 33 bytes) says, without
+// decoding the image: for checking a folder of frames before the long work.
+// Throws IoError when the file cannot be read and InputError when it is not
+// a PNG.
+struct PngHeader {
+    int width = 0, height = 0;
+    int bitDepth = 8;
+    int colorType = 0;  // PNG's: 0 grey, 2 RGB, 3 palette, 4 grey + alpha, 6 RGBA
+};
+PngHeader readPngHeader(const std::filesystem::path& path);
+
 }  // namespace mucosa::image
