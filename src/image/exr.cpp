@@ -146,7 +146,13 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
     // 128 bytes per 2 coded, ZIP/ZIPS and PXR24 (a byte transform, then zlib)
     // at most deflate's 1032:1; B44 codes a 4x4 block of halves (32 bytes) in
     // 14 bytes, B44A a flat block in 3 (ratios under 3 and 11; other sample
-    // types are stored raw). PIZ and DWA get only the memory bound.
+    // types are stored raw). PIZ (a wavelet, then Huffman with run lengths)
+    // and DWAA/DWAB (an 8x8 DCT, run lengths, then zlib) have no tight
+    // bound; the DCT's 64:1 on a flat block times deflate's 1032:1 is
+    // 66 048:1, so 2^17:1 is far above any real file and still refuses a
+    // header whose bytes cannot hold its image (found by fuzz_exr: 231 bytes
+    // declaring a 421633x1793 DWAB image, 431 MB that OpenEXR allocated for
+    // one chunk before the 3 GB of floats were refused).
     std::uint64_t ratio = 0;
     if (compression == 0)
         ratio = 1;
@@ -158,6 +164,8 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
         ratio = 3;
     else if (compression == 7)
         ratio = 11;
+    else if (compression == 4 || compression == 8 || compression == 9)
+        ratio = std::uint64_t(1) << 17;
     std::uint64_t rawMin = 0;
     for (const auto& [xs, ys] : sampling)
         rawMin += saturatingMul(saturatingMul((w + xs - 1) / xs, (h + ys - 1) / ys), 2);

@@ -73,9 +73,12 @@ std::string hostileExr(std::int32_t x1, std::int32_t y1, std::uint8_t compressio
 // by OpenEXR itself with B44 and B44A (the best case, 32 bytes in 3) load.
 TEST(Exr, RealB44FilesStillLoad) {
     test::TempDir dir;
-    for (const Imf::Compression c : {Imf::B44_COMPRESSION, Imf::B44A_COMPRESSION, Imf::PXR24_COMPRESSION}) {
+    for (const Imf::Compression c : {Imf::B44_COMPRESSION, Imf::B44A_COMPRESSION, Imf::PXR24_COMPRESSION,
+                                     Imf::PIZ_COMPRESSION, Imf::DWAA_COMPRESSION, Imf::DWAB_COMPRESSION}) {
         for (const bool flat : {true, false}) {
-            const int w = 256, h = 128;
+            // Flat: the best case of every codec, large enough that a bound
+            // too tight for it would show.
+            const int w = flat ? 2048 : 256, h = flat ? 1024 : 128;
             std::vector<Imf::Rgba> px(static_cast<std::size_t>(w) * h);
             for (int i = 0; i < w * h; ++i) {
                 const float v = flat ? 0.5f : static_cast<float>((i * 2654435761u) >> 24) / 255.0f;
@@ -88,6 +91,8 @@ TEST(Exr, RealB44FilesStillLoad) {
                 out.setFrameBuffer(px.data(), 1, static_cast<std::size_t>(w));
                 out.writePixels(h);
             }
+            std::printf("%s: %zu bytes for %d x %d RGBA halves\n", file.filename().c_str(),
+                        static_cast<std::size_t>(std::filesystem::file_size(file)), w, h);
             const auto img = readExr(file);
             EXPECT_EQ(img.width(), w) << file;
             EXPECT_EQ(img.height(), h) << file;
@@ -141,5 +146,29 @@ TEST(Exr, B44HeaderWithoutTheDataIsRefused) {
         FAIL() << "accepted a 5832705x3 B44A image from 12 bytes of data";
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("bytes present can hold at most"), std::string::npos) << e.what();
+    }
+}
+
+// Found by CI's brief fuzzing: 231 bytes declaring a 421633x1793 DWAB image;
+// OpenEXR allocated 431 MB for one chunk, the float image would have been
+// 3 GB. PIZ and DWA now have a ratio bound too.
+TEST(Exr, DwaHeaderWithoutTheDataIsRefused) {
+    const auto file = std::filesystem::path(MUCOSA_SOURCE_DIR) / "fuzz/corpus/exr/hostile_dwab_no_data.exr";
+    ASSERT_TRUE(std::filesystem::exists(file));
+    try {
+        readExr(file);
+        FAIL() << "accepted a 421633x1793 DWAB image from 117 bytes of data";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("bytes present can hold at most"), std::string::npos) << e.what();
+    }
+    for (std::uint8_t c : {std::uint8_t(4), std::uint8_t(8)}) {  // PIZ, DWAA: the same header
+        test::TempDir dir;
+        writeFileAtomic(dir / "h.exr", hostileExr(1 << 22, 31, c, 400));  // one chunk of 4194305 x 32
+        try {
+            readExr(dir / "h.exr");
+            FAIL() << int(c);
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("bytes present can hold at most"), std::string::npos) << e.what();
+        }
     }
 }
