@@ -30,7 +30,8 @@ struct RegisterArgs {
     std::string mesh, video, camera, init, out, method = "pq", report, brdf;
     std::vector<int> levels;
     int maxIterations = 12, reportSamples = 6;
-    double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior;
+    double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
+           rollPrior = fit::RegisterOptions{}.rollPrior;
     bool restart = false;
 };
 
@@ -66,6 +67,7 @@ void run(const RegisterArgs& a, const Global& g) {
     o.maxIterations = a.maxIterations;
     o.albedoFilterPx = a.albedoFilter;
     o.motionPrior = a.motionPrior;
+    o.rollPrior = a.rollPrior;
     o.threads = g.threads;
     const fs::path out = a.out;
     if (out.extension() != ".json") throw InputError("--output", a.out, "must end in .json (a frames file)");
@@ -135,11 +137,11 @@ void run(const RegisterArgs& a, const Global& g) {
         image::Image8 sat;
         const image::ImageF linear = fit::loadFrameImage(fr, cam.response, &sat, o.saturation);
         const fit::VideoFrame vf = fit::prepareFrame(linear, &sat, cam.K, o);
-        const fit::FrameRegistration r = fit::registerFrame(m, vf, tracker.start(), tracker.options(o));
+        // From the last converged pose moved on by the last converged
+        // motion (a lost frame does not drag the track away), and after a
+        // flagged frame also from where that frame ended; the better is kept.
+        const fit::FrameRegistration r = fit::registerTracked(m, vf, tracker, o);
         run.frames.push_back({names[i], r});
-        // The next frame starts from the last converged pose moved on by the
-        // last converged motion: a lost frame does not drag the track away.
-        tracker.update(r);
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastWrite).count() > 2.0 || i + 1 == names.size()) {
             fit::writeRegistration(out, run);
@@ -225,6 +227,10 @@ void addRegisterCommand(CLI::App& app, Global& g) {
     c->add_option("--motion-prior", a->motionPrior,
                   "Weight of the prior holding each frame near its predicted pose (1 mm, 2 degrees), where the "
                   "frame leaves the pose free (roll in a round tube), e.g. 0.0005 [0 = off]")
+        ->check(CLI::Range(0.0, 1.0));
+    c->add_option("--roll-prior", a->rollPrior,
+                  "Weight of the same prior on the roll alone (the rotation about the optical axis, 2 degrees), "
+                  "which a round airway leaves free [0.002; 0 = off]")
         ->check(CLI::Range(0.0, 1.0));
     c->add_flag("--restart", a->restart, "Overwrite an existing output instead of resuming it");
     c->callback([a, &g] { run(*a, g); });

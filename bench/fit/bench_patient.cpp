@@ -10,6 +10,10 @@
 // --brdf` with a fitted brdf.json); default: brdf for category4, lamp for lamp.
 // mesh: a CT airway file instead of the phantom (tests/data/airway/...).
 // MUCOSA_PRIOR=K sets RegisterOptions::motionPrior (default: the option's);
+// MUCOSA_ROLL_PRIOR=K sets RegisterOptions::rollPrior;
+// MUCOSA_SINGLE_START=1 tracks from the tracker's first start only (no retry
+// from a flagged frame's estimate);
+// MUCOSA_SEED=N draws another path, roll and noise (PatientOptions::seed);
 // MUCOSA_PQ_ONLY=1 runs pq alone, without the capture test.
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
@@ -52,6 +56,7 @@ int main(int argc, char** argv) {
     po.startMm = argc > 4 ? std::atof(argv[4]) : 60.0;
     const std::string model = argc > 5 ? argv[5] : look == "lamp" ? "lamp" : "brdf";
     if (argc > 6) po.meshFile = argv[6];
+    if (const char* k = std::getenv("MUCOSA_SEED")) po.seed = std::strtoull(k, nullptr, 10);
     if ((look != "lamp" && look != "category4") || (model != "lamp" && model != "brdf") || po.frames < 2 ||
         po.size < 64) {
         std::fprintf(stderr, "usage: bench_patient [lamp|category4] [frames] [size] [start_mm] [lamp|brdf] [mesh]\n");
@@ -81,11 +86,13 @@ int main(int argc, char** argv) {
         o.lamp = patient.camera.lamp;
         if (model == "brdf") o.brdf = patient.brdf;
         if (const char* k = std::getenv("MUCOSA_PRIOR")) o.motionPrior = std::atof(k);
+        if (const char* k = std::getenv("MUCOSA_ROLL_PRIOR")) o.rollPrior = std::atof(k);
         return o;
     };
     // MUCOSA_TRACE=FILE: one line per frame and method (error, similarity, converged).
     FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;
     const bool pqOnly = std::getenv("MUCOSA_PQ_ONLY") != nullptr;
+    const bool singleStart = std::getenv("MUCOSA_SINGLE_START") != nullptr;
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
         if (pqOnly && method != fit::RegistrationMethod::PqSpace) continue;
         const fit::RegisterOptions o = options(method);
@@ -96,17 +103,28 @@ int main(int argc, char** argv) {
         for (std::size_t i = 0; i < truth.frames.size(); ++i) {
             const auto t0 = std::chrono::steady_clock::now();
             const fit::VideoFrame vf = fit::prepareFrame(linear[i], &sat[i], patient.camera.K, o);
-            const fit::FrameRegistration r = fit::registerFrame(patient.mesh, vf, tracker.start(), tracker.options(o));
-            tracker.update(r);
+            fit::FrameRegistration r;
+            if (singleStart) {
+                r = fit::registerFrame(patient.mesh, vf, tracker.start(), tracker.options(o));
+                tracker.update(r);
+            } else {
+                r = fit::registerTracked(patient.mesh, vf, tracker, o);
+            }
             wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
             converged += r.converged;
             const fit::PoseError e = fit::poseError(r.cameraToWorld, truth.frames[i].cameraToWorld);
             mm.push_back(e.position);
             deg.push_back(e.degrees);
-            if (trace)
-                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d\n", fit::methodName(method), i, e.position, e.degrees,
-                             r.similarity, r.converged ? 1 : 0);
+            if (trace) {
+                // The viewing direction's error alone (the rest of e.degrees is roll about it).
+                const fit::Mat4& a = r.cameraToWorld;
+                const fit::Mat4& b = truth.frames[i].cameraToWorld;
+                const double dot = a[0][2] * b[0][2] + a[1][2] * b[1][2] + a[2][2] * b[2][2];
+                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f\n", fit::methodName(method), i, e.position,
+                             e.degrees, r.similarity, r.converged ? 1 : 0,
+                             std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI);
+            }
             lostFor = (e.position > 5 || e.degrees > 10) ? lostFor + 1 : 0;
             if (lostFor == 11) ++losses;
         }

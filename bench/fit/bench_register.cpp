@@ -94,8 +94,7 @@ int main(int argc, char** argv) {
             const auto t0 = std::chrono::steady_clock::now();
             const fit::VideoFrame vf =
                 fit::prepareFrame(linear[static_cast<std::size_t>(i)], &sat[static_cast<std::size_t>(i)], K, o);
-            const fit::FrameRegistration r = fit::registerFrame(scene.mesh, vf, tracker.start(), tracker.options(o));
-            tracker.update(r);
+            const fit::FrameRegistration r = fit::registerTracked(scene.mesh, vf, tracker, o);
             wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
             renders += r.evaluations;

@@ -599,7 +599,8 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
         // starting camera's axes), h the step, to first order in x.
         Eigen::Matrix<double, 6, 1> d0 = Eigen::Matrix<double, 6, 1>::Zero(), h, sigma;
         double priorWeight = 0;
-        if (o.motionPrior > 0) {
+        Eigen::Matrix<double, 6, 1> axisWeight;  // per axis, relative to priorWeight
+        if (o.motionPrior > 0 || o.rollPrior > 0) {
             const Mat3 R0 = rotationOf(initial);
             const Eigen::Vector3d t =
                 R0.transpose() *
@@ -614,14 +615,16 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
                 total = 0;
                 for (std::size_t k = 0; k < obj.pixels.size(); ++k) total += obj.weight(k);
             }
-            priorWeight = o.motionPrior * total;
+            priorWeight = total;
         }
+        axisWeight.setConstant(o.motionPrior);
+        axisWeight[5] += o.rollPrior;
         h << ht, ht, ht, hw, hw, hw;
         sigma << o.priorMm, o.priorMm, o.priorMm, o.priorDeg * M_PI / 180, o.priorDeg * M_PI / 180,
             o.priorDeg * M_PI / 180;
         auto priorCost = [&](const Eigen::Matrix<double, 6, 1>& xx) {
             if (priorWeight <= 0) return 0.0;
-            return priorWeight * ((d0 + h.cwiseProduct(xx)).cwiseQuotient(sigma)).squaredNorm();
+            return priorWeight * axisWeight.dot((d0 + h.cwiseProduct(xx)).cwiseQuotient(sigma).cwiseAbs2());
         };
         double sim = 0;
         std::vector<std::uint8_t> seen;
@@ -688,8 +691,8 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
             if (priorWeight > 0)
                 for (int a = 0; a < 6; ++a) {
                     const double ja = h[a] / sigma[a];  // d residual / d x
-                    A(a, a) += priorWeight * ja * ja;
-                    g[a] += priorWeight * ja * (d0[a] + h[a] * x[a]) / sigma[a];
+                    A(a, a) += priorWeight * axisWeight[a] * ja * ja;
+                    g[a] += priorWeight * axisWeight[a] * ja * (d0[a] + h[a] * x[a]) / sigma[a];
                 }
             bool improved = false;
             Eigen::Matrix<double, 6, 1> step = Eigen::Matrix<double, 6, 1>::Zero();
@@ -740,6 +743,27 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
                   r.similarity >= (o.method == RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation);
     r.optimiserSeconds = std::max(0.0, secondsSince(start) - r.renderSeconds - r.similaritySeconds);
     return r;
+}
+
+FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& frame, Tracker& tracker,
+                                  const RegisterOptions& o) {
+    const RegisterOptions options = tracker.options(o);
+    FrameRegistration best;
+    bool have = false;
+    double render = 0, similarity = 0, optimiser = 0;
+    int iterations = 0, evaluations = 0;
+    for (const Mat4& start : tracker.starts()) {
+        FrameRegistration r = registerFrame(mesh, frame, start, options);
+        render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
+        iterations += r.iterations, evaluations += r.evaluations;
+        if (!have || (r.converged && !best.converged) ||
+            (r.converged == best.converged && r.similarity > best.similarity))
+            best = r, have = true;
+    }
+    best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
+    best.iterations = iterations, best.evaluations = evaluations;
+    tracker.update(best);
+    return best;
 }
 
 Mat4 predictPose(const Mat4& before, const Mat4& last, double damping) noexcept {

@@ -241,8 +241,7 @@ TEST_P(RegisterTracking, RecoversTheSequence) {
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[i], vo, 1, &sat);
         const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
-        const fit::FrameRegistration r = fit::registerFrame(scene.mesh, vf, tracker.start(), tracker.options(ro));
-        tracker.update(r);
+        const fit::FrameRegistration r = fit::registerTracked(scene.mesh, vf, tracker, ro);
         const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[i]);
         std::printf("%s frame %zu: %.3f mm %.3f deg, similarity %.4f, %d iterations, %d renders, converged %d\n",
                     fit::methodName(ro.method), i, e.position, e.degrees, r.similarity, r.iterations, r.evaluations,
@@ -374,6 +373,93 @@ TEST(RegisterPose, MotionPriorHoldsThePoseNearItsStart) {
     flagged.converged = false;
     t.update(flagged);
     EXPECT_DOUBLE_EQ(t.options(ro).motionPrior, 0.0);
+}
+
+// The roll prior holds only the rotation about the optical axis: with an
+// overwhelming weight the roll stays at the start's while the position and
+// the viewing direction are still recovered (the full motion prior holds
+// those too).
+TEST(RegisterPose, RollPriorHoldsOnlyTheRoll) {
+    const test::RegisterScene scene = test::makeRegisterScene();
+    const Intrinsics K = pinhole(160, 90);
+    const Mat4 start = fit::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
+    test::VideoOptions vo;
+    image::Image8 sat;
+    const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[0], vo, 1, &sat);
+    fit::RegisterOptions ro;
+    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
+    // The rotation about the camera's z axis from a to b (degrees).
+    auto roll = [](const Mat4& a, const Mat4& b) {
+        double r[3][3];
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) r[i][j] = a[0][i] * b[0][j] + a[1][i] * b[1][j] + a[2][i] * b[2][j];
+        return std::atan2(r[1][0] - r[0][1], r[0][0] + r[1][1]) * 180 / M_PI;
+    };
+    auto run = [&](double rollPrior) {
+        fit::RegisterOptions o = ro;
+        o.rollPrior = rollPrior;
+        return fit::registerFrame(scene.mesh, vf, start, o).cameraToWorld;
+    };
+    const Mat4 free = run(0.0), held = run(1e4);
+    const double needed = roll(start, scene.poses[0]);
+    const fit::PoseError eFree = fit::poseError(free, scene.poses[0]), eHeld = fit::poseError(held, scene.poses[0]);
+    std::printf(
+        "roll needed %.2f deg; prior off: rolled %.2f deg, %.3f mm from the truth; 1e4: rolled %.3f deg, "
+        "%.3f mm from the truth\n",
+        needed, roll(start, free), eFree.position, roll(start, held), eHeld.position);
+    ASSERT_GT(std::abs(needed), 1.0);
+    EXPECT_NEAR(roll(start, free), needed, 0.5);
+    EXPECT_LT(std::abs(roll(start, held)), 0.1);
+    EXPECT_LT(eHeld.position, 0.5);  // the position is not held
+    EXPECT_LT(eFree.position, 0.5);
+}
+
+// After a flagged frame the tracker offers two starts: where the track last
+// was and where the flagged frame ended (the scope moves on while frames
+// score just under the threshold). registerTracked keeps the better: here the
+// track's last pose is far beyond the capture range (6 mm, 12 degrees) and
+// the flagged estimate 0.4 mm off, so only the second start recovers the frame.
+TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
+    const test::RegisterScene scene = test::makeRegisterScene();
+    const Intrinsics K = pinhole(160, 90);
+    const Mat4 truth = scene.poses[0];
+    const Mat4 far = fit::perturbPose(truth, {2.5, -2.0, 5.0}, {0.12, -0.15, 0.1});
+    const Mat4 near = fit::perturbPose(truth, {0.3, -0.2, 0.2}, {0.01, 0.01, -0.01});
+    test::VideoOptions vo;
+    image::Image8 sat;
+    const image::ImageF frame = test::renderVideoFrame(scene.truth, K, truth, vo, 1, &sat);
+    fit::RegisterOptions ro;
+    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
+
+    fit::Tracker fresh(far);
+    ASSERT_EQ(fresh.starts().size(), 1u);
+    const fit::FrameRegistration alone = fit::registerFrame(scene.mesh, vf, far, ro);
+    const fit::PoseError eAlone = fit::poseError(alone.cameraToWorld, truth);
+    ASSERT_GT(eAlone.position, 1.0) << "the far start must be outside the capture range for this test to mean anything";
+
+    fit::Tracker t(far);
+    fit::FrameRegistration flagged;
+    flagged.cameraToWorld = near;
+    flagged.converged = false;
+    t.update(flagged);
+    const std::vector<Mat4> starts = t.starts();
+    ASSERT_EQ(starts.size(), 2u);
+    EXPECT_LT(fit::poseError(starts[0], far).position, 1e-9);
+    EXPECT_LT(fit::poseError(starts[1], near).position, 1e-9);
+    const fit::FrameRegistration r = fit::registerTracked(scene.mesh, vf, t, ro);
+    const fit::PoseError e = fit::poseError(r.cameraToWorld, truth);
+    std::printf(
+        "from the track alone: %.2f mm %.1f deg (similarity %.3f); with the flagged start: %.3f mm %.2f deg "
+        "(similarity %.3f, %d renders)\n",
+        eAlone.position, eAlone.degrees, alone.similarity, e.position, e.degrees, r.similarity, r.evaluations);
+    EXPECT_TRUE(r.converged);
+    EXPECT_LT(e.position, 0.5);
+    EXPECT_LT(e.degrees, 1.5);
+    EXPECT_GT(r.similarity, alone.similarity);
+    EXPECT_GT(r.evaluations, alone.evaluations);  // both starts were registered, and counted
+    // The converged frame makes the track fresh again: one start, from it.
+    ASSERT_EQ(t.starts().size(), 1u);
+    EXPECT_LT(fit::poseError(t.start(), r.cameraToWorld).position, 1e-9);
 }
 
 // The walls' back-scatter: the renderer's ambient k_a adds k_a / 10^2 (the

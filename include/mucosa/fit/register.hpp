@@ -127,6 +127,11 @@ struct RegisterOptions {
     // sequences it helped on the phantom and hurt on the CT airway, see
     // docs/theory.md "A motion prior"; 0.0005 is the value measured best).
     double motionPrior = 0.0;
+    // The same prior on the roll alone (the rotation about the optical axis,
+    // sigma priorDeg), added to motionPrior's: the pose's least observable
+    // axis looking down a round airway, held without holding back the
+    // position or the viewing direction. 0: off.
+    double rollPrior = 0.0;
     double priorMm = 1.0, priorDeg = 2.0;
 };
 
@@ -172,12 +177,23 @@ Mat4 predictPose(const Mat4& before, const Mat4& last, double damping = 0.5) noe
 // Frame-to-frame tracking: each frame starts from the last converged pose
 // moved on by the last converged motion (constant velocity, times
 // `prediction`); a frame that does not converge leaves the track where it
-// was and drops the velocity.
+// was and drops the velocity. The frame after a flagged one is registered
+// from two starts (registerTracked): where the track was, and where the
+// flagged frame ended, since a frame scoring just under the threshold at
+// its true pose (a jerk of the scope, a glint) is usually right and the scope
+// moves on meanwhile.
 class Tracker {
 public:
     explicit Tracker(const Mat4& initial, double prediction = 1.0) noexcept
         : last_(initial), before_(initial), prediction_(prediction) {}
     Mat4 start() const noexcept { return haveBefore_ ? predictPose(before_, last_, prediction_) : last_; }
+    // Every start for the next frame: start(), then the last flagged
+    // frame's estimate if the frame before this one was flagged.
+    std::vector<Mat4> starts() const {
+        std::vector<Mat4> s{start()};
+        if (!fresh_) s.push_back(flagged_);
+        return s;
+    }
     // The options for the next frame: the motion prior only around a fresh
     // prediction. After a flagged frame the start is where the track last
     // was, which the scope has left: a prior there would hold the pose back
@@ -191,6 +207,7 @@ public:
         fresh_ = r.converged;
         if (!r.converged) {
             haveBefore_ = false;
+            flagged_ = r.cameraToWorld;
             return;
         }
         before_ = last_;
@@ -200,10 +217,16 @@ public:
     }
 
 private:
-    Mat4 last_, before_;
+    Mat4 last_, before_, flagged_{};
     double prediction_;
     bool haveBefore_ = false, started_ = false, fresh_ = true;
 };
+
+// Registers the tracker's next frame from each of its starts, keeps the best
+// (a converged result over a flagged one, then the higher similarity; timing,
+// iterations and renders summed over the starts) and updates the tracker.
+FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& frame, Tracker& tracker,
+                                  const RegisterOptions& options);
 
 // Pose error between two camera_to_world matrices: centre distance (mesh
 // units) and rotation angle (degrees).
