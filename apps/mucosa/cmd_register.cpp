@@ -230,7 +230,7 @@ void addRegisterCommand(CLI::App& app, Global& g) {
         ->check(CLI::Range(0.0, 1.0));
     c->add_option("--roll-prior", a->rollPrior,
                   "Weight of the same prior on the roll alone (the rotation about the optical axis, 2 degrees), "
-                  "which a round airway leaves free [0.002; 0 = off]")
+                  "which a round airway leaves free, e.g. 0.002 [0 = off]")
         ->check(CLI::Range(0.0, 1.0));
     c->add_flag("--restart", a->restart, "Overwrite an existing output instead of resuming it");
     c->callback([a, &g] { run(*a, g); });
