@@ -334,20 +334,31 @@ TEST(RegisterPq, ModelShadingFollowsTheLampsSpreadAndDisk) {
     EXPECT_GT(checked, 50);
 }
 
+// The register scene's first frame, prepared, and a start 2 mm and 4 degrees
+// off its pose (the prior tests).
+struct OffStart {
+    test::RegisterScene scene = test::makeRegisterScene();
+    Intrinsics K = pinhole(160, 90);
+    Mat4 start = fit::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
+    fit::VideoFrame vf;
+    OffStart() {
+        image::Image8 sat;
+        const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[0], {}, 1, &sat);
+        vf = fit::prepareFrame(frame, &sat, K, fit::RegisterOptions{});
+    }
+};
+
 // The motion prior draws the pose towards where the frame started: from a
 // start 2 mm and 4 degrees off, without it the first frame is recovered; with
 // an overwhelming weight the pose stays within a fraction of the start, with
 // a moderate one it ends in between. The Tracker leaves it out after a
 // flagged frame.
 TEST(RegisterPose, MotionPriorHoldsThePoseNearItsStart) {
-    const test::RegisterScene scene = test::makeRegisterScene();
-    const Intrinsics K = pinhole(160, 90);
-    const Mat4 start = fit::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
-    test::VideoOptions vo;
-    image::Image8 sat;
-    const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[0], vo, 1, &sat);
+    const OffStart off;
+    const test::RegisterScene& scene = off.scene;
+    const Mat4& start = off.start;
+    const fit::VideoFrame& vf = off.vf;
     fit::RegisterOptions ro;
-    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
     auto run = [&](double prior) {
         fit::RegisterOptions o = ro;
         o.motionPrior = prior;
@@ -380,14 +391,11 @@ TEST(RegisterPose, MotionPriorHoldsThePoseNearItsStart) {
 // the viewing direction are still recovered (the full motion prior holds
 // those too).
 TEST(RegisterPose, RollPriorHoldsOnlyTheRoll) {
-    const test::RegisterScene scene = test::makeRegisterScene();
-    const Intrinsics K = pinhole(160, 90);
-    const Mat4 start = fit::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
-    test::VideoOptions vo;
-    image::Image8 sat;
-    const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[0], vo, 1, &sat);
+    const OffStart off;
+    const test::RegisterScene& scene = off.scene;
+    const Mat4& start = off.start;
+    const fit::VideoFrame& vf = off.vf;
     fit::RegisterOptions ro;
-    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
     // The rotation about the camera's z axis from a to b (degrees).
     auto roll = [](const Mat4& a, const Mat4& b) {
         double r[3][3];
