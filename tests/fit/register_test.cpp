@@ -346,6 +346,9 @@ struct OffStart {
         const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[0], {}, 1, &sat);
         vf = fit::prepareFrame(frame, &sat, K, fit::RegisterOptions{});
     }
+    Mat4 registered(const fit::RegisterOptions& o) const {
+        return fit::registerFrame(scene.mesh, vf, start, o).cameraToWorld;
+    }
 };
 
 // The motion prior draws the pose towards where the frame started: from a
@@ -355,18 +358,17 @@ struct OffStart {
 // flagged frame.
 TEST(RegisterPose, MotionPriorHoldsThePoseNearItsStart) {
     const OffStart off;
-    const test::RegisterScene& scene = off.scene;
     const Mat4& start = off.start;
-    const fit::VideoFrame& vf = off.vf;
+    const Mat4& truth = off.scene.poses[0];
     fit::RegisterOptions ro;
     auto run = [&](double prior) {
         fit::RegisterOptions o = ro;
         o.motionPrior = prior;
-        return fit::registerFrame(scene.mesh, vf, start, o).cameraToWorld;
+        return off.registered(o);
     };
-    const fit::PoseError free = fit::poseError(run(0.0), scene.poses[0]);
+    const fit::PoseError free = fit::poseError(run(0.0), truth);
     const fit::PoseError held = fit::poseError(run(1e4), start);
-    const fit::PoseError some = fit::poseError(run(0.05), scene.poses[0]);
+    const fit::PoseError some = fit::poseError(run(0.05), truth);
     std::printf(
         "prior off: %.3f mm %.2f deg from the truth; 1e4: %.4f mm %.3f deg from the start; 0.05: %.3f mm "
         "%.2f deg from the truth\n",
@@ -375,7 +377,7 @@ TEST(RegisterPose, MotionPriorHoldsThePoseNearItsStart) {
     EXPECT_LT(held.position, 0.05);
     EXPECT_LT(held.degrees, 0.1);
     EXPECT_GT(some.position, free.position);
-    EXPECT_LT(some.position, fit::poseError(start, scene.poses[0]).position);
+    EXPECT_LT(some.position, fit::poseError(start, truth).position);
     // After a flagged frame the prediction is stale: no prior.
     fit::Tracker t(start);
     ro.motionPrior = 0.01;
@@ -392,10 +394,8 @@ TEST(RegisterPose, MotionPriorHoldsThePoseNearItsStart) {
 // those too).
 TEST(RegisterPose, RollPriorHoldsOnlyTheRoll) {
     const OffStart off;
-    const test::RegisterScene& scene = off.scene;
     const Mat4& start = off.start;
-    const fit::VideoFrame& vf = off.vf;
-    fit::RegisterOptions ro;
+    const Mat4& truth = off.scene.poses[0];
     // The rotation about the camera's z axis from a to b (degrees).
     auto roll = [](const Mat4& a, const Mat4& b) {
         double r[3][3];
@@ -404,13 +404,13 @@ TEST(RegisterPose, RollPriorHoldsOnlyTheRoll) {
         return std::atan2(r[1][0] - r[0][1], r[0][0] + r[1][1]) * 180 / M_PI;
     };
     auto run = [&](double rollPrior) {
-        fit::RegisterOptions o = ro;
+        fit::RegisterOptions o;
         o.rollPrior = rollPrior;
-        return fit::registerFrame(scene.mesh, vf, start, o).cameraToWorld;
+        return off.registered(o);
     };
     const Mat4 free = run(0.0), held = run(1e4);
-    const double needed = roll(start, scene.poses[0]);
-    const fit::PoseError eFree = fit::poseError(free, scene.poses[0]), eHeld = fit::poseError(held, scene.poses[0]);
+    const double needed = roll(start, truth);
+    const fit::PoseError eFree = fit::poseError(free, truth), eHeld = fit::poseError(held, truth);
     std::printf(
         "roll needed %.2f deg; prior off: rolled %.2f deg, %.3f mm from the truth; 1e4: rolled %.3f deg, "
         "%.3f mm from the truth\n",
