@@ -334,6 +334,8 @@ TEST(RegisterPq, ModelShadingFollowsTheLampsSpreadAndDisk) {
     EXPECT_GT(checked, 50);
 }
 
+namespace {
+
 // The register scene's first frame, prepared, and a start 2 mm and 4 degrees
 // off its pose (the prior tests).
 struct OffStart {
@@ -350,6 +352,8 @@ struct OffStart {
         return fit::registerFrame(scene.mesh, vf, start, o).cameraToWorld;
     }
 };
+
+}  // namespace
 
 // The motion prior draws the pose towards where the frame started: from a
 // start 2 mm and 4 degrees off, without it the first frame is recovered; with
