@@ -337,7 +337,7 @@ TEST(RegisterPq, ModelShadingFollowsTheLampsSpreadAndDisk) {
 namespace {
 
 // The register scene's first frame, prepared, and a start 2 mm and 4 degrees
-// off its pose (the prior tests).
+// off its pose.
 struct OffStart {
     test::RegisterScene scene = test::makeRegisterScene();
     Intrinsics K = pinhole(160, 90);
@@ -432,16 +432,13 @@ TEST(RegisterPose, RollPriorHoldsOnlyTheRoll) {
 // track's last pose is far beyond the capture range (6 mm, 12 degrees) and
 // the flagged estimate 0.4 mm off, so only the second start recovers the frame.
 TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
-    const test::RegisterScene scene = test::makeRegisterScene();
-    const Intrinsics K = pinhole(160, 90);
-    const Mat4 truth = scene.poses[0];
+    const OffStart off;  // its frame; the starts are this test's own
+    const test::RegisterScene& scene = off.scene;
+    const fit::VideoFrame& vf = off.vf;
+    const Mat4& truth = scene.poses[0];
     const Mat4 far = fit::perturbPose(truth, {2.5, -2.0, 5.0}, {0.12, -0.15, 0.1});
     const Mat4 near = fit::perturbPose(truth, {0.3, -0.2, 0.2}, {0.01, 0.01, -0.01});
-    test::VideoOptions vo;
-    image::Image8 sat;
-    const image::ImageF frame = test::renderVideoFrame(scene.truth, K, truth, vo, 1, &sat);
     fit::RegisterOptions ro;
-    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
 
     fit::Tracker fresh(far);
     ASSERT_EQ(fresh.starts().size(), 1u);
