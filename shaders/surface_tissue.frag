@@ -39,6 +39,7 @@ void main() {
         highlight = texture(uHighlight, v.sphereUv).r;
     vec3 color =
         tissueFragment(v, albedoTex, mapSample, highlight, footprint, uMaterial, uProcedural, uFrame, MUCOSA_MODE);
-    // Linear radiance for the camera's HDR target, or display values.
-    fragColor = vec4(clamp(color, 0.0f, modeIsPhotographic(MUCOSA_MODE) ? kHalfMax : 1.0f), 1.0f);
+    // Linear radiance for the camera's HDR target or a float framebuffer, or
+    // display values (an RGBA8 target clamps them to [0, 1]).
+    fragColor = vec4(clamp(color, 0.0f, kHalfMax), 1.0f);
 }

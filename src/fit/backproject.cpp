@@ -10,8 +10,54 @@
 
 namespace mucosa::fit {
 
-image::ImageF loadFrameImage(const Frame& frame, const Response& response, image::Image8* saturatedMask,
-                             double saturation) {
+std::vector<std::uint8_t> outsideFieldOfView(const image::ImageF& image, int marginPx) {
+    const int W = image.width(), H = image.height(), C = image.channels();
+    std::vector<std::uint8_t> outside(static_cast<std::size_t>(W) * H, 0);
+    auto black = [&](std::size_t i) {
+        for (int c = 0; c < C; ++c)
+            if (image.data()[i * C + c] > 1e-6f) return false;
+        return true;
+    };
+    std::vector<std::size_t> stack;
+    auto seed = [&](int x, int y) {
+        const std::size_t i = static_cast<std::size_t>(y) * W + x;
+        if (!outside[i] && black(i)) outside[i] = 1, stack.push_back(i);
+    };
+    for (int x = 0; x < W; ++x) seed(x, 0), seed(x, H - 1);
+    for (int y = 0; y < H; ++y) seed(0, y), seed(W - 1, y);
+    while (!stack.empty()) {
+        const std::size_t i = stack.back();
+        stack.pop_back();
+        const int x = static_cast<int>(i % W), y = static_cast<int>(i / W);
+        if (x > 0) seed(x - 1, y);
+        if (x + 1 < W) seed(x + 1, y);
+        if (y > 0) seed(x, y - 1);
+        if (y + 1 < H) seed(x, y + 1);
+    }
+    // Widen by marginPx (a square neighbourhood): rows, then columns.
+    for (int pass = 0; pass < 2 && marginPx > 0; ++pass) {
+        const std::vector<std::uint8_t> in = outside;
+        const int n = pass == 0 ? W : H, lines = pass == 0 ? H : W;
+        for (int l = 0; l < lines; ++l) {
+            auto at = [&](int k) -> std::size_t {
+                return pass == 0 ? static_cast<std::size_t>(l) * W + k : static_cast<std::size_t>(k) * W + l;
+            };
+            int last = -1 - marginPx;  // the nearest outside pixel at or before k
+            for (int k = 0; k < n; ++k) {
+                if (in[at(k)]) last = k;
+                if (k - last <= marginPx) outside[at(k)] = 1;
+            }
+            last = n + marginPx;
+            for (int k = n - 1; k >= 0; --k) {
+                if (in[at(k)]) last = k;
+                if (last - k <= marginPx) outside[at(k)] = 1;
+            }
+        }
+    }
+    return outside;
+}
+
+image::ImageF loadFrameImage(const Frame& frame, const Response& response, image::Image8* mask, double saturation) {
     const image::PngImage png = image::readPng(frame.image);
     const image::Image16& px = png.pixels;
     if (px.width() != frame.K.width || px.height() != frame.K.height)
@@ -20,7 +66,7 @@ image::ImageF loadFrameImage(const Frame& frame, const Response& response, image
                                      frame.K.width, frame.K.height));
     const double maxv = png.bitDepth == 16 ? 65535.0 : 255.0;
     image::ImageF out(px.width(), px.height(), 3);
-    if (saturatedMask) *saturatedMask = image::Image8(px.width(), px.height(), 1);
+    if (mask) *mask = image::Image8(px.width(), px.height(), 1);
     const int colour = px.channels() >= 3 ? 3 : 1;
     for (int y = 0; y < px.height(); ++y)
         for (int x = 0; x < px.width(); ++x) {
@@ -34,13 +80,18 @@ image::ImageF loadFrameImage(const Frame& frame, const Response& response, image
                 sat = sat || v >= saturation;
                 out.at(x, y, c) = static_cast<float>(response.linear(v) / vignette);
             }
-            if (saturatedMask) saturatedMask->at(x, y) = sat ? 1 : 0;
+            if (mask) mask->at(x, y) = sat ? kMaskSaturated : 0;
         }
+    if (mask) {
+        const std::vector<std::uint8_t> outside = outsideFieldOfView(out, kViewMarginPx);
+        for (std::size_t i = 0; i < outside.size(); ++i)
+            if (outside[i]) mask->data()[i] = kMaskOutsideView;
+    }
     return out;
 }
 
 std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, const image::ImageF& linear,
-                                const image::Image8* saturatedMask, const FitOptions& o, std::uint32_t frameIndex,
+                                const image::Image8* mask, const FitOptions& o, std::uint32_t frameIndex,
                                 BackprojectStats* stats) {
     const Mat4 W = invertRigid(frame.cameraToWorld);
     const Vec3d eye = cameraCentre(frame.cameraToWorld);
@@ -69,8 +120,8 @@ std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, cons
             }
             Sample smp;
             for (int c = 0; c < 3; ++c) smp.I[c] = linear.at(px, py, c);
-            if (saturatedMask && saturatedMask->at(px, py)) {
-                ++st.saturated;
+            if (mask && mask->at(px, py)) {
+                ++(mask->at(px, py) == kMaskOutsideView ? st.outsideView : st.saturated);
                 continue;
             }
             smp.u = static_cast<float>(s.u);

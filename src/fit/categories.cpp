@@ -9,6 +9,7 @@
 #include <mucosa/camera/camera.hpp>
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/fit/fit.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/tangents.hpp>
 #include <mucosa/reflectance/map.hpp>
@@ -81,6 +82,29 @@ image::Image8 toImage8(const image::ImageF& linear, double gamma) {
         if (gamma != 1.0) v = std::pow(v, 1.0 / gamma);
         out.data()[i] = static_cast<std::uint8_t>(std::lround(v * 255.0));
     }
+    return out;
+}
+
+// Categories 2-4 as the scope shows a frame: the fitted model's linear
+// signal (the frames' exposure is in the albedo, and so is any colour
+// processing the scope did) through the frames' own response, the inverse
+// of what `mucosa fit` did to read them: the vignetting cos^k put back,
+// clipping at 1, the tone curve; and black where the real frame is outside
+// the scope's field of view (its own mask, whatever its shape).
+image::Image8 develop(const image::ImageF& linear, const Intrinsics& K, const Response& response,
+                      const std::vector<std::uint8_t>& outside) {
+    image::Image8 out(linear.width(), linear.height(), 3);
+    for (int y = 0; y < linear.height(); ++y)
+        for (int x = 0; x < linear.width(); ++x) {
+            if (outside[static_cast<std::size_t>(y) * linear.width() + x]) continue;
+            const double tx = (x - K.cx) / K.fx, ty = (y - K.cy) / K.fy;
+            const double vignette =
+                response.vignetting == 0 ? 1.0 : std::pow(1.0 + tx * tx + ty * ty, -0.5 * response.vignetting);
+            for (int c = 0; c < 3; ++c) {
+                const double v = std::clamp(linear.at(x, y, c) * vignette, 0.0, 1.0);
+                out.at(x, y, c) = static_cast<std::uint8_t>(std::lround(255.0 * response.encode(v)));
+            }
+        }
     return out;
 }
 
@@ -166,6 +190,8 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
     for (int i = 0; i < total; ++i) {
         const Frame& f = frames.frames[static_cast<std::size_t>(i)];
         render::Framebuffer fb(f.K.width, f.K.height);
+        render::Framebuffer linear(f.K.width, f.K.height, render::ColorFormat::Rgba16F);
+        const std::vector<std::uint8_t> outside = outsideFieldOfView(loadFrameImage(f, frames.response));
         shading::FrameSetup setup;
         setup.view = glViewMatrix(f.cameraToWorld);
         setup.projection = glProjectionMatrix(f.K, 0.5, 500.0);
@@ -179,9 +205,13 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
         auto shoot = [&](int category, shading::Mode mode, const shading::ParamSet& params) {
             setup.mode = mode;
             setup.params = params;
-            fb.bind();
+            // Category 1 goes through Mucosa's own camera (a photographic
+            // mode); the fitted ones are the frames' signal, developed here.
+            const bool photographic = shading::info(mode).photographic;
+            (photographic ? fb : linear).bind();
             renderer.draw(setup);
-            const image::Image8 img = fb.readRgb();
+            const image::Image8 img =
+                photographic ? fb.readRgb() : develop(linear.readRgbLinear(), f.K, frames.response, outside);
             CategoryImage ci{fmt::format("p{:03}_c{}", i, category), fmt::format("pose{:03}_cat{}.png", i, category),
                              category, i};
             image::writePng(outDir / ci.file, img);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <span>
 
 #include <fmt/format.h>
 
@@ -34,6 +35,30 @@ double weightedMedian(std::vector<std::array<double, 2>>& v) {
         if (acc >= 0.5 * total) return x[0];
     }
     return v.back()[0];
+}
+
+// The albedo's level is the frames' own (their exposure, with the vignetting
+// divided out, so brighter than any pixel towards the edge of the view) and
+// may exceed 1, which the texture (linear, [0, 1]) cannot hold: a clipped
+// channel shifts the colour. If the 99.9th percentile of the seen texels'
+// channels is above 1, the texture is divided by it and rho multiplied by it
+// (the product, all that is ever rendered, is unchanged; rho(1) becomes that
+// factor instead of 1). A percentile, not the largest: a few texels of
+// highlight residue must not move rho(1) off 1 for frames whose albedo fits.
+void normaliseAlbedo(FitResult& r) {
+    std::vector<float> v;
+    for (std::size_t t = 0; t < r.coverage.size(); ++t)
+        if (r.coverage.data()[t] > 0)
+            for (int c = 0; c < 3; ++c) v.push_back(r.texture.data()[3 * t + static_cast<std::size_t>(c)]);
+    if (v.empty()) return;
+    const auto q = v.begin() + static_cast<std::ptrdiff_t>(std::min(v.size() - 1, v.size() * 999 / 1000));
+    std::nth_element(v.begin(), q, v.end());
+    const double k = *q;
+    if (!(k > 1.0) || !std::isfinite(k)) return;
+    for (float& x : std::span(r.texture.data(), r.texture.size())) x = static_cast<float>(x / k);
+    for (double& c : r.brdf.c) c *= k;
+    for (auto& b : r.rhoBins) b[1] *= k;
+    r.albedoScale = k;
 }
 
 }  // namespace
@@ -154,6 +179,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
     r.brdf = solveBrdf(samples, o, &r);
     if (o.progress) o.progress("building the texture", kTextureAt);
     buildTexture(samples, r.brdf, o, r);
+    normaliseAlbedo(r);
 
     for (std::size_t k = 0; k < held.size(); ++k) {
         const std::size_t i = held[k];

@@ -264,6 +264,11 @@ double Response::linear(double value) const noexcept {
     return gamma == 1.0 ? value : std::pow(value, gamma);
 }
 
+double Response::encode(double linear) const noexcept {
+    if (toneCurve >= 0) return shading::toneCurve(static_cast<float>(linear), toneCurve);
+    return gamma == 1.0 ? linear : std::pow(linear, 1.0 / gamma);
+}
+
 Vec3d cameraCentre(const Mat4& m) noexcept {
     return {m[0][3], m[1][3], m[2][3]};
 }

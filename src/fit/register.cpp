@@ -468,8 +468,7 @@ double normalisedCrossCorrelation(const image::ImageF& a, const image::ImageF& b
 VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* saturated, const Intrinsics& K,
                         const RegisterOptions& o) {
     const int W = linear.width(), H = linear.height();
-    // Luminance (Rec. 709 weights) and the scope's field of view: black pixels
-    // connected to the image border are outside it; a dark lumen inside is not.
+    // Luminance (Rec. 709 weights) and the scope's field of view.
     std::vector<float> lum(static_cast<std::size_t>(W) * H);
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {
@@ -477,23 +476,7 @@ VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* satura
             const float r = linear.at(x, y, 0), g = linear.at(x, y, c > 1 ? 1 : 0), b = linear.at(x, y, c > 2 ? 2 : 0);
             lum[static_cast<std::size_t>(y) * W + x] = 0.2126f * r + 0.7152f * g + 0.0722f * b;
         }
-    std::vector<std::uint8_t> outside(lum.size(), 0);
-    std::vector<std::size_t> stack;
-    auto seed = [&](int x, int y) {
-        const std::size_t i = static_cast<std::size_t>(y) * W + x;
-        if (!outside[i] && lum[i] <= 1e-6f) outside[i] = 1, stack.push_back(i);
-    };
-    for (int x = 0; x < W; ++x) seed(x, 0), seed(x, H - 1);
-    for (int y = 0; y < H; ++y) seed(0, y), seed(W - 1, y);
-    while (!stack.empty()) {
-        const std::size_t i = stack.back();
-        stack.pop_back();
-        const int x = static_cast<int>(i % W), y = static_cast<int>(i / W);
-        if (x > 0) seed(x - 1, y);
-        if (x + 1 < W) seed(x + 1, y);
-        if (y > 0) seed(x, y - 1);
-        if (y + 1 < H) seed(x, y + 1);
-    }
+    const std::vector<std::uint8_t> outside = outsideFieldOfView(linear);
 
     VideoFrame f;
     for (int width : o.levels) {

@@ -113,6 +113,7 @@ void writeFitOutputs(const FitResult& r, const fs::path& dir) {
 
     json rep{{"brdf", brdf},
              {"covered_fraction", r.coveredFraction},
+             {"albedo_scale", r.albedoScale},
              {"solve",
               {{"samples", r.solveSamples},
                {"texels", r.solveTexels},
@@ -142,11 +143,17 @@ void writeFitOutputs(const FitResult& r, const fs::path& dir) {
                                  {"hits", s.hits},
                                  {"back_facing", s.backFacing},
                                  {"saturated", s.saturated},
+                                 {"outside_view", s.outsideView},
                                  {"grazing", s.grazing},
                                  {"samples", s.samples}});
     }
     std::string warningRows;
     for (const std::string& w : r.warnings) warningRows += fmt::format("<p><b>Warning:</b> {}</p>\n", w);
+    if (r.albedoScale > 1)
+        warningRows += fmt::format(
+            "<p>The albedo came out brighter than 1 (the frames' exposure, with the vignetting divided out): the "
+            "texture was divided by {:.3f} and rho multiplied by it, so rho(1) = {:.3f}.</p>\n",
+            r.albedoScale, r.albedoScale);
     if (r.falloff.constrained)
         warningRows += fmt::format(
             "<p>&delta;(r) is constrained to be non-increasing and non-negative on [0, 1] (a lamp's fall-off); the "

@@ -140,14 +140,14 @@ std::string glVersion() {
     return s ? s : "";
 }
 
-Framebuffer::Framebuffer(int width, int height) : width_(width), height_(height) {
+Framebuffer::Framebuffer(int width, int height, ColorFormat format) : width_(width), height_(height) {
     if (width <= 0 || height <= 0 || width > 16384 || height > 16384)
         throw InputError("size", "", fmt::format("{}x{} is not a valid frame size (1..16384)", width, height));
     glGenFramebuffers(1, &fbo_);
     glGenRenderbuffers(1, &color_);
     glGenRenderbuffers(1, &depth_);
     glBindRenderbuffer(GL_RENDERBUFFER, color_);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, width, height);
+    glRenderbufferStorage(GL_RENDERBUFFER, format == ColorFormat::Rgba16F ? GL_RGBA16F : GL_RGBA8, width, height);
     glBindRenderbuffer(GL_RENDERBUFFER, depth_);
     glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
     glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
@@ -183,6 +183,20 @@ image::Image8 Framebuffer::readRgb() {
             dst[3 * x + 1] = src[4 * x + 1];
             dst[3 * x + 2] = src[4 * x + 2];
         }
+    }
+    return out;
+}
+
+image::ImageF Framebuffer::readRgbLinear() {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
+    std::vector<float> rgba(static_cast<std::size_t>(width_) * height_ * 4);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(0, 0, width_, height_, GL_RGBA, GL_FLOAT, rgba.data());
+    image::ImageF out(width_, height_, 3);
+    for (int y = 0; y < height_; ++y) {
+        const float* src = rgba.data() + static_cast<std::size_t>(height_ - 1 - y) * width_ * 4;
+        for (int x = 0; x < width_; ++x)
+            for (int c = 0; c < 3; ++c) out.at(x, y, c) = src[4 * x + c];
     }
     return out;
 }

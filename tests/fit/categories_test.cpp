@@ -1,4 +1,5 @@
 // The study's categories, rendered on the GPU path at the frames' own poses.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 
@@ -12,6 +13,7 @@
 #include <mucosa/fit/fit.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
+#include <mucosa/shading/reference.hpp>
 #include <mucosa/study/plan.hpp>
 
 #include "synthetic.hpp"
@@ -125,4 +127,82 @@ TEST(Categories, GlCameraMatchesTheOpenCvProjection) {
     // Pixel centre (u, v) <-> NDC: x = 2 (u + 0.5) / w - 1, y = 1 - 2 (v + 0.5) / h.
     EXPECT_NEAR((xn + 1) / 2 * K.width - 0.5, u, 1e-3);
     EXPECT_NEAR((1 - yn) / 2 * K.height - 0.5, v, 1e-3);
+}
+
+TEST(Categories, FittedCategoriesAreDevelopedLikeTheFramesBehindTheirMask) {
+    // The synthetic frames as a scope delivers them: exposed 1.6x, vignetted
+    // cos^1.5, BT.709-encoded, black outside a circle. The fit reads them
+    // back to linear (its albedo then exceeds 1 and moves into rho); the
+    // categories must come out in the frames' encoding and behind their mask.
+    test::TempDir dir;
+    const mesh::Mesh tube = test::makeTube(9.0, 80.0, 160, 160);
+    test::SyntheticOptions so;
+    so.frames = 6;
+    so.size = 160;
+    std::filesystem::create_directories(dir / "linear");
+    fit::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir / "linear");
+    frames.response.toneCurve = 1;
+    frames.response.vignetting = 1.5;
+    const double radius = 0.46 * so.size;
+    auto outsideCircle = [&](int x, int y) {
+        const double c = (so.size - 1) / 2.0;
+        return (x - c) * (x - c) + (y - c) * (y - c) > radius * radius;
+    };
+    for (std::size_t i = 0; i < frames.frames.size(); ++i) {
+        fit::Frame& f = frames.frames[i];
+        image::Image16 px = image::readPng(f.image).pixels;
+        for (int y = 0; y < px.height(); ++y)
+            for (int x = 0; x < px.width(); ++x) {
+                const double tx = (x - f.K.cx) / f.K.fx, ty = (y - f.K.cy) / f.K.fy;
+                const double vignette = std::pow(1.0 + tx * tx + ty * ty, -0.75);
+                for (int c = 0; c < 3; ++c) {
+                    const double lin = std::min(1.0, 1.6 * px.at(x, y, c) / 65535.0 * vignette);
+                    px.at(x, y, c) =
+                        outsideCircle(x, y)
+                            ? 0
+                            : static_cast<std::uint16_t>(std::lround(65535.0 * shading::toneCurve(float(lin), 1)));
+                }
+            }
+        f.image = dir / fmt::format("scope_{}.png", i);
+        image::writePng(f.image, px);
+    }
+    fit::FitOptions fo;
+    fo.textureSize = 256;
+    fo.minSamples = 1000;
+    const fit::FitResult r = fit::fitFrames(tube, frames, fo);
+    fit::writeFitOutputs(r, dir / "fit");
+    std::size_t seen = 0, above = 0;
+    for (std::size_t t = 0; t < r.coverage.size(); ++t)
+        if (r.coverage.data()[t] > 0)
+            for (std::size_t c = 0; c < 3; ++c, ++seen) above += r.texture.data()[3 * t + c] > 1.0f;
+    std::printf("albedo scale %.3f (rho(1) = %.3f), %zu of %zu seen texel channels above 1\n", r.albedoScale,
+                r.brdf.rho(1.0), above, seen);
+    EXPECT_GT(r.albedoScale, 1.2);
+    EXPECT_NEAR(r.brdf.rho(1.0), r.albedoScale, 1e-9);
+    EXPECT_LE(above, seen / 1000);
+    const fit::FittedModel model = fit::readFitDirectory(dir / "fit");
+    fit::renderCategories(tube, frames, model, dir / "stimuli", {});
+    for (int pose = 0; pose < 6; ++pose) {
+        const image::PngImage real = image::readPng(frames.frames[static_cast<std::size_t>(pose)].image);
+        const image::Image8 cat3 =
+            image::to8(image::readPng(dir / "stimuli" / fmt::format("pose{:03}_cat3.png", pose)));
+        std::size_t used = 0;
+        const double psnr = maskedPsnr(cat3, real, &used);
+        std::printf("pose %d: category 3 vs the scope's frame %.1f dB over %zu pixels\n", pose, psnr, used);
+        EXPECT_GT(psnr, 28.0) << pose;
+        EXPECT_GT(used, 8000u);
+        for (int c = 2; c <= 4; ++c) {
+            const image::Image8 img =
+                image::to8(image::readPng(dir / "stimuli" / fmt::format("pose{:03}_cat{}.png", pose, c)));
+            std::size_t lit = 0, outside = 0;
+            for (int y = 0; y < img.height(); ++y)
+                for (int x = 0; x < img.width(); ++x)
+                    if (outsideCircle(x, y)) {
+                        ++outside;
+                        lit += img.at(x, y, 0) + img.at(x, y, 1) + img.at(x, y, 2) > 0;
+                    }
+            EXPECT_GT(outside, 4000u);
+            EXPECT_EQ(lit, 0u) << "category " << c << " pose " << pose;
+        }
+    }
 }

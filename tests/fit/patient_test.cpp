@@ -119,6 +119,56 @@ TEST(Response, LoadFrameImageDividesTheVignettingOut) {
     EXPECT_NEAR(fit::loadFrameImage(f, r).at(0, 0, 1), 0.5 / (1 + 2 * 0.8 * 0.8), 2e-3);
 }
 
+TEST(FieldOfView, BlackConnectedToTheBorderIsOutsideADarkLumenInsideIsNot) {
+    // A 41 x 41 frame: a lit disc of radius 15 around a black lumen of radius
+    // 3, black outside the disc (the scope's mask).
+    image::ImageF img(41, 41, 3);
+    auto r2 = [](int x, int y) { return (x - 20) * (x - 20) + (y - 20) * (y - 20); };
+    for (int y = 0; y < 41; ++y)
+        for (int x = 0; x < 41; ++x)
+            for (int c = 0; c < 3; ++c) img.at(x, y, c) = r2(x, y) <= 15 * 15 && r2(x, y) > 3 * 3 ? 0.3f : 0.0f;
+    for (int c = 0; c < 3; ++c) img.at(20, 8, c) = 0.0f;  // a black pixel in the tissue, enclosed by it
+    img.at(20, 34, 1) = img.at(20, 34, 2) = 0.0f;         // black in two channels only: not black
+    img.at(20, 35, 1) = img.at(20, 35, 2) = 0.0f;         // the same, on the disc's edge
+    const std::vector<std::uint8_t> out = fit::outsideFieldOfView(img);
+    for (int y = 0; y < 41; ++y)
+        for (int x = 0; x < 41; ++x)
+            EXPECT_EQ(out[static_cast<std::size_t>(y) * 41 + x], r2(x, y) > 15 * 15 ? 1 : 0) << x << " " << y;
+    // Widened by 2 pixels: everything within 2 (Chebyshev) of an outside pixel.
+    const std::vector<std::uint8_t> wide = fit::outsideFieldOfView(img, 2);
+    for (int y = 0; y < 41; ++y)
+        for (int x = 0; x < 41; ++x) {
+            bool near = false;
+            for (int dy = -2; dy <= 2; ++dy)
+                for (int dx = -2; dx <= 2; ++dx) {
+                    const int u = x + dx, v = y + dy;
+                    near = near || (u >= 0 && v >= 0 && u < 41 && v < 41 && out[static_cast<std::size_t>(v) * 41 + u]);
+                }
+            EXPECT_EQ(wide[static_cast<std::size_t>(y) * 41 + x], near ? 1 : 0) << x << " " << y;
+        }
+}
+
+TEST(FieldOfView, LoadFrameImageMasksItAndSaturation) {
+    test::TempDir dir;
+    fit::Frame f;
+    f.image = dir / "f.png";
+    f.K = {21, 21, 60, 60, 10, 10};
+    image::Image8 img(21, 21, 3);
+    for (int y = 0; y < 21; ++y)
+        for (int x = 0; x < 21; ++x)
+            for (int c = 0; c < 3; ++c)
+                img.at(x, y, c) =
+                    (x - 10) * (x - 10) + (y - 10) * (y - 10) <= 64 ? (x == 10 && y == 10 ? 255 : 100) : 0;
+    image::writePng(f.image, img);
+    image::Image8 mask;
+    fit::loadFrameImage(f, fit::Response{}, &mask);
+    EXPECT_EQ(mask.at(10, 10), fit::kMaskSaturated);
+    EXPECT_EQ(mask.at(0, 0), fit::kMaskOutsideView);
+    EXPECT_EQ(mask.at(10, 2), fit::kMaskOutsideView);  // on the disc, within the margin of its edge
+    EXPECT_EQ(mask.at(10, 5), 0);                      // 3 pixels in, and no outside pixel within 2 of it
+    EXPECT_EQ(mask.at(12, 10), 0);
+}
+
 TEST(SyntheticPatient, PathGoesForwardPausesPullsBackAndRollsInsideTheAirway) {
     const fit::PatientOptions o = smallPatient();
     const fit::SyntheticPatient p = fit::makeSyntheticPatient(o);

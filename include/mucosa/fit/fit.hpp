@@ -32,7 +32,7 @@ struct Sample {
 };
 
 struct BackprojectStats {
-    std::size_t pixels = 0, hits = 0, backFacing = 0, saturated = 0, grazing = 0, samples = 0;
+    std::size_t pixels = 0, hits = 0, backFacing = 0, saturated = 0, outsideView = 0, grazing = 0, samples = 0;
 };
 
 using Progress = std::function<void(const std::string& stage, double fraction)>;
@@ -95,6 +95,9 @@ struct FitResult {
     std::array<int, 2> atlasSize{0, 0};
     double texelMm = 0;
     double coveredFraction = 0;
+    // The factor moved from the albedo into rho so that the texture fits in
+    // [0, 1] (1: none; see fitFrames): rho(1) = albedoScale.
+    double albedoScale = 1;
     std::vector<BackprojectStats> perFrame;
     std::vector<HoldoutResult> holdout;
     std::size_t solveSamples = 0, solveTexels = 0;
@@ -116,14 +119,25 @@ struct FitResult {
 double fittedShading(const shading::BrdfParams& brdf, double gamma, double z) noexcept;
 
 // Back-projects one frame (image already decoded and linearised, 3 channels).
-// `saturated` (optional, 1 channel) marks pixels at or above the saturation level.
+// `mask` (optional, 1 channel, from loadFrameImage): pixels not to use.
 std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, const image::ImageF& linear,
-                                const image::Image8* saturated, const FitOptions& options, std::uint32_t frameIndex,
+                                const image::Image8* mask, const FitOptions& options, std::uint32_t frameIndex,
                                 BackprojectStats* stats);
 
 // Reads, checks and linearises a frame's image (8/16-bit grey or RGB PNG).
-image::ImageF loadFrameImage(const Frame& frame, const Response& response, image::Image8* saturatedMask = nullptr,
+// `mask`, if given, says per pixel what may not be used: kMaskSaturated (a
+// channel at or above `saturation`) or kMaskOutsideView (outside the scope's
+// field of view, see outsideFieldOfView, widened by kViewMarginPx).
+constexpr std::uint8_t kMaskSaturated = 1, kMaskOutsideView = 2;
+constexpr int kViewMarginPx = 2;
+image::ImageF loadFrameImage(const Frame& frame, const Response& response, image::Image8* mask = nullptr,
                              double saturation = 0.99);
+
+// The pixels outside the scope's field of view: black (every channel 0)
+// and connected to the image border, so that a dark lumen inside the
+// circle or octagon is not taken for it. 1 = outside. Widened by
+// `marginPx` (a real scope's mask edge is soft).
+std::vector<std::uint8_t> outsideFieldOfView(const image::ImageF& image, int marginPx = 0);
 
 // The joint robust solve on samples (zmin/zmax from the data).
 shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptions& options,

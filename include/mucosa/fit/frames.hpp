@@ -41,6 +41,7 @@ struct Response {
     Response() = default;
     Response(double powerLaw) : gamma(powerLaw) {}  // NOLINT(google-explicit-constructor): a number is a power law
     double linear(double value) const noexcept;
+    double encode(double linear) const noexcept;  // the inverse of linear(), for linear in [0, 1]
 };
 
 // "linear", "bt709", "srgb" for 0, 1, 2 (camera.tone_curve's choices); "" otherwise.

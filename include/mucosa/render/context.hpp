@@ -37,10 +37,14 @@ private:
 std::string glRenderer();
 std::string glVersion();
 
-// An offscreen colour (RGBA8) + depth (24-bit) framebuffer.
+// An offscreen colour + depth (24-bit) framebuffer. Colour is RGBA8 (what
+// a display shows: values clamp to [0, 1]) or RGBA16F (linear radiance,
+// unclamped up to the largest half float: for callers that develop the
+// frame themselves, as `mucosa categories` does with the video's response).
+enum class ColorFormat { Rgba8, Rgba16F };
 class Framebuffer {
 public:
-    Framebuffer(int width, int height);  // throws GraphicsError if incomplete
+    Framebuffer(int width, int height, ColorFormat format = ColorFormat::Rgba8);  // throws GraphicsError if incomplete
     ~Framebuffer();
     Framebuffer(const Framebuffer&) = delete;
     Framebuffer& operator=(const Framebuffer&) = delete;
@@ -50,6 +54,8 @@ public:
     int height() const noexcept { return height_; }
     // RGB8, first row = top of the image (rows flipped from OpenGL's bottom-up).
     image::Image8 readRgb();
+    // RGB as floats, first row = top (RGBA8: the stored value / 255).
+    image::ImageF readRgbLinear();
 
 private:
     int width_, height_;

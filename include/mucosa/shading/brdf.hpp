@@ -6,7 +6,8 @@
 //   delta(r)   = 1 + d1 r + d2 r^2 + d3 r^3                  (eq. 10)
 //   I          = albedo(x) * rho(gamma) * delta(r)           (eq. 11)
 // The scale is fixed by rho(1) = 1 and delta(0) = 1, so the albedo carries the
-// absolute level.
+// absolute level; `mucosa fit` moves any level above 1 into rho (rho(1) > 1)
+// so that its texture fits in [0, 1].
 #include <array>
 #include <filesystem>
 #include <string>
