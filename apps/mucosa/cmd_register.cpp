@@ -6,14 +6,18 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/core/memory.hpp>
 #include <mucosa/fit/fit.hpp>
 #include <mucosa/fit/register.hpp>
+#include <mucosa/fit/video.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/shading/brdf.hpp>
@@ -27,9 +31,10 @@ namespace {
 namespace fs = std::filesystem;
 
 struct RegisterArgs {
-    std::string mesh, video, camera, init, out, method = "pq", report, brdf;
+    std::string mesh, video, camera, init, out, method = "pq", report, brdf, framesDir;
     std::vector<int> levels;
-    int maxIterations = 12, reportSamples = 6;
+    int maxIterations = 12, reportSamples = 6, step = 1;
+    std::size_t maxFrames = 0;
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
            rollPrior = fit::RegisterOptions{}.rollPrior;
     bool restart = false;
@@ -37,13 +42,8 @@ struct RegisterArgs {
 
 // The frames of a video: the PNG files of a folder, sorted by name.
 std::vector<fs::path> listFrames(const std::string& video) {
-    std::error_code ec;
-    if (!fs::exists(video, ec)) throw IoError("video", video, "does not exist");
-    if (!fs::is_directory(video, ec))
-        throw InputError("video", video,
-                         "is a file: mucosa register reads a folder of PNG frames (extract them with "
-                         "`ffmpeg -i VIDEO FOLDER/%05d.png`)");
     std::vector<fs::path> frames;
+    std::error_code ec;
     for (const auto& e : fs::directory_iterator(video, ec)) {
         std::string ext = e.path().extension().string();
         std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -54,6 +54,60 @@ std::vector<fs::path> listFrames(const std::string& video) {
     std::sort(frames.begin(), frames.end());
     return frames;
 }
+
+// Where the frames to register come from: a folder of PNGs, or a video file
+// decoded with FFmpeg whose frames (every `step`-th, at most `limit`) are
+// written as PNGs into `dir` as they are reached: the frames file refers to
+// them, and `mucosa fit` reads them.
+class FrameSource {
+public:
+    FrameSource(const RegisterArgs& a, const fs::path& out) {
+        std::error_code ec;
+        if (!fs::exists(a.video, ec)) throw IoError("video", a.video, "does not exist");
+        limit_ = a.maxFrames > 0 ? a.maxFrames : std::numeric_limits<std::size_t>::max();
+        step_ = static_cast<std::size_t>(a.step);
+        if (fs::is_directory(a.video, ec)) {
+            const std::vector<fs::path> all = listFrames(a.video);
+            for (std::size_t k = 0; k < all.size() && names_.size() < limit_; k += step_) names_.push_back(all[k]);
+            return;
+        }
+        video_ = std::make_unique<fit::VideoReader>(a.video);
+        dir_ = a.framesDir.empty() ? out.parent_path() / (out.stem().string() + "_frames") : fs::path(a.framesDir);
+        const fit::VideoInfo& v = video_->info();
+        if (v.frameCount > 0)
+            estimate_ = std::min(limit_, (static_cast<std::size_t>(v.frameCount) + step_ - 1) / step_);
+    }
+    bool isVideo() const noexcept { return video_ != nullptr; }
+    const fit::VideoInfo& videoInfo() const { return video_->info(); }
+    const fs::path& framesDir() const noexcept { return dir_; }
+    // Frames to register: exact for a folder, the container's estimate for a
+    // video (0: unknown).
+    std::size_t total() const noexcept { return video_ ? estimate_ : names_.size(); }
+    // The path frame i is registered from (a video's, before it is written).
+    fs::path name(std::size_t i) const {
+        return video_ ? dir_ / fmt::format("frame_{:06}.png", i * step_) : names_.at(i);
+    }
+    // Frame i (called for i = 0, 1, 2, ... in order): its PNG, written from
+    // the video when it is missing or `rewrite`; nothing past the end.
+    std::optional<fs::path> get(std::size_t i, bool rewrite) {
+        if (!video_) return i < names_.size() ? std::optional<fs::path>(names_[i]) : std::nullopt;
+        if (i >= limit_) return std::nullopt;
+        const std::int64_t want = static_cast<std::int64_t>(i * step_);
+        while (video_->framesRead() <= want)
+            if (!video_->next(rgb_)) return std::nullopt;
+        const fs::path p = name(i);
+        std::error_code ec;
+        if (rewrite || !fs::exists(p, ec)) image::writePng(p, rgb_);
+        return p;
+    }
+
+private:
+    std::vector<fs::path> names_;
+    std::unique_ptr<fit::VideoReader> video_;
+    fs::path dir_;
+    std::size_t step_ = 1, limit_ = 0, estimate_ = 0;
+    image::Image8 rgb_;
+};
 
 void run(const RegisterArgs& a, const Global& g) {
     fit::RegisterOptions o;
@@ -84,14 +138,28 @@ void run(const RegisterArgs& a, const Global& g) {
                          fmt::format("the principal point ({}, {}) lies outside the {}x{} image", cam.K.cx, cam.K.cy,
                                      cam.K.width, cam.K.height));
     const fit::Mat4 init = fit::readPose(a.init);
-    const std::vector<fs::path> names = listFrames(a.video);
-    for (const fs::path& f : names) {
-        const image::PngHeader png = image::readPngHeader(f);  // the header only: frames are decoded once, later
-        if (png.width != cam.K.width || png.height != cam.K.height)
+    FrameSource source(a, out);
+    if (source.isVideo()) {
+        const fit::VideoInfo& v = source.videoInfo();
+        if (v.width != cam.K.width || v.height != cam.K.height)
             throw InputError(
-                "frame size", f.string(),
-                fmt::format("is {}x{}, but {} says {}x{}{}", png.width, png.height, a.camera, cam.K.width, cam.K.height,
-                            f == names.front() ? "" : " (and the first frame agrees with it)"));
+                "frame size", a.video,
+                fmt::format("is {}x{}, but {} says {}x{}", v.width, v.height, a.camera, cam.K.width, cam.K.height));
+        requireOutputDir(source.framesDir());
+        // The frames' PNGs: about half their raw size, where the container says how many.
+        if (source.total() > 0)
+            requireDisk(saturatingMul(source.total(), static_cast<std::uint64_t>(v.width) * v.height * 3 / 2 + 4096),
+                        source.framesDir(), "the video's frames");
+    } else {
+        for (std::size_t i = 0; i < source.total(); ++i) {
+            const fs::path f = source.name(i);
+            const image::PngHeader png = image::readPngHeader(f);  // the header only: frames are decoded once, later
+            if (png.width != cam.K.width || png.height != cam.K.height)
+                throw InputError(
+                    "frame size", f.string(),
+                    fmt::format("is {}x{}, but {} says {}x{}{}", png.width, png.height, a.camera, cam.K.width,
+                                cam.K.height, i == 0 ? "" : " (and the first frame agrees with it)"));
+        }
     }
     const mesh::Mesh m = mesh::load(a.mesh);
     fit::checkInitialView(m, cam.K, init, cam.lightOffset, a.mesh, a.init);
@@ -111,9 +179,10 @@ void run(const RegisterArgs& a, const Global& g) {
                              "exists and is not a registration to resume (" + e.reason() +
                                  "): choose another file, or pass --restart to overwrite it");
         }
-        bool same = old.method == o.method && old.frames.size() <= names.size();
+        bool same = old.method == o.method && (source.isVideo() || old.frames.size() <= source.total());
         for (std::size_t i = 0; same && i < old.frames.size(); ++i)
-            same = fs::absolute(old.frames[i].image).lexically_normal() == fs::absolute(names[i]).lexically_normal();
+            same =
+                fs::absolute(old.frames[i].image).lexically_normal() == fs::absolute(source.name(i)).lexically_normal();
         if (!same)
             throw InputError("--output", a.out,
                              "holds a registration of other frames or by another method: pass --restart to "
@@ -130,9 +199,21 @@ void run(const RegisterArgs& a, const Global& g) {
     fit::Tracker tracker(init, a.prediction);
     for (const auto& f : run.frames) tracker.update(f.r);
     const std::size_t first = run.frames.size();
-    for (std::size_t i = first; i < names.size(); ++i) {
+    if (source.isVideo()) {
+        std::error_code mk;
+        fs::create_directories(source.framesDir(), mk);
+        if (mk) throw IoError("frames folder", source.framesDir().string(), mk.message());
+        // Decode past the frames already registered (their PNGs are kept, or written again if missing).
+        for (std::size_t i = 0; i < first; ++i)
+            if (!source.get(i, false))
+                throw InputError("video", a.video,
+                                 fmt::format("ends after {} frames, but {} holds {} registered", i, a.out, first));
+    }
+    for (std::size_t i = first;; ++i) {
+        const std::optional<fs::path> name = source.get(i, true);
+        if (!name) break;
         fit::Frame fr;
-        fr.image = names[i];
+        fr.image = *name;
         fr.K = cam.K;
         image::Image8 sat;
         const image::ImageF linear = fit::loadFrameImage(fr, cam.response, &sat, o.saturation);
@@ -141,29 +222,31 @@ void run(const RegisterArgs& a, const Global& g) {
         // motion (a lost frame does not drag the track away), and after a
         // flagged frame also from where that frame ended; the better is kept.
         const fit::FrameRegistration r = fit::registerTracked(m, vf, tracker, o);
-        run.frames.push_back({names[i], r});
+        run.frames.push_back({*name, r});
         const auto now = std::chrono::steady_clock::now();
-        if (std::chrono::duration<double>(now - lastWrite).count() > 2.0 || i + 1 == names.size()) {
+        if (std::chrono::duration<double>(now - lastWrite).count() > 2.0) {
             fit::writeRegistration(out, run);
             lastWrite = now;
         }
         if (!g.quiet) {
+            // A video's length is the container's estimate: never below what is done.
+            const std::size_t total = std::max(source.total(), i + 1);
             const double s = std::chrono::duration<double>(now - t0).count();
             const double per = s / static_cast<double>(i + 1 - first);
-            const std::string line =
-                fmt::format("[register {}/{} {:.0f}%] {}: similarity {:.3f}{}, {:.2f} s/frame, ETA {}", i + 1,
-                            names.size(), 100.0 * static_cast<double>(i + 1) / static_cast<double>(names.size()),
-                            names[i].filename().string(), r.similarity, r.converged ? "" : " NOT CONVERGED", per,
-                            formatDuration(per * static_cast<double>(names.size() - i - 1)));
+            const std::string line = fmt::format(
+                "[register {}/{}{} {:.0f}%] {}: similarity {:.3f}{}, {:.2f} s/frame, ETA {}", i + 1,
+                source.isVideo() ? "~" : "", total, 100.0 * static_cast<double>(i + 1) / static_cast<double>(total),
+                name->filename().string(), r.similarity, r.converged ? "" : " NOT CONVERGED", per,
+                formatDuration(per * static_cast<double>(total - i - 1)));
             if (tty)
                 std::fprintf(stderr, "\r%s\x1b[K", line.c_str());
-            else if (!r.converged || (i + 1) % std::max<std::size_t>(1, names.size() / 10) == 0 ||
-                     i + 1 == names.size())
+            else if (!r.converged || (i + 1) % std::max<std::size_t>(1, total / 10) == 0 || i + 1 == total)
                 std::fprintf(stderr, "%s\n", line.c_str());
         }
     }
     if (tty) std::fprintf(stderr, "\n");
-    if (first == names.size()) fit::writeRegistration(out, run);  // nothing new: rewrite as this run describes it
+    if (run.frames.empty()) throw InputError("video", a.video, "holds no frames");
+    fit::writeRegistration(out, run);  // the last frames (or, with nothing new, this run's description)
 
     std::size_t converged = 0;
     std::vector<double> sims;
@@ -174,16 +257,16 @@ void run(const RegisterArgs& a, const Global& g) {
         render += f.r.renderSeconds, similarity += f.r.similaritySeconds, optimiser += f.r.optimiserSeconds;
     }
     std::sort(sims.begin(), sims.end());
-    const std::size_t done = names.size() - first;
-    info(g, fmt::format("registered {} ({} converged) with method {}; median similarity {:.3f}",
-                        count(names.size(), "frame"), converged, fit::methodName(o.method), sims[sims.size() / 2]));
+    const std::size_t total = run.frames.size(), done = total - first;
+    info(g, fmt::format("registered {} ({} converged) with method {}; median similarity {:.3f}", count(total, "frame"),
+                        converged, fit::methodName(o.method), sims[sims.size() / 2]));
     if (done > 0)
         info(g, fmt::format("per frame: {:.2f} s rendering, {:.2f} s similarity, {:.2f} s optimiser",
                             render / static_cast<double>(done), similarity / static_cast<double>(done),
                             optimiser / static_cast<double>(done)));
-    if (converged < names.size())
+    if (converged < total)
         warn(fmt::format("{} not converged: flagged in {} (registration.converged false); mucosa fit skips them",
-                         count(names.size() - converged, "frame"), a.out));
+                         count(total - converged, "frame"), a.out));
     if (!a.report.empty()) {
         fit::writeRegistrationReport(a.report, run, m, o, a.reportSamples);
         info(g, "wrote " + joinPath(a.report, "index.html"));
@@ -203,7 +286,15 @@ void addRegisterCommand(CLI::App& app, Global& g) {
         "pose.json: {\"position\", \"look_at\", \"up\"} (mm, world) or {\"camera_to_world\": row-major 4x4}");
     c->add_option("--mesh", a->mesh, "The airway mesh, normals facing the lumen (any format `mucosa mesh` reads)")
         ->required();
-    c->add_option("--video", a->video, "Folder of the video's frames as PNG, in name order")->required();
+    c->add_option("--video", a->video,
+                  "The bronchoscopy: a video file (any FFmpeg reads: MP4, MKV, AVI, ...) or a folder of its frames "
+                  "as PNG, in name order")
+        ->required();
+    c->add_option(
+        "--frames-dir", a->framesDir,
+        "Video file: folder for its frames as PNG, which the frames file refers to [OUTPUT's name + _frames]");
+    c->add_option("--step", a->step, "Register every STEP-th frame [1]")->check(wholeNumber(1, 100000));
+    c->add_option("--max-frames", a->maxFrames, "Register at most this many frames [all]");
     c->add_option("--camera", a->camera, "Camera file: intrinsics, distortion, gamma, light offset (JSON)")->required();
     c->add_option("--init", a->init, "The first frame's pose (JSON)")->required();
     c->add_option("-o,--output", a->out, "Frames file to write (the input of mucosa fit); resumed if it exists")

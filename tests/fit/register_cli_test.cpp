@@ -16,6 +16,7 @@
 
 #include "register_scene.hpp"
 #include "test_support.hpp"
+#include "video_encode.hpp"
 
 using namespace mucosa;
 namespace fs = std::filesystem;
@@ -176,8 +177,11 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     image::writePng(p.dir / "video" / "999.png", image::Image8(120, 160, 3));
     check(p.args(), "999.png");
     fs::remove(p.dir / "video" / "999.png");
-    // A video file instead of a folder.
-    check(p.args("", {{"--video", p.dir / "camera.json"}}), "ffmpeg");
+    // A file that is not a video; a video of another size than the camera's.
+    check(p.args("", {{"--video", p.dir / "camera.json"}}), "is not a video FFmpeg can read");
+    test::encodeVideo(p.dir / "small.mkv", std::vector<image::Image8>(2, image::Image8(120, 160, 3)));
+    check(p.args("", {{"--video", p.dir / "small.mkv"}}), "is 120x160, but");
+    EXPECT_FALSE(fs::exists(p.dir / "out" / "frames_frames"));
     // Outside the airway: 40 mm to the side of the tube, looking along it.
     const fit::Vec3d c = fit::cameraCentre(p.scene.poses[0]);
     writeText(p.dir / "outside.json",
@@ -203,4 +207,61 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     // A model shading that is not a brdf.json.
     writeText(p.dir / "brdf.json", R"({"c": [1, 0, 0], "d": [0, 0, 0], "zmin": 1, "zmax": 2})");
     check(p.args("", {{"--brdf", p.dir / "brdf.json"}}), "field 'c'");
+}
+
+TEST(RegisterCli, AVideoFileRegistersLikeItsFramesAndResumes) {
+    // The patient's frames as 8-bit RGB, once as a folder of PNGs and once
+    // as a lossless video (FFV1 in Matroska): the same poses, to the bit.
+    Patient p;
+    std::vector<image::Image8> frames;
+    fs::create_directories(p.dir / "png8");
+    for (std::size_t i = 0; i < p.scene.poses.size(); ++i) {
+        frames.push_back(image::to8(image::readPng(p.dir / "video" / fmt::format("{:03d}.png", i))));
+        image::writePng(p.dir / "png8" / fmt::format("{:03d}.png", i), frames.back());
+    }
+    test::encodeVideo(p.dir / "scope.mkv", frames);
+    fs::create_directories(p.dir / "out");
+    const test::RunResult folder =
+        test::runCli(p.args("", {{"--video", p.dir / "png8"}, {"-o", p.dir / "out" / "a.json"}}));
+    ASSERT_EQ(folder.exitCode, 0) << folder.err;
+    const test::RunResult video =
+        test::runCli(p.args("", {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "b.json"}}));
+    ASSERT_EQ(video.exitCode, 0) << video.err;
+    EXPECT_NE(video.out.find("registered 5 frames (5 converged)"), std::string::npos) << video.out;
+    const fit::FrameSet a = fit::readFrames(p.dir / "out" / "a.json"), b = fit::readFrames(p.dir / "out" / "b.json");
+    ASSERT_EQ(b.frames.size(), 5u);
+    for (std::size_t i = 0; i < 5; ++i) {
+        EXPECT_EQ(a.frames[i].cameraToWorld, b.frames[i].cameraToWorld) << i;
+        // The video's frames are written beside the frames file, which refers to them.
+        const fs::path png = p.dir / "out" / "b_frames" / fmt::format("frame_{:06}.png", i);
+        EXPECT_TRUE(fs::equivalent(b.frames[i].image, png)) << b.frames[i].image;
+        EXPECT_EQ(test::readBytes(png), test::readBytes(p.dir / "png8" / fmt::format("{:03d}.png", i)));
+    }
+    // Every second frame: 0, 2, 4, named by their frame number in the video.
+    const test::RunResult step =
+        test::runCli(p.args("--step 2", {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "c.json"}}));
+    ASSERT_EQ(step.exitCode, 0) << step.err;
+    const fit::FrameSet c = fit::readFrames(p.dir / "out" / "c.json");
+    ASSERT_EQ(c.frames.size(), 3u);
+    EXPECT_EQ(c.frames[2].image.filename(), "frame_000004.png");
+    // Resume: cut b to two frames and delete one of their PNGs; the rest is
+    // registered again, the kept poses stay, the missing PNG comes back.
+    json cut = json::parse(test::readBytes(p.dir / "out" / "b.json"));
+    cut["frames"].erase(cut["frames"].begin() + 2, cut["frames"].end());
+    cut["frames"][1]["camera_to_world"][0][3] = cut["frames"][1]["camera_to_world"][0][3].get<double>() + 0.25;
+    writeText(p.dir / "out" / "b.json", cut.dump());
+    fs::remove(p.dir / "out" / "b_frames" / "frame_000001.png");
+    const test::RunResult again =
+        test::runCli(p.args("", {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "b.json"}}));
+    ASSERT_EQ(again.exitCode, 0) << again.err;
+    EXPECT_NE(again.out.find("resuming: 2 frames already registered"), std::string::npos) << again.out;
+    const json k = json::parse(test::readBytes(p.dir / "out" / "b.json"));
+    ASSERT_EQ(k["frames"].size(), 5u);
+    EXPECT_EQ(k["frames"][1]["camera_to_world"], cut["frames"][1]["camera_to_world"]);
+    EXPECT_EQ(test::readBytes(p.dir / "out" / "b_frames" / "frame_000001.png"),
+              test::readBytes(p.dir / "png8" / "001.png"));
+    // The same output with a step it was not made with is refused, not mixed.
+    const test::RunResult mixed =
+        test::runCli(p.args("--step 2", {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "b.json"}}));
+    expectOneErrorLine(mixed, "--restart");
 }
