@@ -35,6 +35,7 @@ struct RegisterArgs {
     std::vector<int> levels;
     int maxIterations = 12, reportSamples = 6, step = 1;
     std::size_t maxFrames = 0;
+    double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
            rollPrior = fit::RegisterOptions{}.rollPrior;
     bool restart = false;
@@ -199,6 +200,9 @@ void run(const RegisterArgs& a, const Global& g) {
     fit::Tracker tracker(init, a.prediction);
     for (const auto& f : run.frames) tracker.update(f.r);
     const std::size_t first = run.frames.size();
+    fit::InitialSearch search;
+    search.radiusMm = a.searchRadius;
+    search.degrees = a.searchDegrees;
     if (source.isVideo()) {
         std::error_code mk;
         fs::create_directories(source.framesDir(), mk);
@@ -221,7 +225,11 @@ void run(const RegisterArgs& a, const Global& g) {
         // From the last converged pose moved on by the last converged
         // motion (a lost frame does not drag the track away), and after a
         // flagged frame also from where that frame ended; the better is kept.
-        const fit::FrameRegistration r = fit::registerTracked(m, vf, tracker, o);
+        // The first frame from the given pose, which is rough: searched around it.
+        const bool searched = i == 0 && search.radiusMm + search.degrees > 0;
+        const fit::FrameRegistration r =
+            searched ? fit::registerInitial(m, vf, init, o, search) : fit::registerTracked(m, vf, tracker, o);
+        if (searched) tracker.update(r);
         run.frames.push_back({*name, r});
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastWrite).count() > 2.0) {
@@ -323,6 +331,12 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                   "Weight of the same prior on the roll alone (the rotation about the optical axis, 2 degrees), "
                   "which a round airway leaves free, e.g. 0.002 [0 = off]")
         ->check(CLI::Range(0.0, 1.0));
+    c->add_option("--search-radius", a->searchRadius,
+                  "First frame: search this far (mm) around --init, and --search-degrees of rotation, before "
+                  "registering from the best poses [10; 0 with --search-degrees 0 = off]")
+        ->check(CLI::Range(0.0, 100.0));
+    c->add_option("--search-degrees", a->searchDegrees, "First frame: rotations searched around --init [20]")
+        ->check(CLI::Range(0.0, 180.0));
     c->add_flag("--restart", a->restart, "Overwrite an existing output instead of resuming it");
     c->callback([a, &g] { run(*a, g); });
 }

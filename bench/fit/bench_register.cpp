@@ -119,29 +119,42 @@ int main(int argc, char** argv) {
     // 1 mm and 2 degrees.
     std::mt19937 dir(3);
     std::normal_distribution<double> g(0, 1);
-    for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
-        fit::RegisterOptions o;
-        o.method = method;
-        o.levels = levels;
-        const fit::VideoFrame vf = fit::prepareFrame(linear[0], &sat[0], K, o);
-        std::printf("%-9s capture:", fit::methodName(method));
-        for (const auto& [emm, edeg] : {std::pair{2.0, 5.0}, std::pair{5.0, 10.0}, std::pair{10.0, 20.0}}) {
-            int ok = 0;
-            const int tries = 6;
-            for (int t = 0; t < tries; ++t) {
-                fit::Vec3d a{g(dir), g(dir), g(dir)}, b{g(dir), g(dir), g(dir)};
-                const double na = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-                const double nb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
-                for (int k = 0; k < 3; ++k) a[k] *= emm / na, b[k] *= edeg * M_PI / 180 / nb;
-                const fit::FrameRegistration r =
-                    fit::registerFrame(scene.mesh, vf, fit::perturbPose(scene.poses[0], a, b), o);
-                const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[0]);
-                ok += e.position < 1 && e.degrees < 2;
+    // Each method from one start (registerFrame), then with the initial
+    // search (registerInitial, what mucosa register does for the first frame).
+    // MUCOSA_SEARCH="candidates refine radius_mm degrees" overrides the search's defaults.
+    fit::InitialSearch is;
+    if (const char* e = std::getenv("MUCOSA_SEARCH"))
+        std::sscanf(e, "%d %d %lf %lf", &is.candidates, &is.refine, &is.radiusMm, &is.degrees);
+    for (bool search : {false, true})
+        for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
+            fit::RegisterOptions o;
+            o.method = method;
+            o.levels = levels;
+            const fit::VideoFrame vf = fit::prepareFrame(linear[0], &sat[0], K, o);
+            std::printf("%-9s capture%s:", fit::methodName(method), search ? " with the initial search" : "");
+            double seconds = 0;
+            int runs = 0;
+            for (const auto& [emm, edeg] : {std::pair{2.0, 5.0}, std::pair{5.0, 10.0}, std::pair{10.0, 20.0}}) {
+                int ok = 0;
+                const int tries = 6;
+                for (int t = 0; t < tries; ++t) {
+                    fit::Vec3d a{g(dir), g(dir), g(dir)}, b{g(dir), g(dir), g(dir)};
+                    const double na = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+                    const double nb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+                    for (int k = 0; k < 3; ++k) a[k] *= emm / na, b[k] *= edeg * M_PI / 180 / nb;
+                    const fit::Mat4 start = fit::perturbPose(scene.poses[0], a, b);
+                    const auto t0 = std::chrono::steady_clock::now();
+                    const fit::FrameRegistration r = search ? fit::registerInitial(scene.mesh, vf, start, o, is)
+                                                            : fit::registerFrame(scene.mesh, vf, start, o);
+                    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                    ++runs;
+                    const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[0]);
+                    ok += e.position < 1 && e.degrees < 2;
+                }
+                std::printf(" %.0f mm/%.0f deg: %d/%d", emm, edeg, ok, tries);
             }
-            std::printf(" %.0f mm/%.0f deg: %d/%d", emm, edeg, ok, tries);
+            std::printf(" (%.2f s each)\n", seconds / runs);
         }
-        std::printf("\n");
-    }
     rusage ru{};
     getrusage(RUSAGE_SELF, &ru);
     std::printf("peak memory %.0f MB\n", static_cast<double>(ru.ru_maxrss) / 1024.0);

@@ -6,6 +6,7 @@
 #include <limits>
 #include <numeric>
 #include <optional>
+#include <random>
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -746,6 +747,72 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
     best.iterations = iterations, best.evaluations = evaluations;
     tracker.update(best);
+    return best;
+}
+
+FrameRegistration registerInitial(const mesh::Mesh& fullMesh, const VideoFrame& frame, const Mat4& initial,
+                                  const RegisterOptions& o, const InitialSearch& search) {
+    if (frame.levels.empty()) throw InputError("frame", "registration", "has no levels");
+    const auto start = Clock::now();
+    // The candidates: the given pose first, then draws around it.
+    std::vector<Mat4> poses{initial};
+    std::mt19937 rng(search.seed);
+    std::uniform_real_distribution<double> uni(-1.0, 1.0);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    while (static_cast<int>(poses.size()) < std::max(1, search.candidates)) {
+        Vec3d t{uni(rng), uni(rng), uni(rng)};
+        if (t[0] * t[0] + t[1] * t[1] + t[2] * t[2] > 1) continue;  // uniform in the ball
+        Vec3d w{gauss(rng), gauss(rng), gauss(rng)};
+        const double nw = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+        const double angle = std::abs(uni(rng)) * search.degrees * M_PI / 180;
+        for (int k = 0; k < 3; ++k) t[k] *= search.radiusMm, w[k] *= nw > 0 ? angle / nw : 0.0;
+        poses.push_back(perturbPose(initial, t, w));
+    }
+    // Scored at the coarsest level, side by side.
+    const mesh::Mesh mesh =
+        submesh(fullMesh, trianglesNear(fullMesh, cameraCentre(initial), o.farMm + search.radiusMm));
+    FrameRegistration total;
+    std::vector<double> score(poses.size(), -2.0);
+    {
+        Objective obj(mesh, frame.levels.front(), o, total);
+        if (obj.pixels.size() >= 50) {
+            std::vector<FrameRegistration> timing(poses.size());
+            tbb::task_arena arena(resolveThreads(o.threads));
+            arena.execute([&] {
+                tbb::parallel_for(std::size_t{0}, poses.size(), [&](std::size_t i) {
+                    Objective local = obj;
+                    local.stats = &timing[i];
+                    local.differences(poses[i], &score[i]);
+                });
+            });
+            for (const FrameRegistration& t : timing) {
+                total.renderSeconds += t.renderSeconds / resolveThreads(o.threads);
+                total.similaritySeconds += t.similaritySeconds / resolveThreads(o.threads);
+                total.evaluations += t.evaluations;
+            }
+        }
+    }
+    std::vector<std::size_t> order(poses.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return score[a] > score[b]; });
+    std::vector<std::size_t> starts{0};
+    for (std::size_t i : order) {
+        if (static_cast<int>(starts.size()) > std::max(0, search.refine)) break;
+        if (i != 0) starts.push_back(i);
+    }
+    FrameRegistration best;
+    bool have = false;
+    for (std::size_t i : starts) {
+        const FrameRegistration r = registerFrame(fullMesh, frame, poses[i], o);
+        total.renderSeconds += r.renderSeconds, total.similaritySeconds += r.similaritySeconds;
+        total.iterations += r.iterations, total.evaluations += r.evaluations;
+        if (!have || (r.converged && !best.converged) ||
+            (r.converged == best.converged && r.similarity > best.similarity))
+            best = r, have = true;
+    }
+    best.renderSeconds = total.renderSeconds, best.similaritySeconds = total.similaritySeconds;
+    best.iterations = total.iterations, best.evaluations = total.evaluations;
+    best.optimiserSeconds = std::max(0.0, secondsSince(start) - best.renderSeconds - best.similaritySeconds);
     return best;
 }
 

@@ -550,3 +550,37 @@ TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
         EXPECT_NE(std::string(e.what()).find("light.ambient"), std::string::npos) << e.what();
     }
 }
+
+// The first frame from a rough initial pose: 5-6 mm and 10-12 degrees off,
+// where Levenberg-Marquardt from the start alone ends elsewhere, the search
+// around it finds the frame's pose.
+TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
+    const OffStart off;
+    const Mat4& truth = off.scene.poses[0];
+    const std::vector<std::pair<fit::Vec3d, fit::Vec3d>> offsets{
+        {{4.0, -3.0, 2.0}, {0.12, 0.10, -0.08}},
+        {{-3.5, 2.5, -3.0}, {-0.10, 0.14, 0.10}},
+        {{2.0, 4.0, -3.5}, {0.15, -0.08, 0.12}},
+    };
+    int missed = 0;
+    for (const auto& [t, w] : offsets) {
+        const Mat4 start = fit::perturbPose(truth, t, w);
+        const fit::PoseError from = fit::poseError(start, truth);
+        const fit::FrameRegistration one = fit::registerFrame(off.scene.mesh, off.vf, start, fit::RegisterOptions{});
+        const fit::FrameRegistration searched =
+            fit::registerInitial(off.scene.mesh, off.vf, start, fit::RegisterOptions{});
+        const fit::PoseError e1 = fit::poseError(one.cameraToWorld, truth);
+        const fit::PoseError es = fit::poseError(searched.cameraToWorld, truth);
+        std::printf(
+            "from %.1f mm %.1f deg: one start %.2f mm %.2f deg (S %.3f), searched %.2f mm %.2f deg (S %.3f, "
+            "%d renders)\n",
+            from.position, from.degrees, e1.position, e1.degrees, one.similarity, es.position, es.degrees,
+            searched.similarity, searched.evaluations);
+        missed += e1.position > 1.0 || e1.degrees > 2.0;
+        EXPECT_TRUE(searched.converged);
+        EXPECT_LT(es.position, 0.5);
+        EXPECT_LT(es.degrees, 1.5);
+        EXPECT_GE(searched.similarity, one.similarity - 1e-12);
+    }
+    EXPECT_GE(missed, 2);  // the search is what captures them
+}

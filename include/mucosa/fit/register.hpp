@@ -228,6 +228,23 @@ private:
 FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& frame, Tracker& tracker,
                                   const RegisterOptions& options);
 
+// The first frame from a rough initial pose (placed by hand on the CT, or
+// read off a navigation system): Levenberg-Marquardt from one start only
+// captures a few millimetres and degrees. The search scores `candidates`
+// poses around `initial` (it, and translations uniform in a ball of
+// `radiusMm`, rotations of up to `degrees` about uniform axes; drawn from
+// `seed`, so the same for every run) by the similarity at the coarsest
+// working level, registers fully from the `refine` best and from `initial`,
+// and keeps the best result (converged first, then the higher similarity).
+struct InitialSearch {
+    double radiusMm = 10.0, degrees = 20.0;
+    int candidates = 240;
+    int refine = 6;
+    unsigned seed = 1;
+};
+FrameRegistration registerInitial(const mesh::Mesh& mesh, const VideoFrame& frame, const Mat4& initial,
+                                  const RegisterOptions& options, const InitialSearch& search = {});
+
 // Pose error between two camera_to_world matrices: centre distance (mesh
 // units) and rotation angle (degrees).
 struct PoseError {
