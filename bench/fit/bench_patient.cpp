@@ -28,12 +28,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <random>
 #include <string>
 
 #include <mucosa/fit/fit.hpp>
 #include <mucosa/fit/patient.hpp>
 #include <mucosa/fit/register.hpp>
+#include <mucosa/shading/reference.hpp>
 
 using namespace mucosa;
 namespace fs = std::filesystem;
@@ -79,12 +81,31 @@ int main(int argc, char** argv) {
         linear.push_back(fit::loadFrameImage(truth.frames[i], truth.response, &sat[i], 0.97));
     std::fflush(stdout);
 
+    auto modelTexture = std::make_shared<fit::ModelTexture>();
+    {
+        const image::Image8& t = patient.texture;
+        modelTexture->luminance = image::ImageF(t.width(), t.height(), 1);
+        modelTexture->wrap = true;
+        for (int y = 0; y < t.height(); ++y)
+            for (int x = 0; x < t.width(); ++x) {
+                double l = 0;
+                for (int c = 0; c < 3; ++c)
+                    l += (c == 0   ? 0.2126
+                          : c == 1 ? 0.7152
+                                   : 0.0722) *
+                         shading::inverseToneCurve(static_cast<float>(t.at(x, y, c) / 255.0), 2);
+                modelTexture->luminance.at(x, y) = static_cast<float>(l);
+            }
+    }
     auto options = [&](fit::RegistrationMethod method) {
         fit::RegisterOptions o;
         o.method = method;
         o.lightOffset = truth.lightOffset;
         o.lamp = patient.camera.lamp;
         if (model == "brdf") o.brdf = patient.brdf;
+        // MUCOSA_MODEL_TEXTURE=1: the model carries the truth's albedo (what
+        // `mucosa register --fit` gives it from a fitted texture; an oracle here).
+        if (std::getenv("MUCOSA_MODEL_TEXTURE")) o.texture = modelTexture;
         if (const char* k = std::getenv("MUCOSA_PRIOR")) o.motionPrior = std::atof(k);
         if (const char* k = std::getenv("MUCOSA_ROLL_PRIOR")) o.rollPrior = std::atof(k);
         return o;
@@ -93,9 +114,10 @@ int main(int argc, char** argv) {
     FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;
     const bool pqOnly = std::getenv("MUCOSA_PQ_ONLY") != nullptr;
     const bool singleStart = std::getenv("MUCOSA_SINGLE_START") != nullptr;
-    for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
-        if (pqOnly && method != fit::RegistrationMethod::PqSpace) continue;
-        const fit::RegisterOptions o = options(method);
+    // One tracked run: its statistics printed, its registrations returned.
+    auto track = [&](const fit::RegisterOptions& o, const char* label) {
+        const fit::RegistrationMethod method = o.method;
+        std::vector<fit::FrameRegistration> out;
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0;
         int converged = 0, losses = 0, lostFor = 0;
@@ -110,6 +132,7 @@ int main(int argc, char** argv) {
             } else {
                 r = fit::registerTracked(patient.mesh, vf, tracker, o);
             }
+            out.push_back(r);
             wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
             converged += r.converged;
@@ -121,9 +144,8 @@ int main(int argc, char** argv) {
                 const fit::Mat4& a = r.cameraToWorld;
                 const fit::Mat4& b = truth.frames[i].cameraToWorld;
                 const double dot = a[0][2] * b[0][2] + a[1][2] * b[1][2] + a[2][2] * b[2][2];
-                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f\n", fit::methodName(method), i, e.position,
-                             e.degrees, r.similarity, r.converged ? 1 : 0,
-                             std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI);
+                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f\n", label, i, e.position, e.degrees, r.similarity,
+                             r.converged ? 1 : 0, std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI);
             }
             lostFor = (e.position > 5 || e.degrees > 10) ? lostFor + 1 : 0;
             if (lostFor == 11) ++losses;
@@ -132,9 +154,45 @@ int main(int argc, char** argv) {
         std::printf(
             "%-9s position median %.2f mm p95 %.2f mm | orientation median %.2f deg p95 %.2f deg | %d/%zu converged, "
             "%d losses | %.2f s/frame (renders %.2f, similarity %.2f, optimiser %.2f)\n",
-            fit::methodName(method), quantile(mm, 0.5), quantile(mm, 0.95), quantile(deg, 0.5), quantile(deg, 0.95),
-            converged, truth.frames.size(), losses, wall / n, render / n, similarity / n, optimiser / n);
+            label, quantile(mm, 0.5), quantile(mm, 0.95), quantile(deg, 0.5), quantile(deg, 0.95), converged,
+            truth.frames.size(), losses, wall / n, render / n, similarity / n, optimiser / n);
         std::fflush(stdout);
+        (void)method;
+        return out;
+    };
+    std::vector<fit::FrameRegistration> pqRun;
+    for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
+        if (pqOnly && method != fit::RegistrationMethod::PqSpace) continue;
+        if (std::getenv("MUCOSA_INTENSITY_ONLY") && method != fit::RegistrationMethod::Intensity) continue;
+        auto r = track(options(method), fit::methodName(method));
+        if (method == fit::RegistrationMethod::PqSpace) pqRun = std::move(r);
+    }
+    // MUCOSA_PIPELINE=1: the patient pipeline's second pass. The texture is
+    // fitted from pq's poses (converged frames; mucosa fit), then every frame
+    // is registered again by intensity against the model carrying that
+    // texture (mucosa register --fit).
+    if (std::getenv("MUCOSA_PIPELINE") && !pqRun.empty()) {
+        fit::FrameSet registered = truth;
+        registered.frames.clear();
+        for (std::size_t i = 0; i < truth.frames.size(); ++i)
+            if (pqRun[i].converged) {
+                fit::Frame f = truth.frames[i];
+                f.cameraToWorld = pqRun[i].cameraToWorld;
+                registered.frames.push_back(f);
+            }
+        const auto t0 = std::chrono::steady_clock::now();
+        const fit::FitResult fitted = fit::fitFrames(patient.mesh, registered, fit::FitOptions{});
+        std::printf("fitted the texture from %zu pq-registered frames in %.1f s (%.0f %% of the atlas seen)\n",
+                    registered.frames.size(),
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                    100 * fitted.coveredFraction);
+        auto tex = std::make_shared<fit::ModelTexture>(fit::modelTexture(fitted.texture, fitted.uvMin, fitted.uvMax));
+        fit::RegisterOptions o = options(fit::RegistrationMethod::Intensity);
+        o.texture = tex;
+        track(o, "intensity, fitted texture");
+        o = options(fit::RegistrationMethod::PqSpace);
+        o.texture = tex;
+        track(o, "pq, fitted texture");
     }
 
     if (trace) std::fclose(trace);

@@ -210,6 +210,7 @@ mesh::Mesh submesh(const mesh::Mesh& m, const std::vector<std::uint32_t>& tris) 
                 remap[v] = static_cast<std::int64_t>(s.positions.size());
                 s.positions.push_back(m.positions[v]);
                 s.normals.push_back(m.normals[v]);
+                if (m.hasUvs()) s.uvs.push_back(m.uvs[v]);  // for a model texture
             }
             s.indices.push_back(static_cast<std::uint32_t>(remap[v]));
         }
@@ -252,8 +253,8 @@ struct Objective {
     // `seen` (optional): 1 where the model has an estimate at the pixel.
     std::vector<double> differences(const Mat4& pose, double* similarity, std::vector<std::uint8_t>* seen = nullptr) {
         auto t0 = Clock::now();
-        const ModelView view =
-            renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample, o.lamp, o.brdf ? &*o.brdf : nullptr);
+        const ModelView view = renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample, o.lamp,
+                                           o.brdf ? &*o.brdf : nullptr, o.texture.get());
         stats->renderSeconds += secondsSince(t0);
         ++stats->evaluations;
         t0 = Clock::now();
@@ -359,8 +360,45 @@ PqField pqFromShading(const image::ImageF& linear, const Intrinsics& K, const Pq
     return estimate(filtered, std::move(use), K, o, dark);
 }
 
+double ModelTexture::at(double u, double v) const noexcept {
+    const int w = luminance.width(), h = luminance.height();
+    if (w == 0 || h == 0) return 1.0;
+    double fu = (u - uvMin[0]) / (uvMax[0] - uvMin[0]), fv = (v - uvMin[1]) / (uvMax[1] - uvMin[1]);
+    if (wrap) fu -= std::floor(fu), fv -= std::floor(fv);
+    const double x = fu * w - 0.5, y = (1.0 - fv) * h - 0.5;
+    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+    const double ax = x - x0, ay = y - y0;
+    auto texel = [&](int xi, int yi) {
+        if (wrap) {
+            xi = ((xi % w) + w) % w;
+            yi = ((yi % h) + h) % h;
+        } else {
+            xi = std::clamp(xi, 0, w - 1);
+            yi = std::clamp(yi, 0, h - 1);
+        }
+        return static_cast<double>(luminance.at(xi, yi));
+    };
+    return (1 - ay) * ((1 - ax) * texel(x0, y0) + ax * texel(x0 + 1, y0)) +
+           ay * ((1 - ax) * texel(x0, y0 + 1) + ax * texel(x0 + 1, y0 + 1));
+}
+
+ModelTexture modelTexture(const image::ImageF& rgb, std::array<float, 2> uvMin, std::array<float, 2> uvMax) {
+    ModelTexture t;
+    t.uvMin = uvMin;
+    t.uvMax = uvMax;
+    t.luminance = image::ImageF(rgb.width(), rgb.height(), 1);
+    const int c = rgb.channels();
+    for (int y = 0; y < rgb.height(); ++y)
+        for (int x = 0; x < rgb.width(); ++x)
+            t.luminance.at(x, y) =
+                c >= 3 ? 0.2126f * rgb.at(x, y, 0) + 0.7152f * rgb.at(x, y, 1) + 0.0722f * rgb.at(x, y, 2)
+                       : rgb.at(x, y, 0);
+    return t;
+}
+
 ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& L,
-                      int threads, int supersample, const LampProfile& lamp, const shading::BrdfParams* brdf) {
+                      int threads, int supersample, const LampProfile& lamp, const shading::BrdfParams* brdf,
+                      const ModelTexture* texture) {
     // Rendered at `supersample` x the resolution and box-filtered, as the
     // video's pixels integrate the scene: without it the model is point-
     // sampled, and the comparison favours a pose that aliases alike.
@@ -403,10 +441,19 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
                         nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
                     }
                     const Eigen::Vector3d nc = (R * nw).normalized();
+                    double albedo = 1.0;
+                    if (texture && mesh.hasUvs()) {
+                        double u = 0, vv = 0;
+                        for (int k = 0; k < 3; ++k) {
+                            const auto& uv = mesh.uvs[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
+                            u += bs[k] * uv[0], vv += bs[k] * uv[1];
+                        }
+                        albedo = texture->at(u, vv);
+                    }
                     if (brdf) {
                         // The fitted model: lit from the viewpoint.
                         const double z = P.norm(), gamma = -nc.dot(P) / z;
-                        if (gamma > 0) sum += fittedShading(*brdf, gamma, z), ++lit;
+                        if (gamma > 0) sum += albedo * fittedShading(*brdf, gamma, z), ++lit;
                         continue;
                     }
                     const Eigen::Vector3d l = Eigen::Vector3d(L[0], L[1], L[2]) - P;
@@ -414,8 +461,8 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
                     const double cosine = nc.dot(l) / d;
                     // The lamp's profile: theta from its axis (the optical axis).
                     const double profile = lamp.spread == 0 ? 1.0 : std::exp(-lamp.spread * (1.0 + l.z() / d));
-                    sum += ambient;
-                    if (cosine > 0) sum += cosine * profile / (d * d + lamp.radiusMm * lamp.radiusMm), ++lit;
+                    sum += albedo * ambient;
+                    if (cosine > 0) sum += albedo * cosine * profile / (d * d + lamp.radiusMm * lamp.radiusMm), ++lit;
                 }
             const std::size_t o = static_cast<std::size_t>(y) * K.width + x;
             v.shading.data()[o] = static_cast<float>(sum / (ss * ss));

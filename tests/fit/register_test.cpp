@@ -551,7 +551,8 @@ TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
     }
 }
 
-// The first frame from a rough initial pose: 5-6 mm and 10-12 degrees off,
+// The first frame from a rough initial pose: 5-6 mm and 10-12 degrees off
+// (two of three starts tried; the third, also missed alone, only adds time),
 // where Levenberg-Marquardt from the start alone ends elsewhere, the search
 // around it finds the frame's pose.
 TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
@@ -559,7 +560,6 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
     const Mat4& truth = off.scene.poses[0];
     const std::vector<std::pair<fit::Vec3d, fit::Vec3d>> offsets{
         {{4.0, -3.0, 2.0}, {0.12, 0.10, -0.08}},
-        {{-3.5, 2.5, -3.0}, {-0.10, 0.14, 0.10}},
         {{2.0, 4.0, -3.5}, {0.15, -0.08, 0.12}},
     };
     int missed = 0;
@@ -582,5 +582,41 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
         EXPECT_LT(es.degrees, 1.5);
         EXPECT_GE(searched.similarity, one.similarity - 1e-12);
     }
-    EXPECT_GE(missed, 2);  // the search is what captures them
+    EXPECT_EQ(missed, 2);  // the search is what captures them
+}
+
+// A model texture multiplies the model's shading by the albedo at the
+// surface's UVs: bilinear in the atlas rectangle, clamped or wrapped.
+TEST(RegisterPq, AModelTextureMultipliesTheShadingByTheAlbedoAtTheUvs) {
+    fit::ModelTexture t;
+    t.luminance = image::ImageF(2, 1, 1);
+    t.luminance.at(0, 0) = 0.2f;
+    t.luminance.at(1, 0) = 0.6f;
+    t.uvMin = {1, 0};
+    t.uvMax = {3, 1};  // texel centres at u = 1.5 and 2.5
+    EXPECT_NEAR(t.at(1.5, 0.5), 0.2, 1e-6);
+    EXPECT_NEAR(t.at(2.0, 0.5), 0.4, 1e-6);
+    EXPECT_NEAR(t.at(2.5, 0.5), 0.6, 1e-6);
+    EXPECT_NEAR(t.at(0.0, 0.5), 0.2, 1e-6);  // clamped
+    t.wrap = true;
+    EXPECT_NEAR(t.at(1.0, 0.5), 0.4, 1e-6);  // wrapped: between the last texel and the first
+    EXPECT_NEAR(t.at(3.5, 0.5), 0.2, 1e-6);  // one period (2 in u) on from 1.5
+    EXPECT_NEAR(t.at(4.5, 0.5), 0.6, 1e-6);
+    // On a mesh: a constant albedo scales every seen pixel's shading by it.
+    mesh::Mesh quad = mesh::makeQuad(200.0f, 20);
+    ASSERT_TRUE(quad.hasUvs());
+    const Intrinsics K = pinhole(61, 80);
+    const Mat4 pose = fit::lookAtPose({12, -8, 25}, {1, 2, 0}, {0, 1, 0});
+    fit::ModelTexture flat;
+    flat.luminance = image::ImageF(1, 1, 1);
+    flat.luminance.at(0, 0) = 0.4f;
+    const fit::ModelView plain = fit::renderModel(quad, K, pose, {0, 0, 0});
+    const fit::ModelView textured = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 2, {}, nullptr, &flat);
+    std::size_t seen = 0;
+    for (std::size_t i = 0; i < plain.seen.size(); ++i) {
+        if (!plain.seen[i]) continue;
+        ++seen;
+        EXPECT_NEAR(textured.shading.data()[i], 0.4 * plain.shading.data()[i], 1e-6 * plain.shading.data()[i]);
+    }
+    EXPECT_GT(seen, 2000u);
 }

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -74,9 +75,22 @@ struct ModelView {
 // at its ends beyond [zmin, zmax]; the lamp's offset and profile are then
 // unused. A shading the lamp model does not describe (a measured fall-off
 // that is not an inverse square) is then compared like with like.
+// An albedo on the model (`texture`, optional): the patient's texture from
+// `mucosa fit`, sampled through the mesh's UVs, multiplies the shading, so
+// that the model shows the vessels and blotches the video does (features
+// along a smooth airway that its shape alone does not have).
+struct ModelTexture {
+    image::ImageF luminance;  // 1 channel, linear; first row = v max (the atlas's convention)
+    std::array<float, 2> uvMin{0, 0}, uvMax{1, 1};
+    bool wrap = false;  // repeat (a tiling texture) instead of clamping at the rectangle's edge
+    double at(double u, double v) const noexcept;  // bilinear
+};
+// The luminance (Rec. 709) of a linear RGB atlas spanning uvMin..uvMax, as
+// `mucosa fit` writes it (texture.png with brdf.json's uv_min, uv_max).
+ModelTexture modelTexture(const image::ImageF& linearRgb, std::array<float, 2> uvMin, std::array<float, 2> uvMax);
 ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& lightOffset,
                       int threads = 1, int supersample = 2, const LampProfile& lamp = {},
-                      const shading::BrdfParams* brdf = nullptr);
+                      const shading::BrdfParams* brdf = nullptr, const ModelTexture* texture = nullptr);
 // The same estimator on the model's shading: like is compared with like, so
 // the estimator's own biases (curvature breaks local planarity; smoothing)
 // and the lamp's offset from the lens are modelled exactly, not assumed away.
@@ -115,6 +129,8 @@ struct RegisterOptions {
     // The model's shading from a fitted brdf.json instead of the lamp
     // (`mucosa register --brdf`; see renderModel).
     std::optional<shading::BrdfParams> brdf;
+    // The model's albedo (`mucosa register --fit DIR`; see ModelTexture).
+    std::shared_ptr<const ModelTexture> texture;
     PqOptions pq;
     int threads = 0;
     // A prior on the frame's motion: the pose is drawn towards where it
