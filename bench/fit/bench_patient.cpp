@@ -116,7 +116,6 @@ int main(int argc, char** argv) {
     const bool singleStart = std::getenv("MUCOSA_SINGLE_START") != nullptr;
     // One tracked run: its statistics printed, its registrations returned.
     auto track = [&](const fit::RegisterOptions& o, const char* label) {
-        const fit::RegistrationMethod method = o.method;
         std::vector<fit::FrameRegistration> out;
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0;
@@ -157,7 +156,6 @@ int main(int argc, char** argv) {
             label, quantile(mm, 0.5), quantile(mm, 0.95), quantile(deg, 0.5), quantile(deg, 0.95), converged,
             truth.frames.size(), losses, wall / n, render / n, similarity / n, optimiser / n);
         std::fflush(stdout);
-        (void)method;
         return out;
     };
     std::vector<fit::FrameRegistration> pqRun;

@@ -70,10 +70,7 @@ image::ImageF loadFrameImage(const Frame& frame, const Response& response, image
     const int colour = px.channels() >= 3 ? 3 : 1;
     for (int y = 0; y < px.height(); ++y)
         for (int x = 0; x < px.width(); ++x) {
-            // cos^k of the field angle (shaders/camera.glsl): pixel centres at integer coordinates.
-            const double tx = (x - frame.K.cx) / frame.K.fx, ty = (y - frame.K.cy) / frame.K.fy;
-            const double vignette =
-                response.vignetting == 0 ? 1.0 : std::pow(1.0 + tx * tx + ty * ty, -0.5 * response.vignetting);
+            const double vignette = response.vignette(frame.K, x, y);
             bool sat = false;
             for (int c = 0; c < 3; ++c) {
                 const double v = px.at(x, y, colour == 3 ? c : 0) / maxv;

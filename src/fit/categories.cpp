@@ -97,9 +97,7 @@ image::Image8 develop(const image::ImageF& linear, const Intrinsics& K, const Re
     for (int y = 0; y < linear.height(); ++y)
         for (int x = 0; x < linear.width(); ++x) {
             if (outside[static_cast<std::size_t>(y) * linear.width() + x]) continue;
-            const double tx = (x - K.cx) / K.fx, ty = (y - K.cy) / K.fy;
-            const double vignette =
-                response.vignetting == 0 ? 1.0 : std::pow(1.0 + tx * tx + ty * ty, -0.5 * response.vignetting);
+            const double vignette = response.vignette(K, x, y);
             for (int c = 0; c < 3; ++c) {
                 const double v = std::clamp(linear.at(x, y, c) * vignette, 0.0, 1.0);
                 out.at(x, y, c) = static_cast<std::uint8_t>(std::lround(255.0 * response.encode(v)));
@@ -144,12 +142,13 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
     if (ec) throw IoError("output directory", outDir.string(), ec.message());
 
     // Check every frame before rendering anything.
+    // (The header only: each frame is decoded once, for its field of view, below.)
     for (const Frame& f : frames.frames) {
-        const image::PngImage real = image::readPng(f.image);
-        if (real.pixels.width() != f.K.width || real.pixels.height() != f.K.height)
+        const image::PngHeader real = image::readPngHeader(f.image);
+        if (real.width != f.K.width || real.height != f.K.height)
             throw InputError("image size", f.image.string(),
-                             fmt::format("is {}x{} but the frame's intrinsics say {}x{}", real.pixels.width(),
-                                         real.pixels.height(), f.K.width, f.K.height));
+                             fmt::format("is {}x{} but the frame's intrinsics say {}x{}", real.width, real.height,
+                                         f.K.width, f.K.height));
     }
 
     render::HeadlessContext context;

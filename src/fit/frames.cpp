@@ -264,6 +264,12 @@ double Response::linear(double value) const noexcept {
     return gamma == 1.0 ? value : std::pow(value, gamma);
 }
 
+double Response::vignette(const Intrinsics& K, double x, double y) const noexcept {
+    if (vignetting == 0) return 1.0;
+    const double tx = (x - K.cx) / K.fx, ty = (y - K.cy) / K.fy;
+    return std::pow(1.0 + tx * tx + ty * ty, -0.5 * vignetting);
+}
+
 double Response::encode(double linear) const noexcept {
     if (toneCurve >= 0) return shading::toneCurve(static_cast<float>(linear), toneCurve);
     return gamma == 1.0 ? linear : std::pow(linear, 1.0 / gamma);

@@ -124,8 +124,7 @@ image::Image8 applyCamera(const image::Image8& linear, const CameraModel& cam, c
     image::Image8 out(linear.width(), linear.height(), 3);
     for (int y = 0; y < linear.height(); ++y)
         for (int x = 0; x < linear.width(); ++x) {
-            const double tx = (x - cam.K.cx) / cam.K.fx, ty = (y - cam.K.cy) / cam.K.fy;
-            const double vignette = std::pow(1.0 + tx * tx + ty * ty, -0.5 * cam.response.vignetting);
+            const double vignette = cam.response.vignette(cam.K, x, y);
             const double dx = x - cam.K.cx, dy = y - cam.K.cy;
             const bool inside = dx * dx + dy * dy <= radius * radius;
             for (int c = 0; c < 3; ++c) {

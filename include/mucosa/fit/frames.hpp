@@ -42,6 +42,9 @@ struct Response {
     Response(double powerLaw) : gamma(powerLaw) {}  // NOLINT(google-explicit-constructor): a number is a power law
     double linear(double value) const noexcept;
     double encode(double linear) const noexcept;  // the inverse of linear(), for linear in [0, 1]
+    // cos^vignetting of the field angle at pixel (x, y) (shaders/camera.glsl;
+    // pixel centres at integer coordinates): 1 without vignetting.
+    double vignette(const Intrinsics& K, double x, double y) const noexcept;
 };
 
 // "linear", "bt709", "srgb" for 0, 1, 2 (camera.tone_curve's choices); "" otherwise.
