@@ -37,8 +37,8 @@ struct RegisterArgs {
     std::size_t maxFrames = 0;
     double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
-           rollPrior = fit::RegisterOptions{}.rollPrior;
-    bool restart = false;
+           rollPrior = fit::RegisterOptions{}.rollPrior, albedoPrior = fit::RegisterOptions{}.albedoPrior;
+    bool restart = false, noAlbedoMap = false;
 };
 
 // The frames of a video: the PNG files of a folder, sorted by name.
@@ -123,6 +123,7 @@ void run(const RegisterArgs& a, const Global& g) {
     o.albedoFilterPx = a.albedoFilter;
     o.motionPrior = a.motionPrior;
     o.rollPrior = a.rollPrior;
+    o.albedoPrior = a.albedoPrior;
     o.threads = g.threads;
     const fs::path out = a.out;
     if (out.extension() != ".json") throw InputError("--output", a.out, "must end in .json (a frames file)");
@@ -170,6 +171,7 @@ void run(const RegisterArgs& a, const Global& g) {
     run.camera = cam;
     run.method = o.method;
     run.mesh = a.mesh;
+    run.albedoMap = !a.noAlbedoMap;
     std::error_code ec;
     if (fs::exists(out, ec) && !a.restart) {
         fit::RegistrationRun old;
@@ -180,14 +182,15 @@ void run(const RegisterArgs& a, const Global& g) {
                              "exists and is not a registration to resume (" + e.reason() +
                                  "): choose another file, or pass --restart to overwrite it");
         }
-        bool same = old.method == o.method && (source.isVideo() || old.frames.size() <= source.total());
+        bool same = old.method == o.method && old.albedoMap == run.albedoMap &&
+                    (source.isVideo() || old.frames.size() <= source.total());
         for (std::size_t i = 0; same && i < old.frames.size(); ++i)
             same =
                 fs::absolute(old.frames[i].image).lexically_normal() == fs::absolute(source.name(i)).lexically_normal();
         if (!same)
             throw InputError("--output", a.out,
-                             "holds a registration of other frames or by another method: pass --restart to "
-                             "overwrite it");
+                             "holds a registration of other frames, by another method or with the albedo map "
+                             "set otherwise: pass --restart to overwrite it");
         run.frames = std::move(old.frames);
         if (!run.frames.empty())
             info(g, fmt::format("resuming: {} already registered in {}", count(run.frames.size(), "frame"), a.out));
@@ -200,6 +203,17 @@ void run(const RegisterArgs& a, const Global& g) {
     fit::Tracker tracker(init, a.prediction);
     for (const auto& f : run.frames) tracker.update(f.r);
     const std::size_t first = run.frames.size();
+    // The albedo learnt along the track (on by default): resumed by adding
+    // the kept frames again at their registered poses.
+    fit::AlbedoMap map(m.vertexCount());
+    auto prepare = [&](const fs::path& image) {
+        fit::Frame fr;
+        fr.image = image;
+        fr.K = cam.K;
+        image::Image8 sat;
+        const image::ImageF linear = fit::loadFrameImage(fr, cam.response, &sat, o.saturation);
+        return fit::prepareFrame(linear, &sat, cam.K, o);
+    };
     fit::InitialSearch search;
     search.radiusMm = a.searchRadius;
     search.degrees = a.searchDegrees;
@@ -213,23 +227,28 @@ void run(const RegisterArgs& a, const Global& g) {
                 throw InputError("video", a.video,
                                  fmt::format("ends after {} frames, but {} holds {} registered", i, a.out, first));
     }
+    if (run.albedoMap && first > 0) {
+        for (std::size_t i = 0; i < first; ++i)
+            if (run.frames[i].r.converged) map.add(m, prepare(run.frames[i].image), run.frames[i].r.cameraToWorld, o);
+        info(g, fmt::format("albedo map: rebuilt from {} ({:.0f} % of the mesh's vertices seen)",
+                            count(map.frames(), "registered frame"), 100 * map.seenFraction()));
+    }
     for (std::size_t i = first;; ++i) {
         const std::optional<fs::path> name = source.get(i, true);
         if (!name) break;
-        fit::Frame fr;
-        fr.image = *name;
-        fr.K = cam.K;
-        image::Image8 sat;
-        const image::ImageF linear = fit::loadFrameImage(fr, cam.response, &sat, o.saturation);
-        const fit::VideoFrame vf = fit::prepareFrame(linear, &sat, cam.K, o);
+        const fit::VideoFrame vf = prepare(*name);
         // From the last converged pose moved on by the last converged
         // motion (a lost frame does not drag the track away), and after a
         // flagged frame also from where that frame ended; the better is kept.
         // The first frame from the given pose, which is rough: searched around it.
         const bool searched = i == 0 && search.radiusMm + search.degrees > 0;
+        fit::AlbedoMap* learn = run.albedoMap ? &map : nullptr;
         const fit::FrameRegistration r =
-            searched ? fit::registerInitial(m, vf, init, o, search) : fit::registerTracked(m, vf, tracker, o);
-        if (searched) tracker.update(r);
+            searched ? fit::registerInitial(m, vf, init, o, search) : fit::registerTracked(m, vf, tracker, o, learn);
+        if (searched) {
+            tracker.update(r);
+            if (learn && r.converged) learn->add(m, vf, r.cameraToWorld, o);
+        }
         run.frames.push_back({*name, r});
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastWrite).count() > 2.0) {
@@ -327,6 +346,13 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                   "Weight of the prior holding each frame near its predicted pose (1 mm, 2 degrees), where the "
                   "frame leaves the pose free (roll in a round tube), e.g. 0.0005 [0 = off]")
         ->check(CLI::Range(0.0, 1.0));
+    c->add_flag("--no-albedo-map", a->noAlbedoMap,
+                "Track without the albedo learnt along the way (by default each frame is first moved by "
+                "intensity against the model carrying the albedo the frames before it painted on the mesh)");
+    c->add_option("--albedo-prior", a->albedoPrior,
+                  "Weight holding the method's pose near the albedo map's (units of --motion-prior)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
     c->add_option("--roll-prior", a->rollPrior,
                   "Weight of the same prior on the roll alone (the rotation about the optical axis, 2 degrees), "
                   "which a round airway leaves free, e.g. 0.002 [0 = off]")

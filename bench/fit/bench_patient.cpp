@@ -14,7 +14,12 @@
 // MUCOSA_SINGLE_START=1 tracks from the tracker's first start only (no retry
 // from a flagged frame's estimate);
 // MUCOSA_SEED=N draws another path, roll and noise (PatientOptions::seed);
-// MUCOSA_PQ_ONLY=1 runs pq alone, without the capture test.
+// MUCOSA_PQ_ONLY=1 runs pq alone, without the capture test;
+// MUCOSA_NO_SEARCH=1 registers the first frame from the initial pose alone
+// (without fit::registerInitial's search, which `mucosa register` runs);
+// MUCOSA_ALBEDO_MAP=1 tracks with an albedo learnt along the track
+// (fit::AlbedoMap, as `mucosa register` does by default), MUCOSA_ALBEDO_PRIOR=K
+// sets RegisterOptions::albedoPrior.
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -108,6 +113,7 @@ int main(int argc, char** argv) {
         if (std::getenv("MUCOSA_MODEL_TEXTURE")) o.texture = modelTexture;
         if (const char* k = std::getenv("MUCOSA_PRIOR")) o.motionPrior = std::atof(k);
         if (const char* k = std::getenv("MUCOSA_ROLL_PRIOR")) o.rollPrior = std::atof(k);
+        if (const char* k = std::getenv("MUCOSA_ALBEDO_PRIOR")) o.albedoPrior = std::atof(k);
         return o;
     };
     // MUCOSA_TRACE=FILE: one line per frame and method (error, similarity, converged).
@@ -115,7 +121,10 @@ int main(int argc, char** argv) {
     const bool pqOnly = std::getenv("MUCOSA_PQ_ONLY") != nullptr;
     const bool singleStart = std::getenv("MUCOSA_SINGLE_START") != nullptr;
     // One tracked run: its statistics printed, its registrations returned.
+    // MUCOSA_ALBEDO_MAP=1: an albedo learnt along the track (fit::AlbedoMap; MUCOSA_ALBEDO_PRIOR=K).
+    const bool online = std::getenv("MUCOSA_ALBEDO_MAP") != nullptr;
     auto track = [&](const fit::RegisterOptions& o, const char* label) {
+        fit::AlbedoMap map(patient.mesh.vertexCount());
         std::vector<fit::FrameRegistration> out;
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0;
@@ -125,11 +134,17 @@ int main(int argc, char** argv) {
             const auto t0 = std::chrono::steady_clock::now();
             const fit::VideoFrame vf = fit::prepareFrame(linear[i], &sat[i], patient.camera.K, o);
             fit::FrameRegistration r;
-            if (singleStart) {
+            if (i == 0 && !std::getenv("MUCOSA_NO_SEARCH")) {
+                // The first frame as `mucosa register` takes it: searched
+                // around the initial pose (fit::registerInitial).
+                r = fit::registerInitial(patient.mesh, vf, init, o);
+                tracker.update(r);
+                if (online && r.converged) map.add(patient.mesh, vf, r.cameraToWorld, o);
+            } else if (singleStart) {
                 r = fit::registerFrame(patient.mesh, vf, tracker.start(), tracker.options(o));
                 tracker.update(r);
             } else {
-                r = fit::registerTracked(patient.mesh, vf, tracker, o);
+                r = fit::registerTracked(patient.mesh, vf, tracker, o, online ? &map : nullptr);
             }
             out.push_back(r);
             wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -150,6 +165,9 @@ int main(int argc, char** argv) {
             if (lostFor == 11) ++losses;
         }
         const double n = static_cast<double>(truth.frames.size());
+        if (online)
+            std::printf("albedo map: %zu frames, %.0f %% of the vertices seen\n", map.frames(),
+                        100 * map.seenFraction());
         std::printf(
             "%-9s position median %.2f mm p95 %.2f mm | orientation median %.2f deg p95 %.2f deg | %d/%zu converged, "
             "%d losses | %.2f s/frame (renders %.2f, similarity %.2f, optimiser %.2f)\n",

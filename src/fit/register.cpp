@@ -199,8 +199,11 @@ Mat3 rodrigues(const Vec3d& w) {
 }
 
 // A frame's neighbourhood as a small mesh (positions, normals, indices).
-mesh::Mesh submesh(const mesh::Mesh& m, const std::vector<std::uint32_t>& tris) {
+// `kept` (optional): each of its vertices' index in `m`.
+mesh::Mesh submesh(const mesh::Mesh& m, const std::vector<std::uint32_t>& tris,
+                   std::vector<std::uint32_t>* kept = nullptr) {
     mesh::Mesh s;
+    if (kept) kept->clear();
     std::vector<std::int64_t> remap(m.vertexCount(), -1);
     s.indices.reserve(tris.size() * 3);
     for (std::uint32_t t : tris)
@@ -211,10 +214,34 @@ mesh::Mesh submesh(const mesh::Mesh& m, const std::vector<std::uint32_t>& tris) 
                 s.positions.push_back(m.positions[v]);
                 s.normals.push_back(m.normals[v]);
                 if (m.hasUvs()) s.uvs.push_back(m.uvs[v]);  // for a model texture
+                if (kept) kept->push_back(v);
             }
             s.indices.push_back(static_cast<std::uint32_t>(remap[v]));
         }
     return s;
+}
+
+// The neighbourhood and the options to register in it: an albedo per vertex
+// (AlbedoMap) follows its vertices into the small mesh.
+struct Neighbourhood {
+    mesh::Mesh mesh;
+    RegisterOptions options;
+};
+Neighbourhood neighbourhood(const mesh::Mesh& m, const Vec3d& centre, double radius, const RegisterOptions& o) {
+    Neighbourhood n;
+    n.options = o;
+    const bool perVertex = o.texture && !o.texture->perVertex.empty();
+    std::vector<std::uint32_t> kept;
+    n.mesh = submesh(m, trianglesNear(m, centre, radius), perVertex ? &kept : nullptr);
+    if (perVertex) {
+        if (o.texture->perVertex.size() != m.vertexCount())
+            throw InputError("model texture", "registration", "has an albedo for a different number of vertices");
+        auto t = std::make_shared<ModelTexture>();
+        t->perVertex.reserve(kept.size());
+        for (std::uint32_t v : kept) t->perVertex.push_back(o.texture->perVertex[v]);
+        n.options.texture = std::move(t);
+    }
+    return n;
 }
 
 constexpr double kUnseen2 = 0.3;  // |n_video - n_model|^2 charged for a pixel the model does not see
@@ -396,13 +423,62 @@ ModelTexture modelTexture(const image::ImageF& rgb, std::array<float, 2> uvMin, 
     return t;
 }
 
-ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& L,
-                      int threads, int supersample, const LampProfile& lamp, const shading::BrdfParams* brdf,
-                      const ModelTexture* texture) {
-    // Rendered at `supersample` x the resolution and box-filtered, as the
-    // video's pixels integrate the scene: without it the model is point-
-    // sampled, and the comparison favours a pose that aliases alike.
-    const int ss = std::max(1, supersample);
+namespace {
+
+// What the model shows at one rasterised sample: the lamp (or the fitted
+// rho delta) on the surface point P (camera space) of triangle t at
+// barycentrics bs, times `albedo`. `lit`: the point is lit (not back-facing).
+double shadeSample(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Eigen::Vector3d& P,
+                   const Mat3& R, const Vec3d& L, const LampProfile& lamp, const shading::BrdfParams* brdf,
+                   double albedo, bool& lit) {
+    Eigen::Vector3d nw = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) {
+        const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
+        nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
+    }
+    const Eigen::Vector3d nc = (R * nw).normalized();
+    lit = false;
+    if (brdf) {
+        // The fitted model: lit from the viewpoint.
+        const double z = P.norm(), gamma = -nc.dot(P) / z;
+        if (gamma <= 0) return 0.0;
+        lit = true;
+        return albedo * fittedShading(*brdf, gamma, z);
+    }
+    // The walls' back-scatter: the renderer's ambient, k_a x the lamp at 10 mm.
+    double sum = albedo * lamp.ambient / 100.0;
+    const Eigen::Vector3d l = Eigen::Vector3d(L[0], L[1], L[2]) - P;
+    const double d = l.norm();
+    const double cosine = nc.dot(l) / d;
+    // The lamp's profile: theta from its axis (the optical axis).
+    const double profile = lamp.spread == 0 ? 1.0 : std::exp(-lamp.spread * (1.0 + l.z() / d));
+    if (cosine > 0) {
+        sum += albedo * cosine * profile / (d * d + lamp.radiusMm * lamp.radiusMm);
+        lit = true;
+    }
+    return sum;
+}
+
+// The albedo at a rasterised sample: the per-vertex map, the atlas through
+// the mesh's UVs, or 1.
+double albedoAt(const mesh::Mesh& mesh, const ModelTexture* texture, std::int32_t t, const double (&bs)[3]) {
+    if (!texture) return 1.0;
+    const std::size_t base = 3 * static_cast<std::size_t>(t);
+    if (!texture->perVertex.empty()) {
+        double a = 0;
+        for (int k = 0; k < 3; ++k) a += bs[k] * texture->perVertex[mesh.indices[base + k]];
+        return a;
+    }
+    if (!mesh.hasUvs()) return 1.0;
+    double u = 0, v = 0;
+    for (int k = 0; k < 3; ++k) {
+        const auto& uv = mesh.uvs[mesh.indices[base + k]];
+        u += bs[k] * uv[0], v += bs[k] * uv[1];
+    }
+    return texture->at(u, v);
+}
+
+Intrinsics scaled(const Intrinsics& K, int ss) {
     Intrinsics Ks = K;
     Ks.width = K.width * ss;
     Ks.height = K.height * ss;
@@ -410,6 +486,21 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
     Ks.fy = K.fy * ss;
     Ks.cx = (K.cx + 0.5) * ss - 0.5;
     Ks.cy = (K.cy + 0.5) * ss - 0.5;
+    return Ks;
+}
+
+}  // namespace
+
+ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& L,
+                      int threads, int supersample, const LampProfile& lamp, const shading::BrdfParams* brdf,
+                      const ModelTexture* texture) {
+    if (texture && !texture->perVertex.empty() && texture->perVertex.size() != mesh.vertexCount())
+        throw InputError("model texture", "registration", "has an albedo for a different number of vertices");
+    // Rendered at `supersample` x the resolution and box-filtered, as the
+    // video's pixels integrate the scene: without it the model is point-
+    // sampled, and the comparison favours a pose that aliases alike.
+    const int ss = std::max(1, supersample);
+    const Intrinsics Ks = scaled(K, ss);
     const Mat4 W = invertRigid(cameraToWorld);
     const GBuffer g = rasterize(mesh, Ks, W, 0.5, threads);
     ModelView v;
@@ -417,8 +508,6 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
     v.depth = image::ImageF(K.width, K.height, 1);
     v.seen.assign(static_cast<std::size_t>(K.width) * K.height, 0);
     const Mat3 R = rotationOf(W);
-    // The walls' back-scatter: the renderer's ambient, k_a x the lamp at 10 mm.
-    const double ambient = brdf ? 0.0 : lamp.ambient / 100.0;
     for (int y = 0; y < K.height; ++y)
         for (int x = 0; x < K.width; ++x) {
             double sum = 0, depth = 0;
@@ -433,36 +522,11 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
                     const double z = g.depth[i];
                     depth += z;
                     const Eigen::Vector3d P((X - Ks.cx) / Ks.fx * z, (Y - Ks.cy) / Ks.fy * z, z);
-                    const double b1 = g.b1[i], b2 = g.b2[i], b0 = 1 - b1 - b2;
-                    Eigen::Vector3d nw = Eigen::Vector3d::Zero();
-                    const double bs[3] = {b0, b1, b2};
-                    for (int k = 0; k < 3; ++k) {
-                        const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
-                        nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
-                    }
-                    const Eigen::Vector3d nc = (R * nw).normalized();
-                    double albedo = 1.0;
-                    if (texture && mesh.hasUvs()) {
-                        double u = 0, vv = 0;
-                        for (int k = 0; k < 3; ++k) {
-                            const auto& uv = mesh.uvs[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
-                            u += bs[k] * uv[0], vv += bs[k] * uv[1];
-                        }
-                        albedo = texture->at(u, vv);
-                    }
-                    if (brdf) {
-                        // The fitted model: lit from the viewpoint.
-                        const double z = P.norm(), gamma = -nc.dot(P) / z;
-                        if (gamma > 0) sum += albedo * fittedShading(*brdf, gamma, z), ++lit;
-                        continue;
-                    }
-                    const Eigen::Vector3d l = Eigen::Vector3d(L[0], L[1], L[2]) - P;
-                    const double d = l.norm();
-                    const double cosine = nc.dot(l) / d;
-                    // The lamp's profile: theta from its axis (the optical axis).
-                    const double profile = lamp.spread == 0 ? 1.0 : std::exp(-lamp.spread * (1.0 + l.z() / d));
-                    sum += albedo * ambient;
-                    if (cosine > 0) sum += albedo * cosine * profile / (d * d + lamp.radiusMm * lamp.radiusMm), ++lit;
+                    const double b1 = g.b1[i], b2 = g.b2[i];
+                    const double bs[3] = {1 - b1 - b2, b1, b2};
+                    bool isLit = false;
+                    sum += shadeSample(mesh, t, bs, P, R, L, lamp, brdf, albedoAt(mesh, texture, t, bs), isLit);
+                    lit += isLit;
                 }
             const std::size_t o = static_cast<std::size_t>(y) * K.width + x;
             v.shading.data()[o] = static_cast<float>(sum / (ss * ss));
@@ -472,6 +536,112 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
             v.seen[o] = lit == ss * ss ? 1 : 0;
         }
     return v;
+}
+
+std::size_t AlbedoMap::add(const mesh::Mesh& fullMesh, const VideoFrame& frame, const Mat4& cameraToWorld,
+                           const RegisterOptions& o) {
+    if (fullMesh.vertexCount() != sum_.size())
+        throw InputError("albedo map", "registration", "was made for a mesh with a different number of vertices");
+    if (frame.levels.empty()) return 0;
+    const VideoFrame::Level& level = frame.levels.back();
+    const Intrinsics& K = level.K;
+    std::vector<std::uint32_t> kept;
+    const mesh::Mesh mesh = submesh(fullMesh, trianglesNear(fullMesh, cameraCentre(cameraToWorld), o.farMm), &kept);
+    const Mat4 W = invertRigid(cameraToWorld);
+    const GBuffer g = rasterize(mesh, K, W, 0.5, 1);
+    const Mat3 R = rotationOf(W);
+    const std::size_t n = static_cast<std::size_t>(K.width) * K.height;
+    // The dark lumen carries noise, not albedo: the pq estimator's threshold.
+    std::vector<float> inside;
+    for (std::size_t i = 0; i < n; ++i)
+        if (level.valid[i]) inside.push_back(level.luminance.data()[i]);
+    const double dark = level.pqOptions.darkFraction * percentile(inside, 0.99);
+    struct Observation {
+        std::int32_t triangle;
+        double b[3];
+        double ratio, weight;
+    };
+    std::vector<Observation> obs;
+    for (int y = 0; y < K.height; ++y)
+        for (int x = 0; x < K.width; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * K.width + x;
+            const std::int32_t t = g.triangle[i];
+            const double e = level.luminance.data()[i];
+            if (t < 0 || !level.valid[i] || e <= dark) continue;
+            const double z = g.depth[i];
+            const Eigen::Vector3d P((x - K.cx) / K.fx * z, (y - K.cy) / K.fy * z, z);
+            const double b1 = g.b1[i], b2 = g.b2[i];
+            const double bs[3] = {1 - b1 - b2, b1, b2};
+            bool lit = false;
+            const double shade =
+                shadeSample(mesh, t, bs, P, R, o.lightOffset, o.lamp, o.brdf ? &*o.brdf : nullptr, 1.0, lit);
+            if (!lit || shade <= 0) continue;
+            Eigen::Vector3d nw = Eigen::Vector3d::Zero();
+            for (int k = 0; k < 3; ++k) {
+                const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
+                nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
+            }
+            const double d = P.norm(), gamma = -(R * nw).normalized().dot(P) / d;
+            if (gamma <= 0.1) continue;  // grazing: the normal's error dominates the shading
+            obs.push_back({t, {bs[0], bs[1], bs[2]}, e / shade, gamma * gamma / (d * d)});
+        }
+    if (obs.size() < 50) return 0;
+    // The frame's exposure against what the map holds.
+    std::vector<float> toMap, raw;
+    for (const Observation& ob : obs) {
+        raw.push_back(static_cast<float>(ob.ratio));
+        double a = 0;
+        bool known = true;
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = kept[mesh.indices[3 * static_cast<std::size_t>(ob.triangle) + k]];
+            if (weight_[v] <= 0)
+                known = false;
+            else
+                a += ob.b[k] * sum_[v] / weight_[v];
+        }
+        if (known && a > 0) toMap.push_back(static_cast<float>(ob.ratio / a));
+    }
+    double gain = 0;
+    if (toMap.size() >= 50)
+        gain = percentile(toMap, 0.5);
+    else {
+        double seen = 0, mean = 0;
+        for (std::size_t v = 0; v < sum_.size(); ++v)
+            if (weight_[v] > 0) mean += sum_[v] / weight_[v], ++seen;
+        gain = percentile(raw, 0.5) / (seen > 0 ? mean / seen : 1.0);
+    }
+    if (!(gain > 0)) return 0;
+    std::size_t used = 0;
+    for (const Observation& ob : obs) {
+        const double a = ob.ratio / gain;
+        if (a > 4 || a < 0.1) continue;  // a glint's fringe, a shadow the model lacks
+        ++used;
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t v = kept[mesh.indices[3 * static_cast<std::size_t>(ob.triangle) + k]];
+            sum_[v] += ob.weight * ob.b[k] * a;
+            weight_[v] += ob.weight * ob.b[k];
+        }
+    }
+    ++frames_;
+    return used;
+}
+
+std::shared_ptr<const ModelTexture> AlbedoMap::texture() const {
+    auto t = std::make_shared<ModelTexture>();
+    t->perVertex.resize(sum_.size());
+    double mean = 0, seen = 0;
+    for (std::size_t v = 0; v < sum_.size(); ++v)
+        if (weight_[v] > 0) mean += sum_[v] / weight_[v], ++seen;
+    mean = seen > 0 ? mean / seen : 1.0;
+    for (std::size_t v = 0; v < sum_.size(); ++v)
+        t->perVertex[v] = static_cast<float>(weight_[v] > 0 ? sum_[v] / weight_[v] : mean);
+    return t;
+}
+
+double AlbedoMap::seenFraction() const noexcept {
+    if (weight_.empty()) return 0;
+    return static_cast<double>(std::count_if(weight_.begin(), weight_.end(), [](double w) { return w > 0; })) /
+           static_cast<double>(weight_.size());
 }
 
 PqField pqFromModel(const ModelView& view, const Intrinsics& K, const PqOptions& o,
@@ -597,12 +767,14 @@ std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& m, const Vec3d& c, do
 }
 
 FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& frame, const Mat4& initial,
-                                const RegisterOptions& o) {
+                                const RegisterOptions& options) {
     const auto start = Clock::now();
     FrameRegistration r;
     r.cameraToWorld = initial;
     if (frame.levels.empty()) throw InputError("frame", "registration", "has no levels");
-    const mesh::Mesh mesh = submesh(fullMesh, trianglesNear(fullMesh, cameraCentre(initial), o.farMm));
+    const Neighbourhood near = neighbourhood(fullMesh, cameraCentre(initial), options.farMm, options);
+    const mesh::Mesh& mesh = near.mesh;
+    const RegisterOptions& o = near.options;
     const int finest = frame.levels.back().K.width;
     bool atMinimum = false;
     double lastStep = 0;  // the finest level's last accepted step, in finite-difference steps
@@ -777,14 +949,33 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
 }
 
 FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& frame, Tracker& tracker,
-                                  const RegisterOptions& o) {
+                                  const RegisterOptions& o, AlbedoMap* map) {
     const RegisterOptions options = tracker.options(o);
+    const bool mapped = map && map->frames() > 0;
+    // The map's step: intensity against the model carrying the albedo, free.
+    RegisterOptions byMap = o;
+    if (mapped) {
+        byMap.method = RegistrationMethod::Intensity;
+        byMap.texture = map->texture();
+        byMap.motionPrior = byMap.rollPrior = 0;
+    }
     FrameRegistration best;
     bool have = false;
     double render = 0, similarity = 0, optimiser = 0;
     int iterations = 0, evaluations = 0;
-    for (const Mat4& start : tracker.starts()) {
-        FrameRegistration r = registerFrame(mesh, frame, start, options);
+    for (const Mat4& trackStart : tracker.starts()) {
+        Mat4 start = trackStart;
+        RegisterOptions method = options;
+        if (mapped) {
+            const FrameRegistration m = registerFrame(mesh, frame, trackStart, byMap);
+            render += m.renderSeconds, similarity += m.similaritySeconds, optimiser += m.optimiserSeconds;
+            iterations += m.iterations, evaluations += m.evaluations;
+            if (m.converged) {
+                start = m.cameraToWorld;
+                method.motionPrior = o.albedoPrior;
+            }
+        }
+        FrameRegistration r = registerFrame(mesh, frame, start, method);
         render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
         iterations += r.iterations, evaluations += r.evaluations;
         if (!have || (r.converged && !best.converged) ||
@@ -794,6 +985,7 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
     best.iterations = iterations, best.evaluations = evaluations;
     tracker.update(best);
+    if (map && best.converged) map->add(mesh, frame, best.cameraToWorld, o);
     return best;
 }
 
@@ -816,12 +1008,12 @@ FrameRegistration registerInitial(const mesh::Mesh& fullMesh, const VideoFrame& 
         poses.push_back(perturbPose(initial, t, w));
     }
     // Scored at the coarsest level, side by side.
-    const mesh::Mesh mesh =
-        submesh(fullMesh, trianglesNear(fullMesh, cameraCentre(initial), o.farMm + search.radiusMm));
+    const Neighbourhood near = neighbourhood(fullMesh, cameraCentre(initial), o.farMm + search.radiusMm, o);
+    const mesh::Mesh& mesh = near.mesh;
     FrameRegistration total;
     std::vector<double> score(poses.size(), -2.0);
     {
-        Objective obj(mesh, frame.levels.front(), o, total);
+        Objective obj(mesh, frame.levels.front(), near.options, total);
         if (obj.pixels.size() >= 50) {
             std::vector<FrameRegistration> timing(poses.size());
             tbb::task_arena arena(resolveThreads(o.threads));

@@ -35,6 +35,7 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
            {"registration",
             {{"method", methodName(run.method)},
              {"mesh", run.mesh},
+             {"albedo_map", run.albedoMap},
              {"mucosa_version", std::string(version())},
              {"frames_registered", run.frames.size()},
              {"frames_converged", std::count_if(run.frames.begin(), run.frames.end(),
@@ -74,6 +75,8 @@ RegistrationRun readRegistration(const fs::path& path) {
     run.method = method == "pq" ? RegistrationMethod::PqSpace : RegistrationMethod::Intensity;
     if (j["registration"].contains("mesh") && j["registration"]["mesh"].is_string())
         run.mesh = j["registration"]["mesh"].get<std::string>();
+    if (j["registration"].contains("albedo_map") && j["registration"]["albedo_map"].is_boolean())
+        run.albedoMap = j["registration"]["albedo_map"].get<bool>();
     run.camera.response = set.response;
     run.camera.lightOffset = set.lightOffset;
     if (!set.frames.empty()) run.camera.K = set.frames.front().K;

@@ -119,6 +119,7 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     }
     const json j = json::parse(test::readBytes(p.dir / "out" / "frames.json"));
     EXPECT_EQ(j["registration"]["method"], "pq");
+    EXPECT_EQ(j["registration"]["albedo_map"], true);        // the default
     EXPECT_EQ(j["frames"][0]["image"], "../video/000.png");  // relative to the frames file
     EXPECT_GT(j["frames"][4]["registration"]["similarity"].get<double>(), 0.85);
     EXPECT_GT(j["frames"][4]["registration"]["renders"].get<int>(), 10);
@@ -140,6 +141,7 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     const test::RunResult again = test::runCli(p.args());
     ASSERT_EQ(again.exitCode, 0) << again.err;
     EXPECT_NE(again.out.find("resuming: 2 frames already registered"), std::string::npos) << again.out;
+    EXPECT_NE(again.out.find("albedo map: rebuilt from 2 registered frames"), std::string::npos) << again.out;
     const json k = json::parse(test::readBytes(p.dir / "out" / "frames.json"));
     ASSERT_EQ(k["frames"].size(), 5u);
     EXPECT_EQ(k["frames"][1]["camera_to_world"], cut["frames"][1]["camera_to_world"]);  // kept, not redone
@@ -147,9 +149,11 @@ TEST(RegisterCli, RegistersResumesAndReports) {
                   .position,
               0.8);
 
-    // Another method on the same output is refused; --restart overwrites.
+    // Another method, or the albedo map set otherwise, on the same output is
+    // refused; --restart overwrites.
     const test::RunResult other = test::runCli(p.args("--method intensity"));
     expectOneErrorLine(other, "--restart");
+    expectOneErrorLine(test::runCli(p.args("--no-albedo-map")), "--restart");
     const test::RunResult restart = test::runCli(p.args("--method intensity --restart"));
     ASSERT_EQ(restart.exitCode, 0) << restart.err;
     EXPECT_EQ(json::parse(test::readBytes(p.dir / "out" / "frames.json"))["registration"]["method"], "intensity");

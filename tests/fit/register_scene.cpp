@@ -62,6 +62,15 @@ RegisterScene makeRegisterScene(int frames) {
     return s;
 }
 
+double albedoFactor(const fit::Vec3d& pw, double contrast) {
+    // Procedural albedo on the surface: a network of thin dark vessels over
+    // gentle blotches, as on airway mucosa.
+    const double vessel = std::exp(-std::pow(std::sin(pw[0] * 0.9 + 0.8 * std::sin(pw[2] * 0.35)) / 0.08, 2)) +
+                          std::exp(-std::pow(std::sin(pw[2] * 0.7 + 0.6 * std::sin(pw[1] * 0.5)) / 0.08, 2));
+    return 1 + contrast *
+                   (0.3 * std::sin(pw[0] * 0.6 + pw[2] * 0.25) * std::sin(pw[1] * 0.5) - 1.2 * std::min(1.0, vessel));
+}
+
 image::ImageF renderVideoFrame(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& pose,
                                const VideoOptions& o, int threads, image::Image8* saturated) {
     const fit::Mat4 W = fit::invertRigid(pose);
@@ -104,15 +113,8 @@ image::ImageF renderVideoFrame(const mesh::Mesh& mesh, const fit::Intrinsics& K,
                     const double nh = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / hn;
                     spec = o.specular * std::pow(std::max(0.0, nh), 60.0) / (d * d);
                 }
-                // Procedural albedo on the surface: a network of thin dark
-                // vessels over gentle blotches, as on airway mucosa.
-                const double vessel =
-                    std::exp(-std::pow(std::sin(pw[0] * 0.9 + 0.8 * std::sin(pw[2] * 0.35)) / 0.08, 2)) +
-                    std::exp(-std::pow(std::sin(pw[2] * 0.7 + 0.6 * std::sin(pw[1] * 0.5)) / 0.08, 2));
-                const double v =
-                    o.albedoContrast *
-                    (0.3 * std::sin(pw[0] * 0.6 + pw[2] * 0.25) * std::sin(pw[1] * 0.5) - 1.2 * std::min(1.0, vessel));
-                for (double& a : albedo) a *= 1 + v;
+                const double v = albedoFactor(pw, o.albedoContrast);
+                for (double& a : albedo) a *= v;
             }
             bool sat = false;
             for (int c = 0; c < 3; ++c) {

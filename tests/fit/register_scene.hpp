@@ -27,6 +27,9 @@ struct VideoOptions {
     unsigned seed = 1;
     bool mask = true;  // circular field-of-view mask
 };
+// The albedo's factor at a surface point (world, mm): 1 + contrast x
+// (blotches - vessels); the frames' RGB albedo is (0.85, 0.45, 0.35) x it.
+double albedoFactor(const fit::Vec3d& pw, double contrast);
 // Linear RGB (3 channels); `saturated` (optional) marks clipped pixels.
 image::ImageF renderVideoFrame(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& pose,
                                const VideoOptions& o, int threads = 1, image::Image8* saturated = nullptr);

@@ -79,8 +79,11 @@ struct ModelView {
 // `mucosa fit`, sampled through the mesh's UVs, multiplies the shading, so
 // that the model shows the vessels and blotches the video does (features
 // along a smooth airway that its shape alone does not have).
+// Or an albedo per vertex of the mesh rendered (`perVertex`, when not empty:
+// AlbedoMap's, learnt along the track; the atlas is then unused).
 struct ModelTexture {
     image::ImageF luminance;  // 1 channel, linear; first row = v max (the atlas's convention)
+    std::vector<float> perVertex;
     std::array<float, 2> uvMin{0, 0}, uvMax{1, 1};
     bool wrap = false;  // repeat (a tiling texture) instead of clamping at the rectangle's edge
     double at(double u, double v) const noexcept;  // bilinear
@@ -149,6 +152,10 @@ struct RegisterOptions {
     // position or the viewing direction. 0: off.
     double rollPrior = 0.0;
     double priorMm = 1.0, priorDeg = 2.0;
+    // With an albedo map (registerTracked's `map`): the motion prior, in
+    // motionPrior's units, that holds the method's registration near the
+    // pose the map gave (docs/theory.md, "An albedo learnt along the track").
+    double albedoPrior = 0.002;
 };
 
 struct FrameRegistration {
@@ -238,11 +245,49 @@ private:
     bool haveBefore_ = false, started_ = false, fresh_ = true;
 };
 
+// An albedo per vertex of the airway mesh, learnt from the frames as the
+// track goes (photometric mapping, as direct visual SLAM keeps a map): the
+// wall's vessels and blotches fix the axial position and roll that a smooth
+// round tube's shape leaves free, and no texture from elsewhere is needed.
+// Each frame added is divided by the model's shading at its registered pose
+// (the untextured renderModel, per pixel of the finest level) and by its
+// exposure (the median ratio to what the map already holds where it holds
+// something; the first frame's median sets the scale), and the ratio is
+// averaged into the triangle's three vertices, weighted by the barycentrics
+// and by cos^2 / z^2 (a near, square view resolves the wall finest).
+// Vertices never seen take the mean of the seen ones. See docs/theory.md,
+// "An albedo learnt along the track".
+class AlbedoMap {
+public:
+    explicit AlbedoMap(std::size_t vertices) : sum_(vertices, 0.0), weight_(vertices, 0.0) {}
+    // Adds a frame registered at `cameraToWorld` (use converged frames only:
+    // a frame added at a wrong pose paints the wall where it is not).
+    // Returns the pixels used.
+    std::size_t add(const mesh::Mesh& mesh, const VideoFrame& frame, const Mat4& cameraToWorld,
+                    const RegisterOptions& options);
+    // The model texture for RegisterOptions::texture.
+    std::shared_ptr<const ModelTexture> texture() const;
+    double seenFraction() const noexcept;
+    // A vertex's accumulated weight (0: never seen).
+    double weight(std::size_t vertex) const noexcept { return weight_[vertex]; }
+    std::size_t frames() const noexcept { return frames_; }
+
+private:
+    std::vector<double> sum_, weight_;
+    std::size_t frames_ = 0;
+};
+
 // Registers the tracker's next frame from each of its starts, keeps the best
 // (a converged result over a flagged one, then the higher similarity; timing,
 // iterations and renders summed over the starts) and updates the tracker.
+// With an albedo map that holds at least one frame, each start is first
+// moved by registering the frame by intensity against the model carrying
+// the map (the wall's own vessels and blotches: the motion the shape alone
+// leaves free), then the method registers it from there, held near that
+// pose by options.albedoPrior. A converged result is added to the map (the
+// first frame's, from registerInitial, is the caller's to add).
 FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& frame, Tracker& tracker,
-                                  const RegisterOptions& options);
+                                  const RegisterOptions& options, AlbedoMap* map = nullptr);
 
 // The first frame from a rough initial pose (placed by hand on the CT, or
 // read off a navigation system): Levenberg-Marquardt from one start only
@@ -286,7 +331,8 @@ struct RegisteredFrame {
 struct RegistrationRun {
     CameraModel camera;
     RegistrationMethod method = RegistrationMethod::PqSpace;
-    std::string mesh;  // the mesh file, as given
+    std::string mesh;        // the mesh file, as given
+    bool albedoMap = false;  // tracked with an albedo map (AlbedoMap)
     std::vector<RegisteredFrame> frames;
 };
 // Image paths are written relative to the output's folder. Atomic.
