@@ -15,8 +15,9 @@
 // from a flagged frame's estimate);
 // MUCOSA_SEED=N draws another path, roll and noise (PatientOptions::seed);
 // MUCOSA_PQ_ONLY=1 runs pq alone, without the capture test;
-// MUCOSA_NO_SEARCH=1 registers the first frame from the initial pose alone
-// (without fit::registerInitial's search, which `mucosa register` runs);
+// MUCOSA_SEARCH_FIRST=1 registers the first frame as `mucosa register` does,
+// searched around the initial pose (fit::registerInitial; off by default:
+// on the phantom's exactly periodic rings it can pick a ring 5 mm off);
 // MUCOSA_ALBEDO_MAP=1 tracks with an albedo learnt along the track
 // (fit::AlbedoMap, as `mucosa register` does by default), MUCOSA_ALBEDO_PRIOR=K
 // sets RegisterOptions::albedoPrior.
@@ -134,7 +135,7 @@ int main(int argc, char** argv) {
             const auto t0 = std::chrono::steady_clock::now();
             const fit::VideoFrame vf = fit::prepareFrame(linear[i], &sat[i], patient.camera.K, o);
             fit::FrameRegistration r;
-            if (i == 0 && !std::getenv("MUCOSA_NO_SEARCH")) {
+            if (i == 0 && std::getenv("MUCOSA_SEARCH_FIRST")) {
                 // The first frame as `mucosa register` takes it: searched
                 // around the initial pose (fit::registerInitial).
                 r = fit::registerInitial(patient.mesh, vf, init, o);
