@@ -542,6 +542,7 @@ std::size_t AlbedoMap::add(const mesh::Mesh& fullMesh, const VideoFrame& frame, 
                            const RegisterOptions& o) {
     if (fullMesh.vertexCount() != sum_.size())
         throw InputError("albedo map", "registration", "was made for a mesh with a different number of vertices");
+    if (!fullMesh.hasNormals()) throw InputError("mesh", "albedo map", "has no normals");
     if (frame.levels.empty()) return 0;
     const VideoFrame::Level& level = frame.levels.back();
     const Intrinsics& K = level.K;

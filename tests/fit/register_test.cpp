@@ -693,9 +693,12 @@ TEST(RegisterAlbedo, AMapLearntAlongTheTrackFollowsTheWallsAlbedo) {
         L.valid);
     std::printf("an unseen frame at its pose: NCC %.4f untextured, %.4f with the map\n", plain, textured);
     EXPECT_LT(1 - textured, 0.7 * (1 - plain));  // measured 0.013 against 0.025
-    // A map for another mesh is refused.
+    // A map for another mesh, or a mesh without normals, is refused.
     fit::AlbedoMap other(10);
     EXPECT_THROW(other.add(scene.mesh, vf, scene.poses[6], ro), InputError);
+    mesh::Mesh bare = scene.mesh;
+    bare.normals.clear();
+    EXPECT_THROW(map.add(bare, vf, scene.poses[6], ro), InputError);
 }
 
 // Where the airway's shape leaves the motion free (a smooth round tube: the
