@@ -190,7 +190,7 @@ void run(const RegisterArgs& a, const Global& g) {
         if (!same)
             throw InputError("--output", a.out,
                              "holds a registration of other frames, by another method or with the albedo map "
-                             "set otherwise: pass --restart to overwrite it");
+                             "set otherwise (--no-albedo-map): pass --restart to overwrite it");
         run.frames = std::move(old.frames);
         if (!run.frames.empty())
             info(g, fmt::format("resuming: {} already registered in {}", count(run.frames.size(), "frame"), a.out));
@@ -228,6 +228,8 @@ void run(const RegisterArgs& a, const Global& g) {
                                  fmt::format("ends after {} frames, but {} holds {} registered", i, a.out, first));
     }
     if (run.albedoMap && first > 0) {
+        // Each kept frame is read and prepared again (tens of ms a frame).
+        info(g, fmt::format("albedo map: repainting from the {} kept", count(first, "frame")));
         for (std::size_t i = 0; i < first; ++i)
             if (run.frames[i].r.converged) map.add(m, prepare(run.frames[i].image), run.frames[i].r.cameraToWorld, o);
         info(g, fmt::format("albedo map: rebuilt from {} ({:.0f} % of the mesh's vertices seen)",

@@ -425,18 +425,24 @@ ModelTexture modelTexture(const image::ImageF& rgb, std::array<float, 2> uvMin, 
 
 namespace {
 
+// The interpolated vertex normal of triangle t at barycentrics bs, in the
+// camera's axes (R: world to camera), unit.
+Eigen::Vector3d cameraNormal(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Mat3& R) {
+    Eigen::Vector3d nw = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) {
+        const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
+        nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
+    }
+    return (R * nw).normalized();
+}
+
 // What the model shows at one rasterised sample: the lamp (or the fitted
 // rho delta) on the surface point P (camera space) of triangle t at
 // barycentrics bs, times `albedo`. `lit`: the point is lit (not back-facing).
 double shadeSample(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Eigen::Vector3d& P,
                    const Mat3& R, const Vec3d& L, const LampProfile& lamp, const shading::BrdfParams* brdf,
                    double albedo, bool& lit) {
-    Eigen::Vector3d nw = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 3; ++k) {
-        const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
-        nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
-    }
-    const Eigen::Vector3d nc = (R * nw).normalized();
+    const Eigen::Vector3d nc = cameraNormal(mesh, t, bs, R);
     lit = false;
     if (brdf) {
         // The fitted model: lit from the viewpoint.
@@ -577,12 +583,7 @@ std::size_t AlbedoMap::add(const mesh::Mesh& fullMesh, const VideoFrame& frame, 
             const double shade =
                 shadeSample(mesh, t, bs, P, R, o.lightOffset, o.lamp, o.brdf ? &*o.brdf : nullptr, 1.0, lit);
             if (!lit || shade <= 0) continue;
-            Eigen::Vector3d nw = Eigen::Vector3d::Zero();
-            for (int k = 0; k < 3; ++k) {
-                const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
-                nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
-            }
-            const double d = P.norm(), gamma = -(R * nw).normalized().dot(P) / d;
+            const double d = P.norm(), gamma = -cameraNormal(mesh, t, bs, R).dot(P) / d;
             if (gamma <= 0.1) continue;  // grazing: the normal's error dominates the shading
             obs.push_back({t, {bs[0], bs[1], bs[2]}, e / shade, gamma * gamma / (d * d)});
         }
