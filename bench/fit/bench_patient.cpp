@@ -15,12 +15,12 @@
 // from a flagged frame's estimate);
 // MUCOSA_SEED=N draws another path, roll and noise (PatientOptions::seed);
 // MUCOSA_PQ_ONLY=1 runs pq alone, without the capture test;
-// MUCOSA_SEARCH_FIRST=1 registers the first frame as `mucosa register` does,
-// searched around the initial pose (fit::registerInitial; off by default:
-// on the phantom's exactly periodic rings it can pick a ring 5 mm off);
-// MUCOSA_ALBEDO_MAP=1 tracks with an albedo learnt along the track
-// (fit::AlbedoMap, as `mucosa register` does by default), MUCOSA_ALBEDO_PRIOR=K
-// sets RegisterOptions::albedoPrior.
+// by default each run registers as `mucosa register` does: the first frame
+// searched around the initial pose (fit::registerInitial), then tracked with
+// an albedo learnt along the track (fit::AlbedoMap);
+// MUCOSA_NO_SEARCH_FIRST=1 registers the first frame from the initial pose
+// alone, MUCOSA_NO_ALBEDO_MAP=1 tracks without the map,
+// MUCOSA_ALBEDO_PRIOR=K sets RegisterOptions::albedoPrior.
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -122,8 +122,8 @@ int main(int argc, char** argv) {
     const bool pqOnly = std::getenv("MUCOSA_PQ_ONLY") != nullptr;
     const bool singleStart = std::getenv("MUCOSA_SINGLE_START") != nullptr;
     // One tracked run: its statistics printed, its registrations returned.
-    // MUCOSA_ALBEDO_MAP=1: an albedo learnt along the track (fit::AlbedoMap; MUCOSA_ALBEDO_PRIOR=K).
-    const bool online = std::getenv("MUCOSA_ALBEDO_MAP") != nullptr;
+    // An albedo learnt along the track (fit::AlbedoMap; off: MUCOSA_NO_ALBEDO_MAP=1).
+    const bool online = std::getenv("MUCOSA_NO_ALBEDO_MAP") == nullptr;
     auto track = [&](const fit::RegisterOptions& o, const char* label) {
         fit::AlbedoMap map(patient.mesh.vertexCount());
         std::vector<fit::FrameRegistration> out;
@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
             const auto t0 = std::chrono::steady_clock::now();
             const fit::VideoFrame vf = fit::prepareFrame(linear[i], &sat[i], patient.camera.K, o);
             fit::FrameRegistration r;
-            if (i == 0 && std::getenv("MUCOSA_SEARCH_FIRST")) {
+            if (i == 0 && !std::getenv("MUCOSA_NO_SEARCH_FIRST")) {
                 // The first frame as `mucosa register` takes it: searched
                 // around the initial pose (fit::registerInitial).
                 r = fit::registerInitial(patient.mesh, vf, init, o);

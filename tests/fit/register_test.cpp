@@ -580,7 +580,8 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
         EXPECT_TRUE(searched.converged);
         EXPECT_LT(es.position, 0.5);
         EXPECT_LT(es.degrees, 1.5);
-        EXPECT_GE(searched.similarity, one.similarity - 1e-12);
+        // Results within InitialSearch::tie of the best are equal: the nearest is kept.
+        EXPECT_GE(searched.similarity, one.similarity - fit::InitialSearch{}.tie);
     }
     EXPECT_EQ(missed, 2);  // the search is what captures them
 }
