@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
+#include <vector>
 
 #include <unistd.h>
 
@@ -11,6 +13,8 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/core/memory.hpp>
+#include <mucosa/core/version.hpp>
+#include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/offscreen.hpp>
 
@@ -27,7 +31,46 @@ struct RenderArgs {
     int frames = 0;
     bool overwrite = false;
     bool reference = false;
+    std::string outputs;  // --outputs (empty: the scene's "outputs", else the colour frames alone)
+    double depthScaleMm = dataset::kDefaultDepthPngScaleMm;
 };
+
+// The dataset manifest beside the frames: out.png -> out.frames.json.
+std::filesystem::path datasetManifestPath(const std::filesystem::path& output) {
+    std::filesystem::path p = output;
+    return p.replace_extension(".frames.json");
+}
+
+// The frames file `mucosa fit` reads (intrinsics, camera_to_world in OpenCV
+// axes and mm), with the outputs' files and conventions and the settings
+// that made them.
+void writeDatasetManifest(const std::filesystem::path& output, const scene::Scene& scene,
+                          const std::vector<camera::Pose>& poses, const std::vector<std::filesystem::path>& names,
+                          const dataset::Outputs& outputs, double depthScaleMm, const nlohmann::json& settings) {
+    fit::FrameSet set;
+    set.response.toneCurve = static_cast<int>(scene.params[shading::Param::ToneCurve]);
+    set.response.vignetting = scene.params[shading::Param::Vignetting];
+    // The renderer's tip light is in x right, y up, z forward; OpenCV's y is down.
+    set.lightOffset = {scene.light.offset[0], -scene.light.offset[1], scene.light.offset[2]};
+    const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+        fit::Frame f;
+        f.image = names[i];
+        f.K = K;
+        f.cameraToWorld = dataset::cameraToWorldOf(poses[i]);
+        set.frames.push_back(f);
+    }
+    nlohmann::json extra;
+    extra["outputs"] = dataset::describeOutputs(output, static_cast<int>(poses.size()), outputs, depthScaleMm);
+    extra["conventions"] = {
+        {"camera_axes", "OpenCV: x right, y down, z forward"},
+        {"camera_to_world", "row-major 4x4, rotation columns = the camera's axes in world coordinates, mm"},
+        {"intrinsics", "pinhole, pixel centres at integer coordinates (the first pixel's centre is (0, 0))"},
+        {"world_units", "mm"},
+        {"image_rows", "the first row is the top of the picture"}};
+    extra["dataset"] = {{"made_by", "mucosa render"}, {"mucosa", std::string(version())}, {"settings", settings}};
+    fit::writeFrames(datasetManifestPath(output), set, extra);
+}
 
 void run(const RenderArgs& a, const Global& g) {
     namespace fs = std::filesystem;
@@ -36,15 +79,31 @@ void run(const RenderArgs& a, const Global& g) {
     const fs::path out = a.output;
     if (out.extension() != ".png") throw InputError("--output", out.string(), "must end in .png");
     requireWritable(out);
+    // What each frame writes: --outputs, else the scene's "outputs"; with
+    // either, a dataset manifest (out.frames.json) goes beside the frames.
+    const bool asDataset = !a.outputs.empty() || !scene.outputs.empty();
+    const dataset::Outputs outputs =
+        !a.outputs.empty() ? dataset::parseOutputs(a.outputs, "--outputs", "the command line")
+        : asDataset
+            ? dataset::parseOutputs(scene.outputs, "outputs", scene.file.empty() ? "the scene" : scene.file.string())
+            : dataset::Outputs{};
+    if (!(a.depthScaleMm > 0 && a.depthScaleMm <= 1000))
+        throw InputError("--depth-png-scale", "the command line", "must be in (0, 1000] mm");
     std::vector<fs::path> names;
     for (int i = 0; i < frames; ++i) names.push_back(frames == 1 ? out : render::frameName(out, i));
-    // A sequence is resumable: frames already on disk are kept (the writes are
-    // atomic, so a file that exists is complete), if the record next to them
-    // says they were made with this run's settings.
-    const nlohmann::json manifest = frames > 1 ? renderManifest(scene, a.scene, frames, a.reference) : nlohmann::json();
+    // A frame is on disk when every one of its outputs is (each is written
+    // atomically, so a file that exists is complete).
+    auto onDisk = [&](int i) {
+        for (const fs::path& p : dataset::outputFiles(names[static_cast<std::size_t>(i)], outputs))
+            if (!fs::exists(p)) return false;
+        return true;
+    };
+    // A sequence is resumable: frames already on disk are kept, if the record
+    // next to them says they were made with this run's settings.
+    const nlohmann::json manifest = renderManifest(scene, a.scene, frames, a.reference, dataset::outputNames(outputs));
     int existing = 0;
     if (frames > 1 && !a.overwrite)
-        for (const fs::path& p : names) existing += fs::exists(p);
+        for (int i = 0; i < frames; ++i) existing += onDisk(i);
     if (existing > 0) requireResumable(out, manifest, existing);
     if (frames > 1 && existing == frames) {
         info(g, fmt::format("all {} exist ({} ...) and match this run; nothing to do (--overwrite renders them again)",
@@ -70,9 +129,7 @@ void run(const RenderArgs& a, const Global& g) {
     // the exposure has settled as in an uninterrupted run: after
     // kSettleTimeConstants time constants the state left differs by e^-8.
     int firstMissing = 0;
-    while (firstMissing < frames && frames > 1 && !a.overwrite &&
-           fs::exists(names[static_cast<std::size_t>(firstMissing)]))
-        ++firstMissing;
+    while (firstMissing < frames && frames > 1 && !a.overwrite && onDisk(firstMissing)) ++firstMissing;
     constexpr float kSettleTimeConstants = 8.0f;
     const int settleFrames = static_cast<int>(std::ceil(
         kSettleTimeConstants * scene.params[shading::Param::Adaptation] * scene.params[shading::Param::FrameRate]));
@@ -84,7 +141,7 @@ void run(const RenderArgs& a, const Global& g) {
     };
     for (int i = 0; i < frames; ++i) {
         const fs::path& name = names[static_cast<std::size_t>(i)];
-        if (frames > 1 && !a.overwrite && fs::exists(name)) {
+        if (frames > 1 && !a.overwrite && onDisk(i)) {
             ++skipped;
             // From shortly before the first missing frame on, every frame
             // carries the exposure to the next missing one.
@@ -92,19 +149,36 @@ void run(const RenderArgs& a, const Global& g) {
             if (settle) (void)renderFrame(i);
             continue;
         }
-        const image::Image8 img = renderFrame(i);
-        const std::vector<std::byte> png = image::encodePng(img);
+        std::vector<std::byte> png;
+        if (outputs.rgb) png = image::encodePng(renderFrame(i));
+        std::optional<dataset::GroundTruth> truth;
+        std::uint64_t truthBytes = 0;
+        if (outputs.any()) {
+            truth = dataset::groundTruth(assets.mesh, dataset::intrinsicsOf(scene.lens, scene.width, scene.height),
+                                         dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]),
+                                         scene.lens.nearMm, g.threads);
+            truth->inView = dataset::fieldOfView(
+                scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height));
+            // Upper bound of the ground truth's files: float EXR / 16-bit PNG, uncompressed.
+            const std::uint64_t px = static_cast<std::uint64_t>(scene.width) * scene.height;
+            truthBytes =
+                px * (outputs.depth * 6 + outputs.normals * 18 + outputs.mask + outputs.uv * 12 + outputs.face * 4);
+        }
         if (written == 0 && frames - existing > 1) {
             // The first frame encoded is the estimate for the rest: refuse a run
             // whose frames will not fit before writing any of them (x1.25 for
             // frames that compress less well, plus 64 MiB to spare).
             const std::uint64_t toWrite = static_cast<std::uint64_t>(frames - existing);
             // Absolute: the disk probe walks up from the path, and "fly.png" alone has no parent to walk to.
-            requireDisk(saturatingMul(toWrite, png.size() + png.size() / 4) + (64ull << 20), fs::absolute(out),
-                        fmt::format("{} of ~{}", count(toWrite, "frame"), formatBytes(png.size())));
+            const std::uint64_t perFrame = png.size() + png.size() / 4 + truthBytes;
+            requireDisk(saturatingMul(toWrite, perFrame) + (64ull << 20), fs::absolute(out),
+                        fmt::format("{} of ~{}", count(toWrite, "frame"), formatBytes(perFrame)));
         }
         if (written == 0 && frames > 1) writeFileAtomic(manifestPath(out), manifest.dump(2) + "\n");
-        writeFileAtomic(name, png);
+        if (written == 0 && asDataset)
+            writeDatasetManifest(out, scene, poses, names, outputs, a.depthScaleMm, manifest);
+        if (truth) dataset::writeGroundTruth(*truth, name, outputs, a.depthScaleMm);
+        if (outputs.rgb) writeFileAtomic(name, png);
         ++written;
         if (frames > 1 && !g.quiet) {
             const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -146,6 +220,12 @@ void addRenderCommand(CLI::App& app, Global& g) {
                 "Start over: render every frame again, even those on disk (default: keep them and resume, if "
                 "OUT.render.json says they were made with the same settings)");
     c->add_flag("--reference", a->reference, "Use the C++ reference renderer (no OpenGL; slow)");
+    c->add_option("--outputs", a->outputs,
+                  "What each frame writes, comma-separated: rgb, depth, normals, mask, uv, face (ground truth beside "
+                  "each frame, and OUT.frames.json: poses, intrinsics, every file's encoding and unit; "
+                  "docs/datasets.md) [the scene's \"outputs\", else rgb]");
+    c->add_option("--depth-png-scale", a->depthScaleMm,
+                  "Millimetres per unit of the 16-bit depth PNG [0.01: up to 655 mm]");
     c->callback([a, &g] { run(*a, g); });
 }
 

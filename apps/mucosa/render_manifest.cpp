@@ -61,6 +61,7 @@ constexpr Setting kSettings[] = {
     {"specular_aa", "specular anti-aliasing"},
     {"reflectance_map_file", "reflectance map file"},
     {"variation", "variation"},
+    {"outputs", "outputs"},
 };
 
 }  // namespace
@@ -70,7 +71,8 @@ fs::path manifestPath(const fs::path& output) {
     return p.replace_extension(".render.json");
 }
 
-json renderManifest(const scene::Scene& scene, const SceneOptions& options, int frames, bool reference) {
+json renderManifest(const scene::Scene& scene, const SceneOptions& options, int frames, bool reference,
+                    const std::string& outputs) {
     json m;
     m["what"] = "the settings of a frame sequence of mucosa render; a resumed run must match them";
     m["mucosa"] = std::string(version());
@@ -88,7 +90,8 @@ json renderManifest(const scene::Scene& scene, const SceneOptions& options, int 
     m["noise_space"] = scene.noiseSpace == shading::NoiseSpace::Uv ? "uv" : "object";
     m["specular_aa"] = scene.specularAA;
     m["set"] = options.sets;
-    if (scene.variation != 0) m["variation"] = scene.variation;  // absent = 0, as before the key existed
+    if (scene.variation != 0) m["variation"] = scene.variation;        // absent = 0, as before the key existed
+    if (!outputs.empty() && outputs != "rgb") m["outputs"] = outputs;  // absent = the colour frames alone
     json params = json::object();
     for (const shading::ParamInfo& p : shading::registry()) {
         const std::string key = fmt::format("{}.{}", p.group, p.name);

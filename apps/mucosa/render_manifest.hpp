@@ -21,7 +21,9 @@ std::filesystem::path manifestPath(const std::filesystem::path& output);
 // of its content), the resolved noise space, specular anti-aliasing, every
 // registry parameter and the reflectance map's parameters; plus, for people,
 // the --set overrides and the Mucosa version.
-nlohmann::json renderManifest(const scene::Scene& scene, const SceneOptions& options, int frames, bool reference);
+// `outputs`: the frames' outputs (dataset::outputNames; "" or "rgb": the colour frames alone).
+nlohmann::json renderManifest(const scene::Scene& scene, const SceneOptions& options, int frames, bool reference,
+                              const std::string& outputs = "");
 
 // The settings in which `recorded` and `current` differ, as
 // "size 1280x1024 (this run: 640x480), mode noise (this run: vertex-phong)";

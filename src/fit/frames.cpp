@@ -63,17 +63,9 @@ Mat4 parseMatrix(const json& m, const std::string& field, const std::string& fil
         }
     }
     // Rigid: orthonormal rotation with det +1, last row 0 0 0 1.
-    double worst = 0;
-    for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b) {
-            double dot = 0;
-            for (int r = 0; r < 3; ++r) dot += M[r][a] * M[r][b];
-            worst = std::max(worst, std::fabs(dot - (a == b ? 1.0 : 0.0)));
-        }
-    const double det = M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
-                       M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
-                       M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0]);
-    if (worst > 1e-3 || det < 0 || M[3][0] != 0 || M[3][1] != 0 || M[3][2] != 0 || M[3][3] != 1)
+    const Rigidity rigid = rigidity(M);
+    if (rigid.orthonormality > kRigidTolerance || rigid.determinant < 0 || M[3][0] != 0 || M[3][1] != 0 ||
+        M[3][2] != 0 || M[3][3] != 1)
         throw InputError("field '" + field + "'", file,
                          "is not a rigid transform (rotation must be orthonormal with det +1, last row 0 0 0 1)");
     return M;
@@ -217,7 +209,21 @@ Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up) {
     return m;
 }
 
-void writeFrames(const fs::path& path, const FrameSet& set) {
+Rigidity rigidity(const Mat4& m) noexcept {
+    Rigidity r;
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+            double dot = 0;
+            for (int k = 0; k < 3; ++k) dot += m[k][a] * m[k][b];
+            r.orthonormality = std::max(r.orthonormality, std::fabs(dot - (a == b ? 1.0 : 0.0)));
+        }
+    r.determinant = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                    m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                    m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    return r;
+}
+
+void writeFrames(const fs::path& path, const FrameSet& set, const json& extra) {
     json j{{"units", set.units}, {"light", {{"offset", set.lightOffset}}}, {"frames", json::array()}};
     writeResponse(j, set.response);
     for (const Frame& f : set.frames) {
@@ -227,6 +233,8 @@ void writeFrames(const fs::path& path, const FrameSet& set) {
         j["frames"].push_back(
             json{{"image", relativePath(f.image, path.parent_path())}, {"intrinsics", k}, {"camera_to_world", m}});
     }
+    for (const auto& [key, value] : extra.items())
+        if (!j.contains(key)) j[key] = value;
     writeFileAtomic(path, j.dump(2) + "\n");
 }
 

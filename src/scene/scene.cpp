@@ -451,6 +451,16 @@ void readOutput(const Parser& P, const json& j, Scene& s) {
         s.height = P.integer(r[1], "resolution[1]", 16, 8192);
     }
     if (j.contains("frames")) s.frames = P.integer(j["frames"], "frames", 1, 1000000);
+    if (j.contains("outputs")) {
+        const json& o = j["outputs"];
+        if (o.is_array()) {
+            for (std::size_t i = 0; i < o.size(); ++i)
+                s.outputs += (i ? "," : "") + P.string(o[i], fmt::format("outputs[{}]", i));
+            if (s.outputs.empty()) P.fail("outputs", "is empty");
+        } else {
+            s.outputs = P.string(o, "outputs");
+        }
+    }
 }
 
 // "camera.path": key poses, or a fly-through along a centerline.
@@ -584,7 +594,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     P.object(j, "scene");
     P.known(j, "",
             {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
-             "light", "camera", "resolution", "frames", "noise_space", "specular_aa", "variation"});
+             "light", "camera", "resolution", "frames", "outputs", "noise_space", "specular_aa", "variation"});
     Scene s = defaultScene();
     s.file = fileForErrors;
     readMesh(P, j, s);

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 namespace mucosa::fit {
 
 using Mat4 = std::array<std::array<double, 4>, 4>;
@@ -59,7 +61,10 @@ struct FrameSet {
 
 // Throws InputError naming the file and the field (e.g. "frames[2].intrinsics.fx").
 FrameSet readFrames(const std::filesystem::path& path);
-void writeFrames(const std::filesystem::path& path, const FrameSet& set);
+// `extra`: top-level keys written after the frames file's own (a dataset's
+// "outputs" and "dataset" blocks); readFrames ignores them.
+void writeFrames(const std::filesystem::path& path, const FrameSet& set,
+                 const nlohmann::json& extra = nlohmann::json::object());
 
 // A camera file (`mucosa register --camera`): the keys a frames file uses,
 // {"intrinsics": {width, height, fx, fy, cx, cy[, k1, k2]}, "gamma" or
@@ -99,6 +104,15 @@ Mat4 lookAtPose(const Vec3d& position, const Vec3d& lookAt, const Vec3d& up);
 // Camera centre in world coordinates and world -> camera transform.
 Vec3d cameraCentre(const Mat4& cameraToWorld) noexcept;
 Mat4 invertRigid(const Mat4& m) noexcept;
+// How far a camera_to_world's rotation is from a rotation: the largest entry
+// of |R^T R - I|, and det R. readFrames accepts orthonormality up to
+// kRigidTolerance, det > 0 and a last row 0 0 0 1.
+struct Rigidity {
+    double orthonormality = 0;
+    double determinant = 1;
+};
+Rigidity rigidity(const Mat4& m) noexcept;
+inline constexpr double kRigidTolerance = 1e-3;
 Vec3d transformPoint(const Mat4& m, const Vec3d& p) noexcept;
 Vec3d transformDirection(const Mat4& m, const Vec3d& d) noexcept;
 

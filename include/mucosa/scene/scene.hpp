@@ -83,6 +83,10 @@ struct Scene {
     PathSpec path;
     int width = 640, height = 480;
     int frames = 1;
+    // "outputs": what each frame writes besides its colour ("rgb,depth,normals",
+    // or an array of names; `mucosa render --outputs` and dataset::parseOutputs
+    // read it). Empty: the colour frame alone.
+    std::string outputs;
     // "variation" / --variation: a patient's appearance drawn by
     // reflectance::drawAppearance (0: the default look). It shapes the
     // generated tissue texture (appearance.tissue), scales

@@ -1,0 +1,96 @@
+#pragma once
+// Per-frame ground truth of a rendered endoscope frame: metric depth, surface
+// normals, the triangle and texture coordinates each pixel sees, and the
+// pixels that see a surface. Computed exactly from the mesh and the camera
+// (a z-buffer at the pixel centres, fit::rasterize), not read back from the
+// colour render, so it does not depend on the GL driver's precision; the
+// colour frame is rendered with the same intrinsics and pose
+// (fit::glProjectionMatrix), so the two align pixel for pixel.
+//
+// Conventions (written into every dataset manifest, docs/datasets.md):
+// OpenCV camera axes (x right, y down, z forward), pixel centres at integer
+// coordinates, millimetres, row-major camera_to_world.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include <mucosa/camera/camera.hpp>
+#include <mucosa/fit/frames.hpp>
+#include <mucosa/image/image.hpp>
+#include <mucosa/mesh/mesh.hpp>
+#include <mucosa/shading/reference.hpp>
+
+namespace mucosa::dataset {
+
+// The outputs a dataset frame can have (`--outputs rgb,depth,...`).
+struct Outputs {
+    bool rgb = true;
+    bool depth = false;    // planar z in mm: float32 EXR + 16-bit PNG with a declared scale
+    bool normals = false;  // camera space, OpenCV axes: float32 EXR + 16-bit PNG
+    bool mask = false;     // the pixels that see a surface: 8-bit PNG
+    bool uv = false;       // the mesh's texture coordinates: float32 EXR
+    bool face = false;     // the triangle index: float32 EXR (exact up to 2^24)
+    bool any() const noexcept { return depth || normals || mask || uv || face; }  // any ground truth
+};
+// "rgb,depth,normals": throws InputError naming `what` and `where` for an
+// unknown or repeated name or an empty list.
+Outputs parseOutputs(std::string_view list, const std::string& what, const std::string& where);
+std::string outputNames(const Outputs& outputs);  // "rgb,depth,normals"
+
+// The renderer's camera in OpenCV terms: the pinhole intrinsics of a lens
+// whose field of view spans the image's larger dimension
+// (camera::projectionMatrix), and the camera_to_world of a pose.
+fit::Intrinsics intrinsicsOf(const camera::Lens& lens, int width, int height);
+fit::Mat4 cameraToWorldOf(const camera::Pose& pose);
+
+struct GroundTruth {
+    int width = 0, height = 0;
+    image::ImageF depth;              // 1 channel: planar z along the optical axis, mm; 0 where no surface
+    image::ImageF normals;            // 3 channels: unit, camera space, facing the camera; 0 where no surface
+    image::ImageF uv;                 // 3 channels: u, v (OpenGL texture space, v up), 1; 0 where no surface or no UVs
+    std::vector<std::int32_t> face;   // triangle index; -1 where no surface
+    std::vector<std::uint8_t> valid;  // 1 where a surface is seen
+    // 1 inside the scope's field-of-view mask (camera.mask; all 1 without
+    // one): the pixels the colour frame shows. The mask output is valid and
+    // inView.
+    std::vector<std::uint8_t> inView;
+};
+
+// The ground truth of the pinhole camera `K` (no distortion: k1 = k2 = 0) at
+// `cameraToWorld` on `mesh`, surfaces nearer than `nearMm` clipped (the
+// renderer's near plane). Normals are the mesh's vertex normals interpolated
+// (its geometric normal where it has none), turned to face the camera.
+// Throws InputError for a lens with distortion or a mesh too large for exact
+// face ids (more than 2^24 triangles) when `faces` is asked for.
+GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld, double nearMm,
+                        int threads = 0);
+
+// The pixels inside the field-of-view mask of a frame (camera.mask and
+// camera.mask_radius, the shader's own test at the pixel centre), 1 inside.
+std::vector<std::uint8_t> fieldOfView(const shading::FrameSetup& frame);
+
+// Where a frame's outputs go: out.png, frame 12 -> out_0012.png,
+// out_0012.depth.exr, out_0012.depth.png, out_0012.normals.exr, ...
+// `rgbName` is the colour frame's name (its stem names the others).
+std::vector<std::filesystem::path> outputFiles(const std::filesystem::path& rgbName, const Outputs& outputs);
+
+// Depth in the 16-bit PNG: value = round(depth / depthPngScaleMm), 0 where
+// no surface, 65535 at and beyond 65535 x scale.
+inline constexpr double kDefaultDepthPngScaleMm = 0.01;
+
+// Writes the ground-truth files of `outputs` next to `rgbName` (each
+// atomically: a file that exists is whole).
+void writeGroundTruth(const GroundTruth& truth, const std::filesystem::path& rgbName, const Outputs& outputs,
+                      double depthPngScaleMm = kDefaultDepthPngScaleMm);
+
+// The manifest's "outputs" block: per output its file pattern (relative to
+// the manifest, e.g. "fly_{frame:04}.depth.exr"), encoding, channels, unit
+// and convention, so a user needs no other document to read the files.
+nlohmann::json describeOutputs(const std::filesystem::path& output, int frames, const Outputs& outputs,
+                               double depthPngScaleMm = kDefaultDepthPngScaleMm);
+
+}  // namespace mucosa::dataset

@@ -1,0 +1,281 @@
+// Per-frame ground truth: see include/mucosa/dataset/ground_truth.hpp.
+#include <mucosa/dataset/ground_truth.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/memory.hpp>
+#include <mucosa/fit/raster.hpp>
+#include <mucosa/image/exr.hpp>
+#include <mucosa/image/png.hpp>
+
+#include "shading/glsl.hpp"
+
+namespace mucosa::dataset {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kNames[] = {"rgb", "depth", "normals", "mask", "uv", "face"};
+
+bool* flag(Outputs& o, std::string_view name) {
+    if (name == "rgb") return &o.rgb;
+    if (name == "depth") return &o.depth;
+    if (name == "normals") return &o.normals;
+    if (name == "mask") return &o.mask;
+    if (name == "uv") return &o.uv;
+    if (name == "face") return &o.face;
+    return nullptr;
+}
+
+bool has(const Outputs& o, std::string_view name) {
+    return *flag(const_cast<Outputs&>(o), name);
+}
+
+// out.png -> out.<kind>.<ext> beside it.
+fs::path beside(const fs::path& rgbName, const std::string& suffix) {
+    fs::path p = rgbName;
+    p.replace_filename(rgbName.stem().string() + suffix);
+    return p;
+}
+
+}  // namespace
+
+Outputs parseOutputs(std::string_view list, const std::string& what, const std::string& where) {
+    Outputs o;
+    o.rgb = false;
+    bool any = false;
+    std::size_t start = 0;
+    while (start <= list.size()) {
+        const std::size_t comma = std::min(list.find(',', start), list.size());
+        std::string_view name = list.substr(start, comma - start);
+        while (!name.empty() && name.front() == ' ') name.remove_prefix(1);
+        while (!name.empty() && name.back() == ' ') name.remove_suffix(1);
+        bool* f = flag(o, name);
+        if (!f)
+            throw InputError(what, where,
+                             fmt::format("unknown output '{}' (the outputs: rgb, depth, normals, mask, uv, face)",
+                                         std::string(name)));
+        if (*f) throw InputError(what, where, fmt::format("'{}' is listed twice", std::string(name)));
+        *f = any = true;
+        start = comma + 1;
+    }
+    if (!any) throw InputError(what, where, "is empty");
+    return o;
+}
+
+std::string outputNames(const Outputs& outputs) {
+    std::string s;
+    for (const char* n : kNames)
+        if (has(outputs, n)) s += (s.empty() ? "" : ",") + std::string(n);
+    return s;
+}
+
+fit::Intrinsics intrinsicsOf(const camera::Lens& lens, int width, int height) {
+    // camera::projectionMatrix: the field of view spans the larger dimension
+    // and the pixels are square; GL's pixel i has its centre at NDC
+    // 2 (i + 0.5) / w - 1, which is OpenCV's u = i with cx = (w - 1) / 2.
+    fit::Intrinsics K;
+    K.width = width;
+    K.height = height;
+    K.fx = K.fy = 0.5 * std::max(width, height) / std::tan(0.5 * static_cast<double>(lens.fovDeg) * M_PI / 180.0);
+    K.cx = 0.5 * (width - 1);
+    K.cy = 0.5 * (height - 1);
+    return K;
+}
+
+fit::Mat4 cameraToWorldOf(const camera::Pose& pose) {
+    const fit::Vec3d eye{pose.position[0], pose.position[1], pose.position[2]};
+    const fit::Vec3d at{eye[0] + pose.forward[0], eye[1] + pose.forward[1], eye[2] + pose.forward[2]};
+    return fit::lookAtPose(eye, at, {pose.up[0], pose.up[1], pose.up[2]});
+}
+
+GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& c2w, double nearMm,
+                        int threads) {
+    if (K.k1 != 0 || K.k2 != 0)
+        throw InputError("intrinsics", "ground truth", "has radial distortion; ground truth is rendered for a pinhole");
+    if (mesh.triangleCount() > (std::size_t{1} << 24))
+        throw InputError("mesh", "ground truth",
+                         fmt::format("has {} triangles; face ids are exact up to 2^24", mesh.triangleCount()));
+    const std::size_t n = static_cast<std::size_t>(K.width) * K.height;
+    requireMemory(saturatingMul(n, 4 * (1 + 3 + 3 + 1) + 1), "ground truth");
+    const fit::Mat4 w2c = fit::invertRigid(c2w);
+    const fit::GBuffer g = fit::rasterize(mesh, K, w2c, nearMm, threads);
+    GroundTruth t;
+    t.width = K.width;
+    t.height = K.height;
+    t.depth = image::ImageF(K.width, K.height, 1);
+    t.normals = image::ImageF(K.width, K.height, 3);
+    t.uv = image::ImageF(K.width, K.height, 3);
+    t.face = g.triangle;
+    t.valid.assign(n, 0);
+    t.inView.assign(n, 1);
+    const bool normals = mesh.normals.size() == mesh.positions.size();
+    const bool uvs = mesh.uvs.size() == mesh.positions.size();
+    const fit::Vec3d eye = fit::cameraCentre(c2w);
+    for (int y = 0; y < K.height; ++y)
+        for (int x = 0; x < K.width; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * K.width + x;
+            const std::int32_t tri = g.triangle[i];
+            if (tri < 0) continue;
+            t.valid[i] = 1;
+            t.depth.at(x, y) = g.depth[i];
+            const std::uint32_t* v = &mesh.indices[3 * static_cast<std::size_t>(tri)];
+            const double b1 = g.b1[i], b2 = g.b2[i], b0 = 1.0 - b1 - b2;
+            // World normal: interpolated vertex normals, or the face's.
+            double nw[3];
+            const auto& p0 = mesh.positions[v[0]];
+            const auto& p1 = mesh.positions[v[1]];
+            const auto& p2 = mesh.positions[v[2]];
+            if (normals) {
+                for (int k = 0; k < 3; ++k)
+                    nw[k] = b0 * mesh.normals[v[0]][k] + b1 * mesh.normals[v[1]][k] + b2 * mesh.normals[v[2]][k];
+            } else {
+                const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+                const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+                nw[0] = e1[1] * e2[2] - e1[2] * e2[1];
+                nw[1] = e1[2] * e2[0] - e1[0] * e2[2];
+                nw[2] = e1[0] * e2[1] - e1[1] * e2[0];
+            }
+            // Facing the camera: against the ray from the eye to the point.
+            double ray[3];
+            for (int k = 0; k < 3; ++k) ray[k] = b0 * p0[k] + b1 * p1[k] + b2 * p2[k] - eye[k];
+            if (nw[0] * ray[0] + nw[1] * ray[1] + nw[2] * ray[2] > 0)
+                for (double& c : nw) c = -c;
+            // To camera axes: R^T n (R = c2w's rotation).
+            double nc[3], len = 0;
+            for (int r = 0; r < 3; ++r) {
+                nc[r] = c2w[0][r] * nw[0] + c2w[1][r] * nw[1] + c2w[2][r] * nw[2];
+                len += nc[r] * nc[r];
+            }
+            len = std::sqrt(len);
+            if (len > 0)
+                for (int r = 0; r < 3; ++r) t.normals.at(x, y, r) = static_cast<float>(nc[r] / len);
+            if (uvs) {
+                for (int k = 0; k < 2; ++k)
+                    t.uv.at(x, y, k) =
+                        static_cast<float>(b0 * mesh.uvs[v[0]][k] + b1 * mesh.uvs[v[1]][k] + b2 * mesh.uvs[v[2]][k]);
+                t.uv.at(x, y, 2) = 1.f;
+            }
+        }
+    return t;
+}
+
+std::vector<std::uint8_t> fieldOfView(const shading::FrameSetup& frame) {
+    const shading::glsl::Camera c = shading::glsl::packCamera(frame, 1.0f);
+    std::vector<std::uint8_t> in(static_cast<std::size_t>(frame.width) * frame.height);
+    // Coverage >= 1/2 at the pixel centre (GL's window coordinates: x + 1/2;
+    // the mask is symmetric, so the rows' order does not matter).
+    for (int y = 0; y < frame.height; ++y)
+        for (int x = 0; x < frame.width; ++x)
+            in[static_cast<std::size_t>(y) * frame.width + x] =
+                shading::glsl::fovMask(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f, c) >= 0.5f;
+    return in;
+}
+
+std::vector<fs::path> outputFiles(const fs::path& rgbName, const Outputs& o) {
+    std::vector<fs::path> files;
+    if (o.rgb) files.push_back(rgbName);
+    if (o.depth) files.push_back(beside(rgbName, ".depth.exr")), files.push_back(beside(rgbName, ".depth.png"));
+    if (o.normals) files.push_back(beside(rgbName, ".normals.exr")), files.push_back(beside(rgbName, ".normals.png"));
+    if (o.mask) files.push_back(beside(rgbName, ".mask.png"));
+    if (o.uv) files.push_back(beside(rgbName, ".uv.exr"));
+    if (o.face) files.push_back(beside(rgbName, ".face.exr"));
+    return files;
+}
+
+void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outputs& o, double depthScale) {
+    if (!(depthScale > 0)) throw InputError("depth PNG scale", rgbName.string(), "must be positive");
+    const int w = t.width, h = t.height;
+    if (o.depth) {
+        image::writeExr(beside(rgbName, ".depth.exr"), t.depth);
+        image::Image16 png(w, h, 1);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                png.at(x, y) = static_cast<std::uint16_t>(std::min(65535.0, std::round(t.depth.at(x, y) / depthScale)));
+        image::writePng(beside(rgbName, ".depth.png"), png);
+    }
+    if (o.normals) {
+        image::writeExr(beside(rgbName, ".normals.exr"), t.normals);
+        image::Image16 png(w, h, 3);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                for (int c = 0; c < 3; ++c)
+                    png.at(x, y, c) =
+                        t.valid[static_cast<std::size_t>(y) * w + x]
+                            ? static_cast<std::uint16_t>(std::lround((t.normals.at(x, y, c) + 1.0) * 0.5 * 65535.0))
+                            : 0;
+        image::writePng(beside(rgbName, ".normals.png"), png);
+    }
+    if (o.mask) {
+        image::Image8 png(w, h, 1);
+        for (std::size_t i = 0; i < t.valid.size(); ++i) png.data()[i] = t.valid[i] && t.inView[i] ? 255 : 0;
+        image::writePng(beside(rgbName, ".mask.png"), png);
+    }
+    if (o.uv) image::writeExr(beside(rgbName, ".uv.exr"), t.uv);
+    if (o.face) {
+        image::ImageF f(w, h, 1);
+        for (std::size_t i = 0; i < t.face.size(); ++i) f.data()[i] = static_cast<float>(t.face[i]);
+        image::writeExr(beside(rgbName, ".face.exr"), f);
+    }
+}
+
+nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs& o, double depthScale) {
+    const std::string stem = output.stem().string() + (frames > 1 ? "_{frame:04}" : "");
+    nlohmann::json j = nlohmann::json::object();
+    const std::string none = "0 where the pixel sees no surface (mask.png)";
+    if (o.rgb)
+        j["rgb"] = {{"file", stem + output.extension().string()},
+                    {"encoding", "8-bit sRGB-curve PNG, RGB"},
+                    {"content", "the frame as the endoscope's camera puts it out (display-referred)"}};
+    if (o.depth) {
+        j["depth"] = {{"file", stem + ".depth.exr"},
+                      {"encoding", "OpenEXR, one FLOAT channel 'Y', ZIP"},
+                      {"unit", "mm"},
+                      {"content", "planar depth: z of the surface point along the optical axis (not the ray length)"},
+                      {"invalid", none}};
+        j["depth_png"] = {{"file", stem + ".depth.png"},
+                          {"encoding", "16-bit grey PNG"},
+                          {"unit", "mm"},
+                          {"scale_mm", depthScale},
+                          {"content", fmt::format("depth = value x {} mm; 65535 at and beyond {} mm", depthScale,
+                                                  65535 * depthScale)},
+                          {"invalid", "0"}};
+    }
+    if (o.normals) {
+        j["normals"] = {{"file", stem + ".normals.exr"},
+                        {"encoding", "OpenEXR, FLOAT channels 'R','G','B' = x, y, z, ZIP"},
+                        {"axes", "camera space, OpenCV: x right, y down, z forward"},
+                        {"content", "unit surface normal (the mesh's interpolated vertex normals), facing the camera"},
+                        {"invalid", "0, 0, 0"}};
+        j["normals_png"] = {{"file", stem + ".normals.png"},
+                            {"encoding", "16-bit RGB PNG"},
+                            {"axes", "camera space, OpenCV: x right, y down, z forward"},
+                            {"content", "n = value / 65535 x 2 - 1 per channel"},
+                            {"invalid", "0, 0, 0"}};
+    }
+    if (o.mask)
+        j["mask"] = {{"file", stem + ".mask.png"},
+                     {"encoding", "8-bit grey PNG"},
+                     {"content",
+                      "255 where the pixel is inside the scope's field-of-view mask and sees the airway's surface, 0 "
+                      "elsewhere"}};
+    if (o.uv)
+        j["uv"] = {{"file", stem + ".uv.exr"},
+                   {"encoding", "OpenEXR, FLOAT channels 'R','G','B' = u, v, 1, ZIP"},
+                   {"content", "the mesh's texture coordinates (glTF/OpenGL: v up, the image's last row at v = 0)"},
+                   {"invalid", "0, 0, 0 (also where the mesh has no texture coordinates)"}};
+    if (o.face)
+        j["face"] = {{"file", stem + ".face.exr"},
+                     {"encoding", "OpenEXR, one FLOAT channel 'Y', ZIP"},
+                     {"content", "index of the mesh triangle seen (the mesh file's triangle order), exact integers"},
+                     {"invalid", "-1"}};
+    return j;
+}
+
+}  // namespace mucosa::dataset

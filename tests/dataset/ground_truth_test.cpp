@@ -1,0 +1,248 @@
+// Per-frame ground truth: depth, normals, uv and face ids of analytic scenes
+// against their closed forms; the renderer's camera in OpenCV terms; the
+// field-of-view mask; `mucosa render --outputs` end to end (files, manifest,
+// resume, refusals).
+#include <cmath>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include <mucosa/camera/camera.hpp>
+#include <mucosa/core/error.hpp>
+#include <mucosa/dataset/ground_truth.hpp>
+#include <mucosa/fit/categories.hpp>
+#include <mucosa/fit/frames.hpp>
+#include <mucosa/image/exr.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/mesh/primitives.hpp>
+#include <mucosa/scene/scene.hpp>
+
+#include "cli_helpers.hpp"
+#include "test_support.hpp"
+
+namespace mucosa {
+namespace {
+
+namespace fs = std::filesystem;
+using fit::Mat4;
+using fit::Vec3d;
+
+// The ray of pixel (x, y) in world coordinates (camera z component 1).
+Vec3d worldRay(const fit::Intrinsics& K, const Mat4& c2w, int x, int y) {
+    const double d[3] = {(x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0};
+    Vec3d w{};
+    for (int r = 0; r < 3; ++r) w[r] = c2w[r][0] * d[0] + c2w[r][1] * d[1] + c2w[r][2] * d[2];
+    return w;
+}
+
+double angleDeg(const double* a, const double* b) {
+    const double dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    const double na = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    const double nb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    return std::acos(std::clamp(dot / (na * nb), -1.0, 1.0)) * 180 / M_PI;
+}
+
+fit::Intrinsics camera(int w, int h, double fovDeg) {
+    camera::Lens lens;
+    lens.fovDeg = static_cast<float>(fovDeg);
+    return dataset::intrinsicsOf(lens, w, h);
+}
+
+TEST(GroundTruth, ATiltedPlanesDepthNormalUvAndFaceAreItsClosedForm) {
+    const mesh::Mesh quad = mesh::makeQuad(400.f, 6);  // z = 0, facing +z
+    const fit::Intrinsics K = camera(160, 120, 90);
+    const Vec3d eye{12, -7, 40};
+    const Mat4 c2w = fit::lookAtPose(eye, {-5, 4, 0}, {0, 1, 0});
+    const dataset::GroundTruth t = dataset::groundTruth(quad, K, c2w, 0.5);
+    // The quad's UVs are affine in x, y: solved from three of its vertices.
+    const auto& p = quad.positions;
+    const auto& uv = quad.uvs;
+    const std::size_t a = quad.indices[0], b = quad.indices[1], c = quad.indices[2];
+    const double det = (p[b][0] - p[a][0]) * (p[c][1] - p[a][1]) - (p[c][0] - p[a][0]) * (p[b][1] - p[a][1]);
+    auto uvAt = [&](double x, double y, int k) {
+        const double s = ((x - p[a][0]) * (p[c][1] - p[a][1]) - (p[c][0] - p[a][0]) * (y - p[a][1])) / det;
+        const double r = ((p[b][0] - p[a][0]) * (y - p[a][1]) - (x - p[a][0]) * (p[b][1] - p[a][1])) / det;
+        return uv[a][k] + s * (uv[b][k] - uv[a][k]) + r * (uv[c][k] - uv[a][k]);
+    };
+    int seen = 0;
+    double worstDepth = 0, worstNormal = 0, worstUv = 0;
+    for (int y = 0; y < K.height; ++y)
+        for (int x = 0; x < K.width; ++x) {
+            const Vec3d d = worldRay(K, c2w, x, y);
+            const double s = -eye[2] / d[2];  // the plane z = 0 along the ray: the planar depth itself
+            const std::size_t i = static_cast<std::size_t>(y) * K.width + x;
+            if (!(s > 0)) {
+                EXPECT_EQ(t.valid[i], 0);
+                continue;
+            }
+            const double wx = eye[0] + s * d[0], wy = eye[1] + s * d[1];
+            if (std::abs(wx) > 199 || std::abs(wy) > 199) continue;  // off the quad's edge
+            ASSERT_EQ(t.valid[i], 1) << x << "," << y;
+            ++seen;
+            worstDepth = std::max(worstDepth, std::abs(t.depth.at(x, y) - s) / s);
+            // +z in camera axes: row 2 of the rotation (R^T e_z).
+            const double truth[3] = {c2w[2][0], c2w[2][1], c2w[2][2]};
+            const double got[3] = {t.normals.at(x, y, 0), t.normals.at(x, y, 1), t.normals.at(x, y, 2)};
+            worstNormal = std::max(worstNormal, angleDeg(truth, got));
+            for (int k = 0; k < 2; ++k) worstUv = std::max(worstUv, std::abs(t.uv.at(x, y, k) - uvAt(wx, wy, k)));
+            EXPECT_EQ(t.uv.at(x, y, 2), 1.f);
+            // The face id names a triangle that holds the point.
+            const std::int32_t f = t.face[i];
+            ASSERT_GE(f, 0);
+            const auto& q0 = p[quad.indices[3 * f]];
+            const auto& q1 = p[quad.indices[3 * f + 1]];
+            const auto& q2 = p[quad.indices[3 * f + 2]];
+            auto edge = [&](const mesh::Vec3& u, const mesh::Vec3& v) {
+                return (v[0] - u[0]) * (wy - u[1]) - (wx - u[0]) * (v[1] - u[1]);
+            };
+            const double e0 = edge(q0, q1), e1 = edge(q1, q2), e2 = edge(q2, q0);
+            const double tol = 1e-3 * 400;
+            EXPECT_TRUE((e0 >= -tol && e1 >= -tol && e2 >= -tol) || (e0 <= tol && e1 <= tol && e2 <= tol))
+                << "pixel " << x << "," << y << " face " << f;
+        }
+    EXPECT_GT(seen, K.width * K.height / 2);
+    EXPECT_LE(worstDepth, 1e-4);
+    EXPECT_LE(worstNormal, 0.1);
+    EXPECT_LE(worstUv, 1e-4);
+}
+
+TEST(GroundTruth, InsideASphereDepthAndNormalsAreItsClosedForm) {
+    const double r = 20;
+    const mesh::Mesh sphere = mesh::makeSphere(static_cast<float>(r), 360, 180);
+    const fit::Intrinsics K = camera(96, 80, 100);
+    const Vec3d eye{3, -2, 1.5};
+    const Mat4 c2w = fit::lookAtPose(eye, {10, 4, -12}, {0, 0, 1});
+    const dataset::GroundTruth t = dataset::groundTruth(sphere, K, c2w, 0.5);
+    double worstDepth = 0, worstNormal = 0;
+    for (int y = 0; y < K.height; ++y)
+        for (int x = 0; x < K.width; ++x) {
+            ASSERT_EQ(t.valid[static_cast<std::size_t>(y) * K.width + x], 1);
+            const Vec3d d = worldRay(K, c2w, x, y);
+            // |eye + s d| = r, the far root (the eye is inside).
+            const double A = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            const double B = eye[0] * d[0] + eye[1] * d[1] + eye[2] * d[2];
+            const double C = eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2] - r * r;
+            const double s = (-B + std::sqrt(B * B - A * C)) / A;
+            worstDepth = std::max(worstDepth, std::abs(t.depth.at(x, y) - s) / s);
+            // The inward normal, in camera axes.
+            double nw[3], nc[3];
+            for (int k = 0; k < 3; ++k) nw[k] = -(eye[k] + s * d[k]) / r;
+            for (int k = 0; k < 3; ++k) nc[k] = c2w[0][k] * nw[0] + c2w[1][k] * nw[1] + c2w[2][k] * nw[2];
+            const double got[3] = {t.normals.at(x, y, 0), t.normals.at(x, y, 1), t.normals.at(x, y, 2)};
+            worstNormal = std::max(worstNormal, angleDeg(nc, got));
+        }
+    EXPECT_LE(worstDepth, 1e-4);
+    EXPECT_LE(worstNormal, 0.1);
+}
+
+TEST(GroundTruth, TheRenderersCameraIsThePinholeTheManifestStates) {
+    // intrinsicsOf / cameraToWorldOf give the matrices the renderer draws
+    // with: the colour frame and the ground truth align pixel for pixel.
+    for (const auto& [w, h, fov] : {std::tuple{640, 480, 120.0}, std::tuple{300, 400, 70.0}}) {
+        camera::Lens lens;
+        lens.fovDeg = static_cast<float>(fov);
+        const auto P = camera::projectionMatrix(lens, w, h);
+        const auto Q = fit::glProjectionMatrix(dataset::intrinsicsOf(lens, w, h), lens.nearMm, lens.farMm);
+        for (int k = 0; k < 16; ++k) EXPECT_NEAR(P[k], Q[k], 1e-5 * std::max(1.0f, std::abs(P[k]))) << k;
+    }
+    camera::Pose pose;
+    pose.position = {3, -4, 5};
+    pose.forward = {0.2f, -0.9f, 0.3f};
+    pose.up = {0, 0, 1};
+    const auto V = camera::viewMatrix(pose);
+    const auto U = fit::glViewMatrix(dataset::cameraToWorldOf(pose));
+    for (int k = 0; k < 16; ++k) EXPECT_NEAR(V[k], U[k], 1e-5) << k;
+}
+
+TEST(GroundTruth, TheFieldOfViewIsTheShadersMask) {
+    scene::Scene s = scene::defaultScene();
+    shading::FrameSetup f = scene::frameSetup(s, camera::Pose{}, 200, 160);
+    f.params.set(shading::Param::Mask, 1.0f);  // a circle of radius 0.9 x half the smaller side
+    f.params.set(shading::Param::MaskRadius, 0.9f);
+    const std::vector<std::uint8_t> in = dataset::fieldOfView(f);
+    std::size_t n = 0;
+    for (auto v : in) n += v;
+    const double expected = M_PI * 72 * 72;
+    EXPECT_NEAR(static_cast<double>(n), expected, 0.01 * expected);
+    EXPECT_EQ(in[0], 0);
+    EXPECT_EQ(in[80 * 200 + 100], 1);
+    f.params.set(shading::Param::Mask, 0.0f);
+    for (auto v : dataset::fieldOfView(f)) ASSERT_EQ(v, 1);
+}
+
+TEST(GroundTruth, OutputListsAreParsedAndRefused) {
+    const dataset::Outputs o = dataset::parseOutputs("rgb, depth,face", "--outputs", "cli");
+    EXPECT_TRUE(o.rgb && o.depth && o.face && !o.normals && !o.mask && !o.uv);
+    EXPECT_EQ(dataset::outputNames(o), "rgb,depth,face");
+    EXPECT_THROW(dataset::parseOutputs("rgb,depht", "--outputs", "cli"), InputError);
+    EXPECT_THROW(dataset::parseOutputs("rgb,rgb", "--outputs", "cli"), InputError);
+    EXPECT_THROW(dataset::parseOutputs("", "--outputs", "cli"), InputError);
+    const auto files = dataset::outputFiles("out/fly_0003.png", dataset::parseOutputs("depth,normals", "", ""));
+    ASSERT_EQ(files.size(), 4u);
+    EXPECT_EQ(files[0], fs::path("out/fly_0003.depth.exr"));
+    EXPECT_EQ(files[1], fs::path("out/fly_0003.depth.png"));
+    EXPECT_EQ(files[3], fs::path("out/fly_0003.normals.png"));
+}
+
+TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
+    test::TempDir dir;
+    const std::string out = (dir / "fly.png").string();
+    const std::string args = "render -o '" + out + "' --frames 3 --size 96x72 --outputs rgb,depth,normals,mask,uv,face";
+    test::RunResult r = test::runCli(args);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    // The manifest: the frames file `mucosa fit` reads, with the outputs described.
+    const fit::FrameSet set = fit::readFrames(dir / "fly.frames.json");
+    ASSERT_EQ(set.frames.size(), 3u);
+    const scene::Scene s = scene::defaultScene();
+    const fit::Intrinsics K = dataset::intrinsicsOf(s.lens, 96, 72);
+    EXPECT_DOUBLE_EQ(set.frames[1].K.fx, K.fx);
+    EXPECT_DOUBLE_EQ(set.frames[1].K.cx, 47.5);
+    EXPECT_EQ(set.frames[2].image, dir / "fly_0002.png");
+    const nlohmann::json j = nlohmann::json::parse(test::readBytes(dir / "fly.frames.json"));
+    EXPECT_EQ(j["outputs"]["depth"]["unit"], "mm");
+    EXPECT_EQ(j["outputs"]["depth"]["file"], "fly_{frame:04}.depth.exr");
+    EXPECT_EQ(j["outputs"]["depth_png"]["scale_mm"], 0.01);
+    EXPECT_TRUE(j["conventions"].contains("camera_axes"));
+    for (int i = 0; i < 3; ++i)
+        for (const char* suffix :
+             {".png", ".depth.exr", ".depth.png", ".normals.exr", ".normals.png", ".mask.png", ".uv.exr", ".face.exr"})
+            EXPECT_TRUE(fs::exists(dir / ("fly_000" + std::to_string(i) + suffix))) << i << suffix;
+    // The depth EXR is the ground truth of the manifest's camera, and the PNG its scaled copy.
+    const image::ImageF depth = image::readExr(dir / "fly_0001.depth.exr");
+    const dataset::GroundTruth t = dataset::groundTruth(scene::loadAssets(s, 0, false).mesh, set.frames[1].K,
+                                                        set.frames[1].cameraToWorld, s.lens.nearMm);
+    const image::PngImage png = image::readPng(dir / "fly_0001.depth.png");
+    for (int y = 0; y < 72; y += 7)
+        for (int x = 0; x < 96; x += 5) {
+            EXPECT_NEAR(depth.at(x, y), t.depth.at(x, y), 1e-4 * t.depth.at(x, y));
+            EXPECT_NEAR(png.pixels.at(x, y) * 0.01, t.depth.at(x, y), 0.0051);
+        }
+    // The mask is the colour frame's field of view: black outside it.
+    const image::PngImage mask = image::readPng(dir / "fly_0001.mask.png");
+    const image::PngImage rgb = image::readPng(dir / "fly_0001.png");
+    int agree = 0;
+    for (int y = 0; y < 72; ++y)
+        for (int x = 0; x < 96; ++x) {
+            const bool lit = rgb.pixels.at(x, y, 0) + rgb.pixels.at(x, y, 1) + rgb.pixels.at(x, y, 2) > 0;
+            agree += lit == (mask.pixels.at(x, y) > 0);
+        }
+    EXPECT_GE(agree, 0.97 * 96 * 72);
+
+    // Resume: a frame missing one output is rendered again, the others kept.
+    fs::remove(dir / "fly_0001.normals.exr");
+    r = test::runCli(args);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("wrote 1 frame"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("kept 2 existing"), std::string::npos) << r.out;
+    EXPECT_TRUE(fs::exists(dir / "fly_0001.normals.exr"));
+    // Other outputs on resume are refused, naming them.
+    fs::remove(dir / "fly_0002.png");
+    r = test::runCli("render -o '" + out + "' --frames 3 --size 96x72 --outputs rgb,depth");
+    test::expectOneErrorLine(r, "outputs");
+    EXPECT_FALSE(fs::exists(dir / "fly_0002.png"));
+    r = test::runCli("render -o '" + out + "' --outputs rgb,depht");
+    test::expectOneErrorLine(r, "depht");
+}
+
+}  // namespace
+}  // namespace mucosa
