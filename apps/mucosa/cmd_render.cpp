@@ -134,6 +134,17 @@ void run(const RenderArgs& a, const Global& g) {
     const int settleFrames = static_cast<int>(std::ceil(
         kSettleTimeConstants * scene.params[shading::Param::Adaptation] * scene.params[shading::Param::FrameRate]));
     shading::ExposureState exposure;
+    // The ground truth of frame i: the manifest's camera on the scene's mesh.
+    const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
+    auto cameraToWorld = [&](int i) { return dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]); };
+    auto truthOf = [&](int i) {
+        dataset::GroundTruth t = dataset::groundTruth(assets.mesh, K, cameraToWorld(i), scene.lens.nearMm, g.threads);
+        t.inView = dataset::fieldOfView(
+            scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height));
+        return t;
+    };
+    std::optional<dataset::GroundTruth> previous;
+    int previousIndex = -1;
     auto renderFrame = [&](int i) {
         shading::FrameSetup f = scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height);
         f.frameIndex = i;
@@ -154,15 +165,18 @@ void run(const RenderArgs& a, const Global& g) {
         std::optional<dataset::GroundTruth> truth;
         std::uint64_t truthBytes = 0;
         if (outputs.any()) {
-            truth = dataset::groundTruth(assets.mesh, dataset::intrinsicsOf(scene.lens, scene.width, scene.height),
-                                         dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]),
-                                         scene.lens.nearMm, g.threads);
-            truth->inView = dataset::fieldOfView(
-                scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height));
+            truth = truthOf(i);
+            if (outputs.flow) {
+                // The flow needs the frame before (kept from the last frame
+                // rendered, else computed: the first frame of a resumed run).
+                if (i > 0 && previousIndex != i - 1) previous = truthOf(i - 1), previousIndex = i - 1;
+                dataset::flowToPrevious(*truth, K, cameraToWorld(i), i > 0 ? &*previous : nullptr,
+                                        i > 0 ? cameraToWorld(i - 1) : cameraToWorld(i), scene.lens.nearMm);
+            }
             // Upper bound of the ground truth's files: float EXR / 16-bit PNG, uncompressed.
             const std::uint64_t px = static_cast<std::uint64_t>(scene.width) * scene.height;
-            truthBytes =
-                px * (outputs.depth * 6 + outputs.normals * 18 + outputs.mask + outputs.uv * 12 + outputs.face * 4);
+            truthBytes = px * (outputs.depth * 6 + outputs.normals * 18 + outputs.mask + outputs.uv * 12 +
+                               outputs.face * 4 + outputs.flow * 13);
         }
         if (written == 0 && frames - existing > 1) {
             // The first frame encoded is the estimate for the rest: refuse a run
@@ -178,6 +192,7 @@ void run(const RenderArgs& a, const Global& g) {
         if (written == 0 && asDataset)
             writeDatasetManifest(out, scene, poses, names, outputs, a.depthScaleMm, manifest);
         if (truth) dataset::writeGroundTruth(*truth, name, outputs, a.depthScaleMm);
+        if (truth && outputs.flow) previous = std::move(truth), previousIndex = i;
         if (outputs.rgb) writeFileAtomic(name, png);
         ++written;
         if (frames > 1 && !g.quiet) {
@@ -220,10 +235,11 @@ void addRenderCommand(CLI::App& app, Global& g) {
                 "Start over: render every frame again, even those on disk (default: keep them and resume, if "
                 "OUT.render.json says they were made with the same settings)");
     c->add_flag("--reference", a->reference, "Use the C++ reference renderer (no OpenGL; slow)");
-    c->add_option("--outputs", a->outputs,
-                  "What each frame writes, comma-separated: rgb, depth, normals, mask, uv, face (ground truth beside "
-                  "each frame, and OUT.frames.json: poses, intrinsics, every file's encoding and unit; "
-                  "docs/datasets.md) [the scene's \"outputs\", else rgb]");
+    c->add_option(
+        "--outputs", a->outputs,
+        "What each frame writes, comma-separated: rgb, depth, normals, mask, uv, face, flow (ground truth beside "
+        "each frame, and OUT.frames.json: poses, intrinsics, every file's encoding and unit; "
+        "docs/datasets.md) [the scene's \"outputs\", else rgb]");
     c->add_option("--depth-png-scale", a->depthScaleMm,
                   "Millimetres per unit of the 16-bit depth PNG [0.01: up to 655 mm]");
     c->callback([a, &g] { run(*a, g); });

@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kNames[] = {"rgb", "depth", "normals", "mask", "uv", "face"};
+constexpr const char* kNames[] = {"rgb", "depth", "normals", "mask", "uv", "face", "flow"};
 
 bool* flag(Outputs& o, std::string_view name) {
     if (name == "rgb") return &o.rgb;
@@ -30,6 +30,7 @@ bool* flag(Outputs& o, std::string_view name) {
     if (name == "mask") return &o.mask;
     if (name == "uv") return &o.uv;
     if (name == "face") return &o.face;
+    if (name == "flow") return &o.flow;
     return nullptr;
 }
 
@@ -59,7 +60,7 @@ Outputs parseOutputs(std::string_view list, const std::string& what, const std::
         bool* f = flag(o, name);
         if (!f)
             throw InputError(what, where,
-                             fmt::format("unknown output '{}' (the outputs: rgb, depth, normals, mask, uv, face)",
+                             fmt::format("unknown output '{}' (the outputs: rgb, depth, normals, mask, uv, face, flow)",
                                          std::string(name)));
         if (*f) throw InputError(what, where, fmt::format("'{}' is listed twice", std::string(name)));
         *f = any = true;
@@ -166,6 +167,51 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
     return t;
 }
 
+void flowToPrevious(GroundTruth& t, const fit::Intrinsics& K, const fit::Mat4& c2w, const GroundTruth* prev,
+                    const fit::Mat4& prevC2w, double nearMm) {
+    t.flow = image::ImageF(t.width, t.height, 3);
+    if (!prev) return;
+    if (prev->width != t.width || prev->height != t.height)
+        throw InputError("previous frame", "flow", "has another size");
+    // This camera to the previous one: x_prev = W_prev * C * x (camera axes).
+    const fit::Mat4 w2p = fit::invertRigid(prevC2w);
+    fit::Mat4 m{};
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c)
+            for (int k = 0; k < 4; ++k) m[r][c] += w2p[r][k] * c2w[k][c];
+    const int w = t.width, h = t.height;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * w + x;
+            if (!t.valid[i]) continue;
+            const double z = t.depth.at(x, y);
+            const double X[3] = {(x - K.cx) / K.fx * z, (y - K.cy) / K.fy * z, z};
+            double P[3];
+            for (int r = 0; r < 3; ++r) P[r] = m[r][0] * X[0] + m[r][1] * X[1] + m[r][2] * X[2] + m[r][3];
+            if (!(P[2] > nearMm)) continue;
+            const double u = K.fx * P[0] / P[2] + K.cx, v = K.fy * P[1] / P[2] + K.cy;
+            t.flow.at(x, y, 0) = static_cast<float>(u - x);
+            t.flow.at(x, y, 1) = static_cast<float>(v - y);
+            if (!(u >= 0 && v >= 0 && u <= w - 1 && v <= h - 1)) continue;
+            const int x0 = std::min(w - 2, static_cast<int>(u)), y0 = std::min(h - 2, static_cast<int>(v));
+            const double ax = u - x0, ay = v - y0;
+            double depth = 0, weight = 0;
+            bool inView = false;
+            for (int dy = 0; dy < 2; ++dy)
+                for (int dx = 0; dx < 2; ++dx) {
+                    const std::size_t j = static_cast<std::size_t>(y0 + dy) * w + x0 + dx;
+                    const double wj = (dx ? ax : 1 - ax) * (dy ? ay : 1 - ay);
+                    if (wj > 0 && prev->inView[j]) inView = true;
+                    if (!prev->valid[j]) continue;
+                    depth += wj * prev->depth.at(x0 + dx, y0 + dy);
+                    weight += wj;
+                }
+            if (!inView || !(weight > 1e-9)) continue;
+            depth /= weight;
+            if (std::abs(depth - P[2]) <= 0.01 * P[2] + 0.01) t.flow.at(x, y, 2) = 1.f;
+        }
+}
+
 std::vector<std::uint8_t> fieldOfView(const shading::FrameSetup& frame) {
     const shading::glsl::Camera c = shading::glsl::packCamera(frame, 1.0f);
     std::vector<std::uint8_t> in(static_cast<std::size_t>(frame.width) * frame.height);
@@ -186,6 +232,7 @@ std::vector<fs::path> outputFiles(const fs::path& rgbName, const Outputs& o) {
     if (o.mask) files.push_back(beside(rgbName, ".mask.png"));
     if (o.uv) files.push_back(beside(rgbName, ".uv.exr"));
     if (o.face) files.push_back(beside(rgbName, ".face.exr"));
+    if (o.flow) files.push_back(beside(rgbName, ".flow.exr")), files.push_back(beside(rgbName, ".occlusion.png"));
     return files;
 }
 
@@ -222,6 +269,15 @@ void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outpu
         image::ImageF f(w, h, 1);
         for (std::size_t i = 0; i < t.face.size(); ++i) f.data()[i] = static_cast<float>(t.face[i]);
         image::writeExr(beside(rgbName, ".face.exr"), f);
+    }
+    if (o.flow) {
+        if (t.flow.width() != w || t.flow.height() != h)
+            throw InputError("flow", rgbName.string(), "was not computed (flowToPrevious)");
+        image::writeExr(beside(rgbName, ".flow.exr"), t.flow);
+        image::Image8 png(w, h, 1);
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) png.at(x, y) = t.flow.at(x, y, 2) > 0 ? 0 : 255;
+        image::writePng(beside(rgbName, ".occlusion.png"), png);
     }
 }
 
@@ -275,6 +331,19 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
                      {"encoding", "OpenEXR, one FLOAT channel 'Y', ZIP"},
                      {"content", "index of the mesh triangle seen (the mesh file's triangle order), exact integers"},
                      {"invalid", "-1"}};
+    if (o.flow) {
+        j["flow"] = {{"file", stem + ".flow.exr"},
+                     {"encoding", "OpenEXR, FLOAT channels 'R','G','B' = du, dv, visible, ZIP"},
+                     {"unit", "pixels"},
+                     {"content",
+                      "backward flow: where the pixel's surface point was in the previous frame minus where it is "
+                      "(u_prev - u, v_prev - v), exact from depth and poses; visible = 1 where the point was seen in "
+                      "the previous frame (within 1 % + 0.01 mm of its depth there, inside its view)"},
+                     {"invalid", "visible = 0: occluded, outside the previous view, no surface, or the first frame"}};
+        j["occlusion"] = {{"file", stem + ".occlusion.png"},
+                          {"encoding", "8-bit grey PNG"},
+                          {"content", "255 where the flow is not valid (flow.exr's visible = 0), 0 where it is"}};
+    }
     return j;
 }
 

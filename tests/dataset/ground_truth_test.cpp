@@ -106,6 +106,88 @@ TEST(GroundTruth, ATiltedPlanesDepthNormalUvAndFaceAreItsClosedForm) {
     EXPECT_LE(worstUv, 1e-4);
 }
 
+// A quad moved so that its centre is at `c` (mm).
+mesh::Mesh movedQuad(float size, const mesh::Vec3& c) {
+    mesh::Mesh m = mesh::makeQuad(size, 2);
+    for (auto& p : m.positions)
+        for (int k = 0; k < 3; ++k) p[k] += c[k];
+    return m;
+}
+
+TEST(GroundTruth, FlowIsEachPointsReprojectionIntoThePreviousFrame) {
+    const mesh::Mesh quad = movedQuad(400.f, {0, 0, 0});
+    const fit::Intrinsics K = camera(120, 90, 90);
+    const Mat4 before = fit::lookAtPose({0, 0, 40}, {2, 1, 0}, {0, 1, 0});
+    const Mat4 now = fit::lookAtPose({3, -1.5, 36}, {-2, 3, 0}, {0.2, 1, 0});
+    dataset::GroundTruth t0 = dataset::groundTruth(quad, K, before, 0.5);
+    dataset::GroundTruth t1 = dataset::groundTruth(quad, K, now, 0.5);
+    dataset::flowToPrevious(t0, K, before, nullptr, before, 0.5);
+    for (float v : t0.flow.span()) ASSERT_EQ(v, 0.f);  // the first frame: no flow, nothing visible
+    dataset::flowToPrevious(t1, K, now, &t0, before, 0.5);
+    const Vec3d eye = fit::cameraCentre(now);
+    const Mat4 w2c = fit::invertRigid(before);
+    double worst = 0;
+    int visible = 0, leaving = 0;
+    for (int y = 0; y < K.height; ++y)
+        for (int x = 0; x < K.width; ++x) {
+            const Vec3d d = worldRay(K, now, x, y);
+            const double s = -eye[2] / d[2];
+            const Vec3d p{eye[0] + s * d[0], eye[1] + s * d[1], 0};
+            const Vec3d q = fit::transformPoint(w2c, p);
+            const double u = K.fx * q[0] / q[2] + K.cx, v = K.fy * q[1] / q[2] + K.cy;
+            worst = std::max({worst, std::abs(t1.flow.at(x, y, 0) - (u - x)), std::abs(t1.flow.at(x, y, 1) - (v - y))});
+            const bool inside = u >= 0 && v >= 0 && u <= K.width - 1 && v <= K.height - 1;
+            EXPECT_EQ(t1.flow.at(x, y, 2), inside ? 1.f : 0.f) << x << "," << y;
+            visible += inside;
+            leaving += !inside;
+        }
+    EXPECT_LE(worst, 2e-3);  // pixels, float storage
+    EXPECT_GT(visible, K.width * K.height / 2);
+    EXPECT_GT(leaving, 100);  // the motion takes part of the view out of the previous frame
+}
+
+TEST(GroundTruth, FlowMarksWhatAnOccluderHidInThePreviousFrame) {
+    // A wall at z = 0 and a card 10 mm in front of it; the camera steps 15 mm sideways.
+    mesh::Mesh scene = movedQuad(400.f, {0, 0, 0});
+    const mesh::Mesh card = movedQuad(8.f, {0, 0, 10});
+    const auto base = static_cast<std::uint32_t>(scene.positions.size());
+    scene.positions.insert(scene.positions.end(), card.positions.begin(), card.positions.end());
+    scene.normals.insert(scene.normals.end(), card.normals.begin(), card.normals.end());
+    scene.uvs.insert(scene.uvs.end(), card.uvs.begin(), card.uvs.end());
+    scene.tangents.insert(scene.tangents.end(), card.tangents.begin(), card.tangents.end());
+    for (std::uint32_t i : card.indices) scene.indices.push_back(base + i);
+    const fit::Intrinsics K = camera(120, 90, 90);
+    const Mat4 before = fit::lookAtPose({0, 0, 40}, {0, 0, 0}, {0, 1, 0});
+    const Mat4 now = fit::lookAtPose({15, 0, 40}, {15, 0, 0}, {0, 1, 0});
+    const dataset::GroundTruth t0 = dataset::groundTruth(scene, K, before, 0.5);
+    dataset::GroundTruth t1 = dataset::groundTruth(scene, K, now, 0.5);
+    dataset::flowToPrevious(t1, K, now, &t0, before, 0.5);
+    // Analytic: a point of the wall was hidden from the previous camera when
+    // the segment to it crosses the card (|x|, |y| <= 4 at z = 10).
+    const Vec3d eye = fit::cameraCentre(now), old = fit::cameraCentre(before);
+    int hidden = 0, agree = 0, total = 0;
+    for (int y = 0; y < K.height; ++y)
+        for (int x = 0; x < K.width; ++x) {
+            const Vec3d d = worldRay(K, now, x, y);
+            const double s = -eye[2] / d[2];
+            const Vec3d p{eye[0] + s * d[0], eye[1] + s * d[1], 0};
+            const double sc = (10 - eye[2]) / d[2];  // this ray at the card's plane
+            if (std::abs(eye[0] + sc * d[0]) <= 4.2 && std::abs(eye[1] + sc * d[1]) <= 4.2) continue;  // sees the card
+            const double a = (10 - old[2]) / (p[2] - old[2]);  // the old camera's segment at z = 10
+            const double cx = old[0] + a * (p[0] - old[0]), cy = old[1] + a * (p[1] - old[1]);
+            if (std::abs(std::abs(cx) - 4) < 0.2 || std::abs(std::abs(cy) - 4) < 0.2) continue;  // the card's rim
+            const bool wasHidden = std::abs(cx) < 4 && std::abs(cy) < 4;
+            const Vec3d q = fit::transformPoint(fit::invertRigid(before), p);
+            const double u = K.fx * q[0] / q[2] + K.cx, v = K.fy * q[1] / q[2] + K.cy;
+            const bool outside = !(u >= 0 && v >= 0 && u <= K.width - 1 && v <= K.height - 1);
+            hidden += wasHidden;
+            ++total;
+            agree += (t1.flow.at(x, y, 2) == 0.f) == (wasHidden || outside);
+        }
+    EXPECT_GT(hidden, 100);
+    EXPECT_EQ(agree, total);
+}
+
 TEST(GroundTruth, InsideASphereDepthAndNormalsAreItsClosedForm) {
     const double r = 20;
     const mesh::Mesh sphere = mesh::makeSphere(static_cast<float>(r), 360, 180);
@@ -187,7 +269,8 @@ TEST(GroundTruth, OutputListsAreParsedAndRefused) {
 TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
     test::TempDir dir;
     const std::string out = (dir / "fly.png").string();
-    const std::string args = "render -o '" + out + "' --frames 3 --size 96x72 --outputs rgb,depth,normals,mask,uv,face";
+    const std::string args =
+        "render -o '" + out + "' --frames 3 --size 96x72 --outputs rgb,depth,normals,mask,uv,face,flow";
     test::RunResult r = test::runCli(args);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     // The manifest: the frames file `mucosa fit` reads, with the outputs described.
@@ -228,10 +311,13 @@ TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
         }
     EXPECT_GE(agree, 0.97 * 96 * 72);
 
-    // Resume: a frame missing one output is rendered again, the others kept.
+    // Resume: a frame missing one output is rendered again, the others kept;
+    // its flow (from the frame before, computed again) is the same.
+    const std::string flow = test::readBytes(dir / "fly_0001.flow.exr");
     fs::remove(dir / "fly_0001.normals.exr");
     r = test::runCli(args);
     ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(test::readBytes(dir / "fly_0001.flow.exr"), flow);
     EXPECT_NE(r.out.find("wrote 1 frame"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("kept 2 existing"), std::string::npos) << r.out;
     EXPECT_TRUE(fs::exists(dir / "fly_0001.normals.exr"));

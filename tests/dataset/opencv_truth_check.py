@@ -3,7 +3,7 @@
 
 Usage: opencv_truth_check.py MUCOSA_CLI WORK_DIR
 
-Renders two frames of the airway phantom (written as OBJ, so the triangles
+Renders frames of the airway phantom (written as OBJ, so the triangles
 can be read back independently of Mucosa) with depth, normals, mask and face
 outputs, then, for every pixel that sees the wall:
   - back-projects it with the manifest's intrinsics and camera_to_world and
@@ -12,7 +12,9 @@ outputs, then, for every pixel that sees the wall:
   - checks the point lies on the triangle the face output names (distance to
     its plane), and that cv2.projectPoints of that triangle's three vertices
     encloses the pixel;
-  - checks the normal is unit length and faces the camera.
+  - checks the normal is unit length and faces the camera;
+  - checks the flow to the previous frame is cv2.projectPoints of the point
+    into the previous camera minus the pixel.
 Debian's python3-opencv and python3-numpy; a missing module fails the test.
 """
 import json
@@ -58,12 +60,15 @@ def main():
     cli, work = sys.argv[1], sys.argv[2]
     os.makedirs(work, exist_ok=True)
     run(cli, "phantom", "-o", "airway.obj", "--generations", "1", "--resolution", "1", cwd=work)
-    run(cli, "render", "airway.obj", "-o", "f.png", "--frames", "2", "--size", "128x96", "--overwrite",
-        "--outputs", "rgb,depth,normals,mask,face", cwd=work)
+    # 30 frames along the path (a few mm apart, so the flow has a previous
+    # frame that sees the same wall); the first three are checked.
+    run(cli, "render", "airway.obj", "-o", "f.png", "--frames", "30", "--size", "128x96", "--overwrite",
+        "--outputs", "rgb,depth,normals,mask,face,flow", cwd=work)
     verts, tris = read_obj(os.path.join(work, "airway.obj"))
     manifest = json.load(open(os.path.join(work, "f.frames.json")))
     failures = []
-    for i, fr in enumerate(manifest["frames"]):
+    previous = None  # the previous frame's (rvec, tvec, K)
+    for i, fr in enumerate(manifest["frames"][:3]):
         k = fr["intrinsics"]
         K = np.array([[k["fx"], 0, k["cx"]], [0, k["fy"], k["cy"]], [0, 0, 1]], dtype=np.float64)
         c2w = np.array(fr["camera_to_world"], dtype=np.float64)
@@ -124,6 +129,21 @@ def main():
         print(f"frame {i}: normals: |n| - 1 worst {unit:.1e}, facing the camera {facing * 100:.1f} %")
         if unit > 1e-5 or facing < 1:
             failures.append(f"frame {i}: normals not unit or not facing the camera")
+        flow = read_exr(stem + ".flow.exr")[:, :, ::-1]  # du, dv, visible
+        if previous is None:
+            if np.any(flow != 0):
+                failures.append(f"frame {i}: the first frame has flow")
+        else:
+            pp, _ = cv2.projectPoints(world, *previous)
+            expected = pp.reshape(-1, 2) - np.stack([u, v], axis=1)
+            got = flow[v, u, :2].astype(np.float64)
+            seen = flow[v, u, 2] > 0
+            ferr = float(np.max(np.abs(got - expected)))
+            print(f"frame {i}: flow against cv2.projectPoints into the previous camera: worst {ferr:.1e} px, "
+                  f"{seen.mean() * 100:.1f} % visible before")
+            if ferr > 1e-3 or seen.mean() < 0.5:
+                failures.append(f"frame {i}: flow off by {ferr} px or too little visible ({seen.mean()})")
+        previous = (rvec, tvec, K, None)
     if failures:
         print("\n".join("FAIL: " + f for f in failures))
         sys.exit(1)

@@ -34,7 +34,8 @@ struct Outputs {
     bool mask = false;     // the pixels that see a surface: 8-bit PNG
     bool uv = false;       // the mesh's texture coordinates: float32 EXR
     bool face = false;     // the triangle index: float32 EXR (exact up to 2^24)
-    bool any() const noexcept { return depth || normals || mask || uv || face; }  // any ground truth
+    bool flow = false;     // optical flow to the previous frame and its occlusion: float32 EXR + 8-bit PNG
+    bool any() const noexcept { return depth || normals || mask || uv || face || flow; }  // any ground truth
 };
 // "rgb,depth,normals": throws InputError naming `what` and `where` for an
 // unknown or repeated name or an empty list.
@@ -58,6 +59,11 @@ struct GroundTruth {
     // one): the pixels the colour frame shows. The mask output is valid and
     // inView.
     std::vector<std::uint8_t> inView;
+    // 3 channels: the flow to the previous frame in pixels (du, dv: where the
+    // pixel's surface point was, minus where it is), and 1 where that point
+    // was visible in the previous frame (0: occluded, outside its view, no
+    // surface here, or no previous frame). Filled by flowToPrevious.
+    image::ImageF flow;
 };
 
 // The ground truth of the pinhole camera `K` (no distortion: k1 = k2 = 0) at
@@ -68,6 +74,16 @@ struct GroundTruth {
 // face ids (more than 2^24 triangles) when `faces` is asked for.
 GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld, double nearMm,
                         int threads = 0);
+
+// Fills `current.flow`: each pixel's surface point projected into the
+// previous frame's camera (exact: from the depth and the two poses, not
+// estimated from the images). The point counts as visible there when it
+// lands inside the previous frame and its field of view, in front of its
+// near plane, and within 1 % + 0.01 mm of the previous frame's depth at that
+// place (bilinear over the neighbours that see a surface); otherwise it is
+// occluded. `previous` null (the first frame): no flow, nothing visible.
+void flowToPrevious(GroundTruth& current, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld,
+                    const GroundTruth* previous, const fit::Mat4& previousCameraToWorld, double nearMm);
 
 // The pixels inside the field-of-view mask of a frame (camera.mask and
 // camera.mask_radius, the shader's own test at the pixel centre), 1 inside.
