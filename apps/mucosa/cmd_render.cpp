@@ -46,7 +46,8 @@ std::filesystem::path datasetManifestPath(const std::filesystem::path& output) {
 // that made them.
 void writeDatasetManifest(const std::filesystem::path& output, const scene::Scene& scene,
                           const std::vector<camera::Pose>& poses, const std::vector<std::filesystem::path>& names,
-                          const dataset::Outputs& outputs, double depthScaleMm, const nlohmann::json& settings) {
+                          const dataset::Outputs& outputs, double depthScaleMm, const nlohmann::json& settings,
+                          const mesh::Centerline& tree) {
     fit::FrameSet set;
     set.response.toneCurve = static_cast<int>(scene.params[shading::Param::ToneCurve]);
     set.response.vignetting = scene.params[shading::Param::Vignetting];
@@ -61,7 +62,7 @@ void writeDatasetManifest(const std::filesystem::path& output, const scene::Scen
         set.frames.push_back(f);
     }
     nlohmann::json extra;
-    extra["outputs"] = dataset::describeOutputs(output, static_cast<int>(poses.size()), outputs, depthScaleMm);
+    extra["outputs"] = dataset::describeOutputs(output, static_cast<int>(poses.size()), outputs, depthScaleMm, &tree);
     extra["conventions"] = {
         {"camera_axes", "OpenCV: x right, y down, z forward"},
         {"camera_to_world", "row-major 4x4, rotation columns = the camera's axes in world coordinates, mm"},
@@ -145,6 +146,16 @@ void run(const RenderArgs& a, const Global& g) {
     };
     std::optional<dataset::GroundTruth> previous;
     int previousIndex = -1;
+    // Branch labels: each vertex's branch, once.
+    std::vector<std::int32_t> vertexBranch;
+    if (outputs.branch) {
+        if (assets.centerlineTree.branches.empty())
+            throw InputError("--outputs", "branch",
+                             "needs the airway's centerline tree (the phantom, a centerline JSON beside the mesh or in "
+                             "camera.path.centerline, or one computed from the mesh), which this scene's camera path "
+                             "does not have");
+        vertexBranch = dataset::vertexBranches(assets.mesh, assets.centerlineTree);
+    }
     auto renderFrame = [&](int i) {
         shading::FrameSetup f = scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height);
         f.frameIndex = i;
@@ -166,6 +177,7 @@ void run(const RenderArgs& a, const Global& g) {
         std::uint64_t truthBytes = 0;
         if (outputs.any()) {
             truth = truthOf(i);
+            if (outputs.branch) dataset::labelBranches(*truth, assets.mesh, vertexBranch);
             if (outputs.flow) {
                 // The flow needs the frame before (kept from the last frame
                 // rendered, else computed: the first frame of a resumed run).
@@ -176,7 +188,7 @@ void run(const RenderArgs& a, const Global& g) {
             // Upper bound of the ground truth's files: float EXR / 16-bit PNG, uncompressed.
             const std::uint64_t px = static_cast<std::uint64_t>(scene.width) * scene.height;
             truthBytes = px * (outputs.depth * 6 + outputs.normals * 18 + outputs.mask + outputs.uv * 12 +
-                               outputs.face * 4 + outputs.flow * 13);
+                               outputs.face * 4 + outputs.flow * 13 + outputs.branch * 2);
         }
         if (written == 0 && frames - existing > 1) {
             // The first frame encoded is the estimate for the rest: refuse a run
@@ -190,7 +202,7 @@ void run(const RenderArgs& a, const Global& g) {
         }
         if (written == 0 && frames > 1) writeFileAtomic(manifestPath(out), manifest.dump(2) + "\n");
         if (written == 0 && asDataset)
-            writeDatasetManifest(out, scene, poses, names, outputs, a.depthScaleMm, manifest);
+            writeDatasetManifest(out, scene, poses, names, outputs, a.depthScaleMm, manifest, assets.centerlineTree);
         if (truth) dataset::writeGroundTruth(*truth, name, outputs, a.depthScaleMm);
         if (truth && outputs.flow) previous = std::move(truth), previousIndex = i;
         if (outputs.rgb) writeFileAtomic(name, png);
@@ -235,11 +247,11 @@ void addRenderCommand(CLI::App& app, Global& g) {
                 "Start over: render every frame again, even those on disk (default: keep them and resume, if "
                 "OUT.render.json says they were made with the same settings)");
     c->add_flag("--reference", a->reference, "Use the C++ reference renderer (no OpenGL; slow)");
-    c->add_option(
-        "--outputs", a->outputs,
-        "What each frame writes, comma-separated: rgb, depth, normals, mask, uv, face, flow (ground truth beside "
-        "each frame, and OUT.frames.json: poses, intrinsics, every file's encoding and unit; "
-        "docs/datasets.md) [the scene's \"outputs\", else rgb]");
+    c->add_option("--outputs", a->outputs,
+                  "What each frame writes, comma-separated: rgb, depth, normals, mask, uv, face, flow, branch (ground "
+                  "truth beside "
+                  "each frame, and OUT.frames.json: poses, intrinsics, every file's encoding and unit; "
+                  "docs/datasets.md) [the scene's \"outputs\", else rgb]");
     c->add_option("--depth-png-scale", a->depthScaleMm,
                   "Millimetres per unit of the 16-bit depth PNG [0.01: up to 655 mm]");
     c->callback([a, &g] { run(*a, g); });

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/memory.hpp>
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kNames[] = {"rgb", "depth", "normals", "mask", "uv", "face", "flow"};
+constexpr const char* kNames[] = {"rgb", "depth", "normals", "mask", "uv", "face", "flow", "branch"};
 
 bool* flag(Outputs& o, std::string_view name) {
     if (name == "rgb") return &o.rgb;
@@ -31,6 +32,7 @@ bool* flag(Outputs& o, std::string_view name) {
     if (name == "uv") return &o.uv;
     if (name == "face") return &o.face;
     if (name == "flow") return &o.flow;
+    if (name == "branch") return &o.branch;
     return nullptr;
 }
 
@@ -59,9 +61,10 @@ Outputs parseOutputs(std::string_view list, const std::string& what, const std::
         while (!name.empty() && name.back() == ' ') name.remove_suffix(1);
         bool* f = flag(o, name);
         if (!f)
-            throw InputError(what, where,
-                             fmt::format("unknown output '{}' (the outputs: rgb, depth, normals, mask, uv, face, flow)",
-                                         std::string(name)));
+            throw InputError(
+                what, where,
+                fmt::format("unknown output '{}' (the outputs: rgb, depth, normals, mask, uv, face, flow, branch)",
+                            std::string(name)));
         if (*f) throw InputError(what, where, fmt::format("'{}' is listed twice", std::string(name)));
         *f = any = true;
         start = comma + 1;
@@ -114,6 +117,8 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
     t.normals = image::ImageF(K.width, K.height, 3);
     t.uv = image::ImageF(K.width, K.height, 3);
     t.face = g.triangle;
+    t.b1 = g.b1;
+    t.b2 = g.b2;
     t.valid.assign(n, 0);
     t.inView.assign(n, 1);
     const bool normals = mesh.normals.size() == mesh.positions.size();
@@ -212,6 +217,57 @@ void flowToPrevious(GroundTruth& t, const fit::Intrinsics& K, const fit::Mat4& c
         }
 }
 
+std::vector<std::int32_t> vertexBranches(const mesh::Mesh& mesh, const mesh::Centerline& tree) {
+    if (tree.branches.empty()) throw InputError("centerline", "branch labels", "has no branches");
+    // Every segment with its radii (a branch without radii counts as radius 1).
+    struct Segment {
+        mesh::Vec3 a, b;
+        float ra, rb;
+        std::int32_t branch;
+    };
+    std::vector<Segment> segments;
+    for (std::size_t bi = 0; bi < tree.branches.size(); ++bi) {
+        const mesh::CenterlineBranch& br = tree.branches[bi];
+        const bool radii = br.radii.size() == br.points.size();
+        for (std::size_t k = 0; k < br.points.size(); ++k) {
+            const std::size_t k1 = std::min(k + 1, br.points.size() - 1);
+            if (k1 == k && br.points.size() > 1) break;
+            segments.push_back({br.points[k], br.points[k1], radii ? br.radii[k] : 1.f, radii ? br.radii[k1] : 1.f,
+                                static_cast<std::int32_t>(bi)});
+        }
+    }
+    std::vector<std::int32_t> out(mesh.vertexCount(), 0);
+    tbb::parallel_for(std::size_t{0}, mesh.vertexCount(), [&](std::size_t v) {
+        const mesh::Vec3& p = mesh.positions[v];
+        double best = std::numeric_limits<double>::infinity();
+        for (const Segment& s : segments) {
+            double d[3], e[3], ee = 0, de = 0;
+            for (int k = 0; k < 3; ++k) d[k] = p[k] - s.a[k], e[k] = s.b[k] - s.a[k];
+            for (int k = 0; k < 3; ++k) ee += e[k] * e[k], de += d[k] * e[k];
+            const double f = ee > 0 ? std::clamp(de / ee, 0.0, 1.0) : 0.0;
+            double dist2 = 0;
+            for (int k = 0; k < 3; ++k) dist2 += (d[k] - f * e[k]) * (d[k] - f * e[k]);
+            const double r = std::max(1e-3, s.ra + f * (s.rb - s.ra));
+            const double score = dist2 / (r * r);
+            if (score < best) best = score, out[v] = s.branch;
+        }
+    });
+    return out;
+}
+
+void labelBranches(GroundTruth& t, const mesh::Mesh& mesh, const std::vector<std::int32_t>& vertexBranch) {
+    if (vertexBranch.size() != mesh.vertexCount())
+        throw InputError("branch labels", "ground truth", "are for another mesh");
+    t.branch.assign(t.face.size(), -1);
+    for (std::size_t i = 0; i < t.face.size(); ++i) {
+        if (t.face[i] < 0) continue;
+        const std::uint32_t* v = &mesh.indices[3 * static_cast<std::size_t>(t.face[i])];
+        const float b0 = 1.f - t.b1[i] - t.b2[i];
+        const int k = b0 >= t.b1[i] && b0 >= t.b2[i] ? 0 : t.b1[i] >= t.b2[i] ? 1 : 2;
+        t.branch[i] = vertexBranch[v[k]];
+    }
+}
+
 std::vector<std::uint8_t> fieldOfView(const shading::FrameSetup& frame) {
     const shading::glsl::Camera c = shading::glsl::packCamera(frame, 1.0f);
     std::vector<std::uint8_t> in(static_cast<std::size_t>(frame.width) * frame.height);
@@ -233,6 +289,7 @@ std::vector<fs::path> outputFiles(const fs::path& rgbName, const Outputs& o) {
     if (o.uv) files.push_back(beside(rgbName, ".uv.exr"));
     if (o.face) files.push_back(beside(rgbName, ".face.exr"));
     if (o.flow) files.push_back(beside(rgbName, ".flow.exr")), files.push_back(beside(rgbName, ".occlusion.png"));
+    if (o.branch) files.push_back(beside(rgbName, ".branch.png"));
     return files;
 }
 
@@ -279,9 +336,18 @@ void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outpu
             for (int x = 0; x < w; ++x) png.at(x, y) = t.flow.at(x, y, 2) > 0 ? 0 : 255;
         image::writePng(beside(rgbName, ".occlusion.png"), png);
     }
+    if (o.branch) {
+        if (t.branch.size() != t.face.size())
+            throw InputError("branch", rgbName.string(), "was not labelled (labelBranches)");
+        image::Image16 png(w, h, 1);
+        for (std::size_t i = 0; i < t.branch.size(); ++i)
+            png.data()[i] = static_cast<std::uint16_t>(std::clamp(t.branch[i] + 1, 0, 65535));
+        image::writePng(beside(rgbName, ".branch.png"), png);
+    }
 }
 
-nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs& o, double depthScale) {
+nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs& o, double depthScale,
+                               const mesh::Centerline* tree) {
     const std::string stem = output.stem().string() + (frames > 1 ? "_{frame:04}" : "");
     nlohmann::json j = nlohmann::json::object();
     const std::string none = "0 where the pixel sees no surface (mask.png)";
@@ -343,6 +409,26 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
         j["occlusion"] = {{"file", stem + ".occlusion.png"},
                           {"encoding", "8-bit grey PNG"},
                           {"content", "255 where the flow is not valid (flow.exr's visible = 0), 0 where it is"}};
+    }
+    if (o.branch) {
+        nlohmann::json labels = nlohmann::json::array();
+        if (tree)
+            for (std::size_t b = 0; b < tree->branches.size(); ++b) {
+                const mesh::CenterlineBranch& br = tree->branches[b];
+                labels.push_back({{"value", b + 1},
+                                  {"name", br.name},
+                                  {"generation", br.generation},
+                                  {"parent", br.parent >= 0 ? nlohmann::json(br.parent + 1) : nlohmann::json(0)}});
+            }
+        j["branch"] = {{"file", stem + ".branch.png"},
+                       {"encoding", "16-bit grey PNG"},
+                       {"content",
+                        "the airway branch the pixel sees: value = the centerline branch's index + 1 (the labels "
+                        "below: name, generation (0 trachea, 1 main bronchi, 2 lobar, 3 segmental), parent's value); "
+                        "each wall vertex belongs to the branch whose centerline passes nearest in units of its "
+                        "lumen radius"},
+                       {"invalid", "0 where no surface"},
+                       {"labels", labels}};
     }
     return j;
 }

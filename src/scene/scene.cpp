@@ -245,7 +245,15 @@ struct FlightPath {
     std::vector<mesh::Vec3> points;
     float endRadius = 0;
     std::vector<float> radii;  // one per point, or empty when a branch on the way has none
+    mesh::Centerline tree;     // the tree the path was taken from
 };
+
+void setPath(SceneAssets& a, FlightPath&& p) {
+    a.centerline = std::move(p.points);
+    a.centerlineEndRadius = p.endRadius;
+    a.centerlineRadii = std::move(p.radii);
+    a.centerlineTree = std::move(p.tree);
+}
 
 FlightPath pathTo(const mesh::Centerline& c, int branch) {
     const std::vector<float>& radii = c.branches[static_cast<std::size_t>(branch)].radii;
@@ -270,7 +278,11 @@ FlightPath longestPath(const mesh::Centerline& c, int branch, const std::string&
     if (branch >= static_cast<int>(c.branches.size()))
         throw InputError("camera.path.branch", file,
                          fmt::format("{} is out of range (the centerline has {} branches)", branch, c.branches.size()));
-    if (branch >= 0) return pathTo(c, branch);
+    if (branch >= 0) {
+        FlightPath p = pathTo(c, branch);
+        p.tree = c;
+        return p;
+    }
     FlightPath best;
     float bestLen = -1;
     for (std::size_t b = 0; b < c.branches.size(); ++b) {
@@ -278,6 +290,7 @@ FlightPath longestPath(const mesh::Centerline& c, int branch, const std::string&
         const float len = camera::pathLength(p.points);
         if (len > bestLen) bestLen = len, best = std::move(p);
     }
+    best.tree = c;
     return best;
 }
 
@@ -734,10 +747,7 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         pp.resolution = scene.mesh.phantomResolution;
         mesh::Phantom ph = mesh::makePhantom(pp, threads);
         a.mesh = std::move(ph.mesh);
-        const FlightPath p = longestPath(ph.centerline, scene.path.branch, file);
-        a.centerline = p.points;
-        a.centerlineEndRadius = p.endRadius;
-        a.centerlineRadii = p.radii;
+        setPath(a, longestPath(ph.centerline, scene.path.branch, file));
         a.notes.push_back(fmt::format("phantom: {} generations, {} triangles", pp.generations, a.mesh.triangleCount()));
     } else if (scene.mesh.kind == MeshKind::Tube) {
         a.mesh = mesh::makeTube(kTubeRadius, kTubeLength, kTubeAround, kTubeAlong);
@@ -773,19 +783,13 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         }
         a.notes.push_back(fmt::format("mesh: {} ({} triangles)", scene.mesh.file.string(), a.mesh.triangleCount()));
         if (scene.path.kind == PathKind::Centerline && scene.path.centerlineFile.empty()) {
-            const FlightPath p = meshFileCenterline(scene, a.mesh, a.notes);
-            a.centerline = p.points;
-            a.centerlineEndRadius = p.endRadius;
-            a.centerlineRadii = p.radii;
+            setPath(a, meshFileCenterline(scene, a.mesh, a.notes));
         }
     }
     if (scene.path.kind == PathKind::Centerline && !scene.path.centerlineFile.empty()) {
         requireFile(scene, "camera.path.centerline", scene.path.centerlineFile);
-        const FlightPath p = longestPath(mesh::readCenterlineJson(scene.path.centerlineFile), scene.path.branch,
-                                         scene.path.centerlineFile.string());
-        a.centerline = p.points;
-        a.centerlineEndRadius = p.endRadius;
-        a.centerlineRadii = p.radii;
+        setPath(a, longestPath(mesh::readCenterlineJson(scene.path.centerlineFile), scene.path.branch,
+                               scene.path.centerlineFile.string()));
     }
     if (scene.diffuse) {
         requireFile(scene, "diffuse", *scene.diffuse);
@@ -822,13 +826,13 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
 
 std::string setFlightPath(SceneAssets& a, const mesh::Centerline& centerline, int branch, const std::string& file) {
     const mesh::Centerline c = withoutStubs(centerline);
-    const FlightPath p = longestPath(c, branch, file);
-    a.centerline = p.points;
-    a.centerlineEndRadius = p.endRadius;
-    a.centerlineRadii = p.radii;
+    FlightPath p = longestPath(c, branch, file);
+    const mesh::Vec3 end = p.points.empty() ? mesh::Vec3{} : p.points.back();
+    const bool any = !p.points.empty();
+    setPath(a, std::move(p));
     // The branch the path ends in: the one whose last point it ends on.
     for (const mesh::CenterlineBranch& b : c.branches)
-        if (!b.points.empty() && !p.points.empty() && b.points.back() == p.points.back()) return b.name;
+        if (!b.points.empty() && any && b.points.back() == end) return b.name;
     return {};
 }
 

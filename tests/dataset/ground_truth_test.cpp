@@ -4,6 +4,7 @@
 // resume, refusals).
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 
@@ -14,6 +15,7 @@
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
+#include <mucosa/mesh/phantom.hpp>
 #include <mucosa/mesh/primitives.hpp>
 #include <mucosa/scene/scene.hpp>
 
@@ -188,6 +190,53 @@ TEST(GroundTruth, FlowMarksWhatAnOccluderHidInThePreviousFrame) {
     EXPECT_EQ(agree, total);
 }
 
+TEST(GroundTruth, EachWallVertexBelongsToTheBranchItSurrounds) {
+    mesh::PhantomParams pp;
+    pp.generations = 2;
+    pp.resolution = 1;
+    const mesh::Phantom ph = mesh::makePhantom(pp);
+    const std::vector<std::int32_t> label = dataset::vertexBranches(ph.mesh, ph.centerline);
+    ASSERT_EQ(label.size(), ph.mesh.vertexCount());
+    // Around the middle of every branch (away from its junctions), the wall
+    // within 1.3 radii of the centerline point is that branch's.
+    int checked = 0;
+    for (std::size_t b = 0; b < ph.centerline.branches.size(); ++b) {
+        const mesh::CenterlineBranch& br = ph.centerline.branches[b];
+        const std::size_t mid = br.points.size() / 2;
+        const mesh::Vec3& c = br.points[mid];
+        const double r = br.radii[mid];
+        int here = 0;
+        for (std::size_t v = 0; v < ph.mesh.vertexCount(); ++v) {
+            const auto& p = ph.mesh.positions[v];
+            const double d = std::hypot(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+            if (d > 1.3 * r) continue;
+            ++here;
+            EXPECT_EQ(label[v], static_cast<std::int32_t>(b)) << br.name << " vertex " << v;
+        }
+        EXPECT_GT(here, 20) << br.name;
+        checked += here;
+    }
+    EXPECT_GT(checked, 500);
+    // Pixels take their triangle's nearest vertex's branch.
+    const fit::Intrinsics K = camera(64, 48, 100);
+    const auto& trachea = ph.centerline.branches[0];
+    const mesh::Vec3& a = trachea.points[trachea.points.size() / 3];
+    const mesh::Vec3& b = trachea.points.back();
+    dataset::GroundTruth t =
+        dataset::groundTruth(ph.mesh, K, fit::lookAtPose({a[0], a[1], a[2]}, {b[0], b[1], b[2]}, {0, 0, 1}), 0.5);
+    dataset::labelBranches(t, ph.mesh, label);
+    for (std::size_t i = 0; i < t.face.size(); ++i) {
+        if (t.face[i] < 0) {
+            EXPECT_EQ(t.branch[i], -1);
+            continue;
+        }
+        const std::uint32_t* v = &ph.mesh.indices[3 * static_cast<std::size_t>(t.face[i])];
+        const std::int32_t l = t.branch[i];
+        EXPECT_TRUE(l == label[v[0]] || l == label[v[1]] || l == label[v[2]]);
+    }
+    EXPECT_EQ(t.branch[static_cast<std::size_t>(24 * 64 + 10)], 0);  // the trachea's wall, to the side
+}
+
 TEST(GroundTruth, InsideASphereDepthAndNormalsAreItsClosedForm) {
     const double r = 20;
     const mesh::Mesh sphere = mesh::makeSphere(static_cast<float>(r), 360, 180);
@@ -270,7 +319,7 @@ TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
     test::TempDir dir;
     const std::string out = (dir / "fly.png").string();
     const std::string args =
-        "render -o '" + out + "' --frames 3 --size 96x72 --outputs rgb,depth,normals,mask,uv,face,flow";
+        "render -o '" + out + "' --frames 3 --size 96x72 --outputs rgb,depth,normals,mask,uv,face,flow,branch";
     test::RunResult r = test::runCli(args);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     // The manifest: the frames file `mucosa fit` reads, with the outputs described.
@@ -300,6 +349,20 @@ TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
             EXPECT_NEAR(depth.at(x, y), t.depth.at(x, y), 1e-4 * t.depth.at(x, y));
             EXPECT_NEAR(png.pixels.at(x, y) * 0.01, t.depth.at(x, y), 0.0051);
         }
+    // Branch labels: the tree's branches, in the table and in the picture.
+    const nlohmann::json& labels = j["outputs"]["branch"]["labels"];
+    ASSERT_EQ(labels.size(), scene::loadAssets(s, 0, false).centerlineTree.branches.size());
+    EXPECT_EQ(labels[0]["name"], "trachea");
+    EXPECT_EQ(labels[0]["generation"], 0);
+    EXPECT_EQ(labels[1]["parent"], 1);
+    const image::PngImage branch = image::readPng(dir / "fly_0001.branch.png");
+    EXPECT_EQ(branch.bitDepth, 16);
+    for (int y = 0; y < 72; ++y)
+        for (int x = 0; x < 96; ++x) {
+            const int l = branch.pixels.at(x, y);
+            EXPECT_EQ(l == 0, t.depth.at(x, y) == 0);
+            EXPECT_LE(l, static_cast<int>(labels.size()));
+        }
     // The mask is the colour frame's field of view: black outside it.
     const image::PngImage mask = image::readPng(dir / "fly_0001.mask.png");
     const image::PngImage rgb = image::readPng(dir / "fly_0001.png");
@@ -328,6 +391,13 @@ TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
     EXPECT_FALSE(fs::exists(dir / "fly_0002.png"));
     r = test::runCli("render -o '" + out + "' --outputs rgb,depht");
     test::expectOneErrorLine(r, "depht");
+    // Branch labels need a centerline tree: the tube has none.
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube"})";
+    r = test::runCli("render '" + (dir / "tube.json").string() + "' -o '" + (dir / "tube.png").string() +
+                     "' --outputs rgb,branch");
+    test::expectOneErrorLine(r, "centerline tree");
+    EXPECT_FALSE(fs::exists(dir / "tube.png"));
+    EXPECT_FALSE(fs::exists(dir / "tube.frames.json"));
 }
 
 }  // namespace

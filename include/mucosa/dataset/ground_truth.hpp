@@ -21,6 +21,7 @@
 #include <mucosa/camera/camera.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
+#include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/mesh.hpp>
 #include <mucosa/shading/reference.hpp>
 
@@ -35,7 +36,8 @@ struct Outputs {
     bool uv = false;       // the mesh's texture coordinates: float32 EXR
     bool face = false;     // the triangle index: float32 EXR (exact up to 2^24)
     bool flow = false;     // optical flow to the previous frame and its occlusion: float32 EXR + 8-bit PNG
-    bool any() const noexcept { return depth || normals || mask || uv || face || flow; }  // any ground truth
+    bool branch = false;   // the airway branch seen (segmentation labels from the centerline): 16-bit PNG
+    bool any() const noexcept { return depth || normals || mask || uv || face || flow || branch; }  // any ground truth
 };
 // "rgb,depth,normals": throws InputError naming `what` and `where` for an
 // unknown or repeated name or an empty list.
@@ -54,6 +56,7 @@ struct GroundTruth {
     image::ImageF normals;            // 3 channels: unit, camera space, facing the camera; 0 where no surface
     image::ImageF uv;                 // 3 channels: u, v (OpenGL texture space, v up), 1; 0 where no surface or no UVs
     std::vector<std::int32_t> face;   // triangle index; -1 where no surface
+    std::vector<float> b1, b2;        // barycentrics of the triangle's vertices 1 and 2 at the pixel
     std::vector<std::uint8_t> valid;  // 1 where a surface is seen
     // 1 inside the scope's field-of-view mask (camera.mask; all 1 without
     // one): the pixels the colour frame shows. The mask output is valid and
@@ -64,6 +67,9 @@ struct GroundTruth {
     // was visible in the previous frame (0: occluded, outside its view, no
     // surface here, or no previous frame). Filled by flowToPrevious.
     image::ImageF flow;
+    // The centerline branch (index into the tree) the pixel sees; -1 where
+    // no surface. Filled by labelBranches.
+    std::vector<std::int32_t> branch;
 };
 
 // The ground truth of the pinhole camera `K` (no distortion: k1 = k2 = 0) at
@@ -84,6 +90,14 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
 // occluded. `previous` null (the first frame): no flow, nothing visible.
 void flowToPrevious(GroundTruth& current, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld,
                     const GroundTruth* previous, const fit::Mat4& previousCameraToWorld, double nearMm);
+
+// The branch of each vertex: the one whose centerline passes nearest, in
+// units of its lumen radius there (so a thin branch beside a thick one gets
+// its own wall). Throws InputError for a tree without branches.
+std::vector<std::int32_t> vertexBranches(const mesh::Mesh& mesh, const mesh::Centerline& tree);
+// Fills `truth.branch`: the branch of the seen triangle's nearest vertex
+// (the largest barycentric).
+void labelBranches(GroundTruth& truth, const mesh::Mesh& mesh, const std::vector<std::int32_t>& vertexBranch);
 
 // The pixels inside the field-of-view mask of a frame (camera.mask and
 // camera.mask_radius, the shader's own test at the pixel centre), 1 inside.
@@ -106,7 +120,10 @@ void writeGroundTruth(const GroundTruth& truth, const std::filesystem::path& rgb
 // The manifest's "outputs" block: per output its file pattern (relative to
 // the manifest, e.g. "fly_{frame:04}.depth.exr"), encoding, channels, unit
 // and convention, so a user needs no other document to read the files.
+// `tree`: the centerline whose branches the branch output labels (its label
+// table goes into the block).
 nlohmann::json describeOutputs(const std::filesystem::path& output, int frames, const Outputs& outputs,
-                               double depthPngScaleMm = kDefaultDepthPngScaleMm);
+                               double depthPngScaleMm = kDefaultDepthPngScaleMm,
+                               const mesh::Centerline* tree = nullptr);
 
 }  // namespace mucosa::dataset

@@ -139,8 +139,12 @@ struct SceneAssets {
     std::vector<mesh::Vec3> centerline;  // the fly-through polyline (mm); may be empty
     float centerlineEndRadius = 0;       // lumen radius at its distal end (mm); 0 = unknown
     std::vector<float> centerlineRadii;  // lumen radius at each centerline point (mm); empty = unknown
-    image::Image8 diffuse;               // empty: none
-    image::Image8 reflectanceMap;        // empty: not generated (loadAssets(..., false))
+    // The centerline tree the path runs along (branch names, generations,
+    // parents: the dataset's branch labels); no branches when unknown (the
+    // tube, a path of poses).
+    mesh::Centerline centerlineTree;
+    image::Image8 diffuse;         // empty: none
+    image::Image8 reflectanceMap;  // empty: not generated (loadAssets(..., false))
     // The multitexture baseline's highlight texture for the scene's shininess
     // (what Renderer generates; kept here for the C++ reference).
     image::Image8 highlight;
