@@ -1,6 +1,8 @@
-# Synthetic endoscopy datasets: per-frame ground truth (ground_truth.cpp) and
-# the exporters to other tools' formats (export.cpp). Part of the fit layer:
+# Synthetic endoscopy datasets: per-frame ground truth (ground_truth.cpp), the
+# exporters to other tools' formats (export.cpp) and the endoscope lens
+# models (lens.cpp). Part of the fit layer:
 # it reads and writes the frames files `mucosa fit` reads.
 target_sources(mucosa_fit PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/ground_truth.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/export.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/export.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/lens.cpp)
