@@ -5,11 +5,14 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfThreading.h>
 
 #include <algorithm>
 #include <array>
+#include <mutex>
 #include <set>
 #include <string>
+#include <thread>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
@@ -183,6 +186,14 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
 
 void writeExr(const std::filesystem::path& path, const ImageF& img) {
     if (img.empty()) throw InputError("image", path.string(), "is empty");
+    // OpenEXR compresses a file's line blocks on its global thread pool, which
+    // is empty unless the program sizes it: size it to the machine once,
+    // unless the program already has.
+    static std::once_flag pool;
+    std::call_once(pool, [] {
+        if (Imf::globalThreadCount() == 0)
+            Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    });
     AtomicFile file(path);  // reserves the temporary name; OpenEXR writes it
     try {
         Imf::Header header(img.width(), img.height());
