@@ -107,7 +107,9 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
         throw InputError("mesh", "ground truth",
                          fmt::format("has {} triangles; face ids are exact up to 2^24", mesh.triangleCount()));
     const std::size_t n = static_cast<std::size_t>(K.width) * K.height;
-    requireMemory(saturatingMul(n, 4 * (1 + 3 + 3 + 1) + 1), "ground truth");
+    // Per pixel: the z-buffer's 16 bytes, then depth, normals, uv, face and
+    // two barycentrics (10 floats) and two masks.
+    requireMemory(saturatingMul(n, 16 + 4 * 10 + 2), "ground truth");
     const fit::Mat4 w2c = fit::invertRigid(c2w);
     const fit::GBuffer g = fit::rasterize(mesh, K, w2c, nearMm, threads);
     GroundTruth t;

@@ -77,7 +77,8 @@ struct GroundTruth {
 // renderer's near plane). Normals are the mesh's vertex normals interpolated
 // (its geometric normal where it has none), turned to face the camera.
 // Throws InputError for a lens with distortion or a mesh too large for exact
-// face ids (more than 2^24 triangles) when `faces` is asked for.
+// face ids (more than 2^24 triangles), ResourceError when the buffers would
+// not fit in memory.
 GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld, double nearMm,
                         int threads = 0);
 
