@@ -56,7 +56,7 @@ constexpr double kFoldSpacing = 3.5, kFoldHeight = 0.022;
 constexpr double kJoinBlend = 0.35, kCarinaBlend = 0.08;
 
 struct Tube {
-    Vec3d a, dir;  // start, unit direction of the chord
+    Vec3d a{0, 0, 0}, dir{0, -1, 0};  // start, unit direction of the chord
     // A gentle bend off the chord (mm): centre(s) = a + dir s + bendA (1 - cos(pi s / L)) / 2
     // + bendB sin^2(pi s / L); both leave the tangent at the ends equal to dir.
     Vec3d bendA{0, 0, 0}, bendB{0, 0, 0};
@@ -154,6 +154,7 @@ std::vector<Tube> buildTree(const PhantomParams& p) {
         t.radius = mb.diameter / 2 * scale;
         t.length = mb.length * scale;
         t.parent = 0;
+        t.a = tubes[0].end();  // provisional: buildTree's last step places every child
         t.generation = 1;
         t.rings = p.cartilageRings;
         t.name = mb.name;
@@ -191,6 +192,7 @@ std::vector<Tube> buildTree(const PhantomParams& p) {
                 t.radius = child == 0 ? r1 : r2;
                 t.length = kLengthPerDiameter * 2 * t.radius * (1 + 0.15 * jitter(rng));
                 t.parent = static_cast<int>(pi);
+                t.a = parent.end();  // provisional, as for the main bronchi
                 t.generation = static_cast<int>(gen + 1);
                 t.planeNormal = normalizeOr(bestNormal - t.dir * dot(bestNormal, t.dir), bestNormal);
                 // Slightly elliptical lumens at a random orientation (CT

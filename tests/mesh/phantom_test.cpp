@@ -392,6 +392,42 @@ TEST(Phantom, SeedChangesTheTreeAndIsReproducible) {
     EXPECT_EQ(a.branches[1].points, c.branches[1].points);
 }
 
+// Fills a stretch of the stack below the caller with one byte, so what an
+// uninitialised local would read there differs from call to call.
+[[gnu::noinline]] void scribbleStack(unsigned char byte) {
+    volatile unsigned char junk[1 << 16];
+    for (std::size_t i = 0; i < sizeof(junk); ++i) junk[i] = byte;
+}
+
+[[gnu::noinline]] mesh::Centerline treeAfterScribbling(unsigned char byte, const mesh::PhantomParams& p) {
+    scribbleStack(byte);
+    return mesh::phantomCenterline(p);
+}
+
+// The tree is a function of its parameters only: the branching-plane choice
+// once read a tube's start before it was set (an uninitialised std::array),
+// which made `mucosa render`'s resumed frames differ under the sanitizers.
+TEST(Phantom, TheTreeDoesNotDependOnWhatTheStackHeld) {
+    mesh::PhantomParams p;
+    p.generations = 5;
+    const mesh::Centerline zeros = treeAfterScribbling(0x00, p);
+    for (const int byte : {0xff, 0x7f, 0x41, 0xc3}) {
+        const mesh::Centerline other = treeAfterScribbling(static_cast<unsigned char>(byte), p);
+        ASSERT_EQ(other.branches.size(), zeros.branches.size());
+        for (std::size_t i = 0; i < zeros.branches.size(); ++i)
+            EXPECT_EQ(other.branches[i].points, zeros.branches[i].points) << "byte " << byte << " branch " << i;
+    }
+    // The daughters leave the midline: the lobar and segmental bronchi end
+    // on their main bronchus's side (x < 0 right, x > 0 left).
+    for (std::size_t i = 3; i < zeros.branches.size(); ++i) {
+        if (zeros.branches[i].generation > 3) continue;
+        std::size_t main = i;
+        while (zeros.branches[main].parent > 0) main = static_cast<std::size_t>(zeros.branches[main].parent);
+        const float side = zeros.branches[main].points.back()[0];
+        EXPECT_GT(zeros.branches[i].points.back()[0] * side, 0.0f) << zeros.branches[i].name;
+    }
+}
+
 TEST(Phantom, CoarseAndSmallVariantsAreWatertight) {
     for (int gens : {0, 1, 5}) {
         mesh::PhantomParams p;
