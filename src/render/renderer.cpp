@@ -136,6 +136,44 @@ struct HdrTarget {
     }
 };
 
+// Rendering through a lens (Renderer::setLensRays): the faces of a cube map
+// around the camera that the rays reach, drawn by the surface pass (RGBA16F,
+// one depth buffer shared by the faces), and the rays as a texture.
+struct LensTarget {
+    GLuint cube = 0, depth = 0, fbo = 0, rays = 0;
+    int faceSize = 0, width = 0, height = 0;
+    std::array<bool, 6> faces{};  // GL_TEXTURE_CUBE_MAP_POSITIVE_X + i drawn
+    PostProgram remap;
+
+    bool active() const noexcept { return rays != 0; }
+    void release() {
+        if (fbo != 0) glDeleteFramebuffers(1, &fbo);
+        if (cube != 0) glDeleteTextures(1, &cube);
+        if (rays != 0) glDeleteTextures(1, &rays);
+        if (depth != 0) glDeleteRenderbuffers(1, &depth);
+        fbo = cube = rays = depth = 0;
+        faceSize = width = height = 0;
+        faces = {};
+    }
+};
+
+// The rotation from the camera's eye axes to cube face i's, in OpenGL's
+// cube-map convention (the face's image as samplerCube reads it: +x, -x, +y,
+// -y, +z, -z, each seen looking along its axis with these up vectors).
+glm::mat4 faceRotation(int face) {
+    static const float dirs[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    static const float ups[6][3] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
+    const glm::vec3 f(dirs[face][0], dirs[face][1], dirs[face][2]), up(ups[face][0], ups[face][1], ups[face][2]);
+    const glm::vec3 side = glm::normalize(glm::cross(f, up)), u = glm::cross(side, f);
+    glm::mat4 r(1.0f);
+    for (int c = 0; c < 3; ++c) {
+        r[c][0] = side[c];
+        r[c][1] = u[c];
+        r[c][2] = -f[c];
+    }
+    return r;
+}
+
 struct Texture {
     GLuint id = 0;
     bool user = false;
@@ -317,6 +355,7 @@ struct Renderer::Impl {
     GLuint postVao = 0;
     HdrTarget hdr;
     shading::ExposureState exposure;
+    LensTarget lens;
 
     // The phases of draw(), in order.
     Program& programFor(const shading::FrameSetup& frame, const shading::ModeInfo& info);
@@ -327,6 +366,8 @@ struct Renderer::Impl {
     void drawVisibleChunks(const glm::mat4& viewProj);
     void developFrame(const shading::FrameSetup& frame, GLint target, const GLint viewport[4]);
     void occludeOutsideMask(const shading::FrameSetup& frame);
+    void drawThroughLens(const shading::FrameSetup& frame, Program& program, const shading::glsl::Frame& f,
+                         const shading::glsl::Material& m, const shading::ModeInfo& info, bool develop);
 };
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
@@ -337,6 +378,12 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
                 link(static_cast<int>(m.id), "#define MUCOSA_HEADLIGHT 1\n");
     impl_->post = linkCameraPass("camera_post.frag", "camera_post");
     impl_->mask = linkCameraPass("camera_mask.frag", "camera_mask");
+    impl_->lens.remap.id =
+        linkProgram("#version 330 core\n" + std::string(shaderSource("camera_post.vert")),
+                    "#version 330 core\n" + std::string(shaderSource("lens_remap.frag")), "lens_remap");
+    glUseProgram(impl_->lens.remap.id);
+    glUniform1i(glGetUniformLocation(impl_->lens.remap.id, "uFaces"), 0);
+    glUniform1i(glGetUniformLocation(impl_->lens.remap.id, "uRays"), 1);
     glGenVertexArrays(1, &impl_->postVao);
     glGenVertexArrays(1, &impl_->vao);
     glGenBuffers(1, &impl_->vbo);
@@ -353,8 +400,10 @@ Renderer::~Renderer() {
     for (auto& [key, p] : impl_->procedural) glDeleteProgram(p.id);
     glDeleteProgram(impl_->post.id);
     glDeleteProgram(impl_->mask.id);
+    glDeleteProgram(impl_->lens.remap.id);
     glDeleteVertexArrays(1, &impl_->postVao);
     impl_->hdr.release();
+    impl_->lens.release();
     glDeleteVertexArrays(1, &impl_->vao);
     glDeleteBuffers(1, &impl_->vbo);
     glDeleteBuffers(1, &impl_->ibo);
@@ -575,6 +624,10 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     // (A camera that changes nothing is skipped: the frame goes straight to
     // the target, whose 8-bit format clamps it.)
     const bool develop = info.photographic && !shading::cameraIsIdentity(frame.params);
+    if (impl_->lens.active()) {
+        impl_->drawThroughLens(frame, program, f, m, info, develop);
+        return;
+    }
     GLint target = 0, viewport[4] = {0, 0, 0, 0};
     if (develop) {
         glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
@@ -639,6 +692,155 @@ void Renderer::Impl::developFrame(const shading::FrameSetup& frame, GLint target
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glBindVertexArray(0);
     glEnable(GL_DEPTH_TEST);
+}
+
+int lensFaceSize(const image::ImageF& rays) {
+    if (rays.channels() != 3) throw InputError("lens rays", "", "need 3 channels (x, y, z)");
+    // The smallest angle between neighbouring pixels' rays: a face's centre
+    // texel spans 2 / faceSize radians.
+    double smallest = M_PI;
+    auto ray = [&](int x, int y) { return glm::dvec3(rays.at(x, y, 0), rays.at(x, y, 1), rays.at(x, y, 2)); };
+    for (int y = 0; y < rays.height(); ++y)
+        for (int x = 0; x < rays.width(); ++x) {
+            const glm::dvec3 a = ray(x, y);
+            if (glm::dot(a, a) == 0) continue;
+            for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{0, 1}}) {
+                if (x + dx >= rays.width() || y + dy >= rays.height()) continue;
+                const glm::dvec3 b = ray(x + dx, y + dy);
+                if (glm::dot(b, b) == 0) continue;
+                smallest = std::min(smallest, std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0)));
+            }
+        }
+    return std::clamp(static_cast<int>(std::ceil(2.0 / std::max(smallest, 1e-6))), 16, 4096);
+}
+
+void Renderer::setLensRays(const image::ImageF& rays, int faceSize) {
+    LensTarget& t = impl_->lens;
+    const GLuint remap = t.remap.id;
+    t.release();
+    t.remap.id = remap;
+    if (rays.empty()) return;
+    if (rays.channels() != 3) throw InputError("lens rays", "", "need 3 channels (x, y, z)");
+    if (faceSize <= 0) faceSize = lensFaceSize(rays);
+    if (faceSize > 8192) throw InputError("lens", "", fmt::format("cube faces of {} pixels are too large", faceSize));
+    const int w = rays.width(), h = rays.height();
+    const std::uint64_t face = static_cast<std::uint64_t>(faceSize) * static_cast<std::uint64_t>(faceSize);
+    requireMemory(saturatingMul(face, 6 * 8 + 4) + saturatingMul(static_cast<std::uint64_t>(w) * h, 16),
+                  "the lens's cube map");
+    // The rays in eye axes (OpenCV's y and z negated), rows bottom-up as GL
+    // counts them; and the faces they (or their bilinear footprint) reach.
+    std::vector<float> texels(4 * static_cast<std::size_t>(w) * h, 0.0f);
+    const float edge = 1.0f - 2.0f / static_cast<float>(faceSize);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const glm::vec3 d(rays.at(x, y, 0), -rays.at(x, y, 1), -rays.at(x, y, 2));
+            if (glm::dot(d, d) == 0.0f) continue;
+            float* o = &texels[4 * (static_cast<std::size_t>(h - 1 - y) * w + x)];
+            o[0] = d.x, o[1] = d.y, o[2] = d.z, o[3] = 1.0f;
+            const glm::vec3 a = glm::abs(d);
+            const float major = std::max({a.x, a.y, a.z});
+            for (int k = 0; k < 3; ++k)
+                if (a[k] >= edge * major) t.faces[static_cast<std::size_t>(2 * k + (d[k] < 0))] = true;
+        }
+    t.faceSize = faceSize;
+    t.width = w;
+    t.height = h;
+    glGenTextures(1, &t.rays);
+    glBindTexture(GL_TEXTURE_2D, t.rays);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, texels.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    glGenTextures(1, &t.cube);
+    glBindTexture(GL_TEXTURE_CUBE_MAP, t.cube);
+    for (int i = 0; i < 6; ++i)
+        glTexImage2D(static_cast<GLenum>(GL_TEXTURE_CUBE_MAP_POSITIVE_X + i), 0, GL_RGBA16F, faceSize, faceSize, 0,
+                     GL_RGBA, GL_FLOAT, nullptr);
+    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAX_LEVEL, 0);
+    glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
+    glGenRenderbuffers(1, &t.depth);
+    glBindRenderbuffer(GL_RENDERBUFFER, t.depth);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, faceSize, faceSize);
+    glGenFramebuffers(1, &t.fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, t.fbo);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, t.depth);
+    for (int i = 0; i < 6; ++i) {
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0,
+                               static_cast<GLenum>(GL_TEXTURE_CUBE_MAP_POSITIVE_X + i), t.cube, 0);
+        if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+            t.release();
+            t.remap.id = remap;
+            throw GraphicsError("framebuffer", "", "a cube-map face (RGBA16F) is incomplete");
+        }
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+int Renderer::cubeFaceSize() const noexcept {
+    return impl_->lens.faceSize;
+}
+
+// Each face the rays reach: the frame's camera turned to the face, a 90
+// degree square frustum with the frame's near and far planes; then the
+// remap pass into the HDR target (develop) or the caller's framebuffer.
+void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& program, const shading::glsl::Frame& f,
+                                     const shading::glsl::Material& m, const shading::ModeInfo& info, bool develop) {
+    GLint target = 0, viewport[4] = {0, 0, 0, 0};
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
+    glGetIntegerv(GL_VIEWPORT, viewport);
+    if (viewport[2] != lens.width || viewport[3] != lens.height)
+        throw InputError("lens", "",
+                         fmt::format("its rays are for a {}x{} frame, the frame is {}x{}", lens.width, lens.height,
+                                     viewport[2], viewport[3]));
+    // The frame's near and far planes, from its projection (OpenGL's
+    // perspective: P[2][2] = -(f + n) / (f - n), P[3][2] = -2 f n / (f - n)).
+    const float a = frame.projection[10], b = frame.projection[14];
+    const float nearPlane = b / (a - 1.0f), farPlane = b / (a + 1.0f);
+    glm::mat4 proj(0.0f);
+    proj[0][0] = proj[1][1] = 1.0f;
+    proj[2][2] = -(farPlane + nearPlane) / (farPlane - nearPlane);
+    proj[2][3] = -1.0f;
+    proj[3][2] = -2.0f * farPlane * nearPlane / (farPlane - nearPlane);
+    glBindFramebuffer(GL_FRAMEBUFFER, lens.fbo);
+    glViewport(0, 0, lens.faceSize, lens.faceSize);
+    for (int i = 0; i < 6; ++i) {
+        if (!lens.faces[static_cast<std::size_t>(i)]) continue;
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0,
+                               static_cast<GLenum>(GL_TEXTURE_CUBE_MAP_POSITIVE_X + i), lens.cube, 0);
+        setPipelineState(frame);
+        shading::glsl::Frame face = f;  // the lamp's axis, eye and light stay the camera's
+        face.view = faceRotation(i) * f.view;
+        face.viewProj = proj * face.view;
+        uploadUniforms(program, frame, face, m, info);
+        bindTextures(frame.specularAA);
+        drawVisibleChunks(face.viewProj);
+    }
+    if (develop) {
+        hdr.ensure(viewport[2], viewport[3]);
+        glBindFramebuffer(GL_FRAMEBUFFER, hdr.fbo);
+        glViewport(0, 0, viewport[2], viewport[3]);
+    } else {
+        glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(target));
+        glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
+    }
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glUseProgram(lens.remap.id);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D, lens.rays);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_CUBE_MAP, lens.cube);
+    glBindVertexArray(postVao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glBindVertexArray(0);
+    glBindTexture(GL_TEXTURE_CUBE_MAP, 0);
+    glEnable(GL_DEPTH_TEST);
+    if (develop) developFrame(frame, target, viewport);
 }
 
 }  // namespace mucosa::render

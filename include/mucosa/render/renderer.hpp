@@ -15,6 +15,10 @@ namespace mucosa::render {
 
 enum class TextureSlot { Diffuse, Reflectance, Highlight };
 
+// The cube-face size at which a face's centre texel spans the smallest angle
+// between neighbouring rays of `rays` (Renderer::setLensRays), 16..4096.
+int lensFaceSize(const image::ImageF& rays);
+
 class Renderer {
 public:
     Renderer();  // needs a current context; throws GraphicsError if a shader fails
@@ -36,6 +40,22 @@ public:
     // Clears the bound framebuffer to black and draws the mesh; the viewport
     // must already be set (Framebuffer::bind does).
     void draw(const shading::FrameSetup& frame);
+
+    // Rendering through a lens (fisheye, omnidirectional: docs/datasets.md,
+    // "Lens models"). `rays` holds every output pixel's ray: a unit vector in
+    // the camera's frame with OpenCV axes (x right, y down, z forward; row 0
+    // the image's top row), or (0, 0, 0) where the lens sees nothing (black).
+    // draw() then renders the faces of a cube map around the camera that the
+    // rays reach, `faceSize` pixels square (0: lensFaceSize(rays), a texel per
+    // output pixel where the rays are densest), and resamples it along each
+    // ray (bilinear, seamless across faces); the camera (exposure, noise,
+    // mask) develops the result as it does a pinhole frame. The frame's
+    // projection matrix gives only the near and far planes; its size must be
+    // the rays'. Empty `rays`: back to the pinhole. Throws InputError for
+    // rays that are not 3-channel, ResourceError before allocating what does
+    // not fit.
+    void setLensRays(const image::ImageF& rays, int faceSize = 0);
+    int cubeFaceSize() const noexcept;  // the lens's faces (0 without a lens)
 
     std::size_t triangleCount() const noexcept;
     // Triangles in the chunks the last draw() did not cull (frustum culling).
