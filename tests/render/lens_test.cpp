@@ -35,6 +35,20 @@ image::ImageF raysOf(const dataset::Lens& lens) {
     return rays;
 }
 
+// A frame from `pose` with the lamp at the eye; `lens` gives the near and far
+// planes (and the field of view when no rays are set).
+shading::FrameSetup frameAt(const camera::Pose& pose, const camera::Lens& lens, int w, int h, shading::Mode mode) {
+    shading::FrameSetup f;
+    f.view = camera::viewMatrix(pose);
+    f.projection = camera::projectionMatrix(lens, w, h);
+    f.eye = pose.position;
+    f.light = pose.position;
+    f.mode = mode;
+    f.width = w;
+    f.height = h;
+    return f;
+}
+
 struct Reprojection {
     double rms = 0, p99 = 0;  // pixels
     std::size_t checked = 0, seen = 0;
@@ -56,14 +70,7 @@ Reprojection renderPlane(const dataset::Lens& lens, bool throughLens) {
     pinhole.fovDeg = 2.0f * static_cast<float>(std::atan(0.5 * std::max(w, h) / lens.fx) * 180.0 / M_PI);
     pinhole.nearMm = 0.5f;
     pinhole.farMm = 2000.0f;
-    shading::FrameSetup f;
-    f.view = camera::viewMatrix(pose);
-    f.projection = camera::projectionMatrix(pinhole, w, h);
-    f.eye = pose.position;
-    f.light = pose.position;
-    f.mode = shading::Mode::Uv;
-    f.width = w;
-    f.height = h;
+    const shading::FrameSetup f = frameAt(pose, pinhole, w, h, shading::Mode::Uv);
     render::Framebuffer fb(w, h, render::ColorFormat::Rgba16F);
     fb.bind();
     renderer.draw(f);
@@ -144,14 +151,7 @@ TEST(LensRender, APhotographicFrameThroughThePinholesRaysIsThePinholeFrame) {
     const int w = 160, h = 120;
     const camera::Pose pose = camera::lookAt({0, 0, -2}, {0.5f, 0, -20}, {0, 1, 0});
     const camera::Lens lens;
-    shading::FrameSetup f;
-    f.view = camera::viewMatrix(pose);
-    f.projection = camera::projectionMatrix(lens, w, h);
-    f.eye = pose.position;
-    f.light = pose.position;
-    f.mode = shading::Mode::Noise;
-    f.width = w;
-    f.height = h;
+    const shading::FrameSetup f = frameAt(pose, lens, w, h, shading::Mode::Noise);
     ASSERT_FALSE(shading::cameraIsIdentity(f.params));
     render::Framebuffer fb(w, h);
     fb.bind();
