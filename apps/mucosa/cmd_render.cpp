@@ -15,6 +15,7 @@
 #include <mucosa/core/memory.hpp>
 #include <mucosa/core/version.hpp>
 #include <mucosa/dataset/ground_truth.hpp>
+#include <mucosa/dataset/lens.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/offscreen.hpp>
 
@@ -33,7 +34,29 @@ struct RenderArgs {
     bool reference = false;
     std::string outputs;  // --outputs (empty: the scene's "outputs", else the colour frames alone)
     double depthScaleMm = dataset::kDefaultDepthPngScaleMm;
+    std::string lens;  // --lens FILE (overrides the scene's camera.lens)
 };
+
+// The scene's lens model (camera.lens, or --lens), checked against the
+// frame size; nullopt: the pinhole of camera.fov_deg.
+std::optional<dataset::Lens> sceneLens(const scene::Scene& scene) {
+    std::optional<dataset::Lens> lens;
+    std::string where;
+    if (!scene.lensModelFile.empty()) {
+        where = scene.lensModelFile.string();
+        if (!std::filesystem::exists(scene.lensModelFile)) throw IoError("lens", where, "no such file");
+        lens = dataset::readLensFile(scene.lensModelFile);
+    } else if (!scene.lensModelJson.empty()) {
+        where = scene.file.empty() ? "the scene" : scene.file.string();
+        lens = dataset::lensFromJson(nlohmann::json::parse(scene.lensModelJson), where, "camera.lens.");
+    }
+    if (lens && (lens->width != scene.width || lens->height != scene.height))
+        throw InputError("lens", where,
+                         fmt::format("is for {}x{} frames and the frames are {}x{} (render at the lens's size: "
+                                     "--size {}x{})",
+                                     lens->width, lens->height, scene.width, scene.height, lens->width, lens->height));
+    return lens;
+}
 
 // The dataset manifest beside the frames: out.png -> out.frames.json.
 std::filesystem::path datasetManifestPath(const std::filesystem::path& output) {
@@ -47,13 +70,17 @@ std::filesystem::path datasetManifestPath(const std::filesystem::path& output) {
 void writeDatasetManifest(const std::filesystem::path& output, const scene::Scene& scene,
                           const std::vector<camera::Pose>& poses, const std::vector<std::filesystem::path>& names,
                           const dataset::Outputs& outputs, double depthScaleMm, const nlohmann::json& settings,
-                          const mesh::Centerline& tree) {
+                          const mesh::Centerline& tree, const std::optional<dataset::Lens>& lens) {
     fit::FrameSet set;
     set.response.toneCurve = static_cast<int>(scene.params[shading::Param::ToneCurve]);
     set.response.vignetting = scene.params[shading::Param::Vignetting];
     // The renderer's tip light is in x right, y up, z forward; OpenCV's y is down.
     set.lightOffset = {scene.light.offset[0], -scene.light.offset[1], scene.light.offset[2]};
-    const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
+    fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
+    if (lens && lens->model != dataset::LensModel::Omnidirectional) {
+        K.fx = lens->fx, K.fy = lens->fy, K.cx = lens->cx, K.cy = lens->cy;
+        if (lens->model == dataset::LensModel::Pinhole) K.k1 = lens->k1, K.k2 = lens->k2;
+    }
     for (std::size_t i = 0; i < poses.size(); ++i) {
         fit::Frame f;
         f.image = names[i];
@@ -69,6 +96,16 @@ void writeDatasetManifest(const std::filesystem::path& output, const scene::Scen
         {"intrinsics", "pinhole, pixel centres at integer coordinates (the first pixel's centre is (0, 0))"},
         {"world_units", "mm"},
         {"image_rows", "the first row is the top of the picture"}};
+    if (lens && lens->model != dataset::LensModel::Pinhole) {
+        // The frames' intrinsics hold the lens's focal lengths and centre
+        // (none for the omnidirectional model); the lens itself is here, and
+        // `mucosa fit`, which reads pinhole frames, refuses the file.
+        extra["lens"] = dataset::lensJson(*lens);
+        extra["conventions"]["intrinsics"] = fmt::format(
+            "the {} lens in 'lens' (docs/datasets.md, \"Lens models\"); pixel centres at integer "
+            "coordinates",
+            dataset::lensModelName(lens->model));
+    }
     extra["dataset"] = {{"made_by", "mucosa render"}, {"mucosa", std::string(version())}, {"settings", settings}};
     fit::writeFrames(datasetManifestPath(output), set, extra);
 }
@@ -101,7 +138,19 @@ void run(const RenderArgs& a, const Global& g) {
     };
     // A sequence is resumable: frames already on disk are kept, if the record
     // next to them says they were made with this run's settings.
-    const nlohmann::json manifest = renderManifest(scene, a.scene, frames, a.reference, dataset::outputNames(outputs));
+    if (!a.lens.empty()) {
+        scene.lensModelFile = a.lens;
+        scene.lensModelJson.clear();
+    }
+    const std::optional<dataset::Lens> lens = sceneLens(scene);
+    if (lens && a.reference)
+        throw InputError("--reference", "the command line",
+                         "renders through the pinhole only; render through the lens without it");
+    if (lens && outputs.any())
+        throw InputError("--outputs", "the command line",
+                         "ground truth through a lens is not available yet (rgb only with --lens or camera.lens)");
+    nlohmann::json manifest = renderManifest(scene, a.scene, frames, a.reference, dataset::outputNames(outputs));
+    if (lens) manifest["lens"] = dataset::lensJson(*lens);
     int existing = 0;
     if (frames > 1 && !a.overwrite)
         for (int i = 0; i < frames; ++i) existing += onDisk(i);
@@ -120,6 +169,12 @@ void run(const RenderArgs& a, const Global& g) {
     if (!a.reference) {
         session = std::make_unique<render::OffscreenSession>(scene, assets, scene.width, scene.height);
         info(g, "GL_RENDERER: " + session->glRendererName());
+        if (lens) {
+            session->renderer().setLensRays(dataset::rayImage(*lens));
+            info(g, fmt::format("lens: {} {}x{}, drawn through a cube map of {}-pixel faces",
+                                dataset::lensModelName(lens->model), lens->width, lens->height,
+                                session->renderer().cubeFaceSize()));
+        }
     }
     const shading::Textures refTextures = scene::referenceTextures(scene, assets);
     const bool tty = isatty(2) && !g.quiet;
@@ -202,7 +257,8 @@ void run(const RenderArgs& a, const Global& g) {
         }
         if (written == 0 && frames > 1) writeFileAtomic(manifestPath(out), manifest.dump(2) + "\n");
         if (written == 0 && asDataset)
-            writeDatasetManifest(out, scene, poses, names, outputs, a.depthScaleMm, manifest, assets.centerlineTree);
+            writeDatasetManifest(out, scene, poses, names, outputs, a.depthScaleMm, manifest, assets.centerlineTree,
+                                 lens);
         if (truth) dataset::writeGroundTruth(*truth, name, outputs, a.depthScaleMm);
         if (truth && outputs.flow) previous = std::move(truth), previousIndex = i;
         if (outputs.rgb) writeFileAtomic(name, png);
@@ -254,6 +310,10 @@ void addRenderCommand(CLI::App& app, Global& g) {
                   "docs/datasets.md) [the scene's \"outputs\", else rgb]");
     c->add_option("--depth-png-scale", a->depthScaleMm,
                   "Millimetres per unit of the 16-bit depth PNG [0.01: up to 655 mm]");
+    c->add_option("--lens", a->lens,
+                  "Render through this lens: a lens JSON (pinhole, fisheye, omnidirectional) or OCamCalib's "
+                  "calib_results.txt, at its size (docs/datasets.md, \"Lens models\") [the scene's camera.lens, else "
+                  "the pinhole of camera.fov_deg]");
     c->callback([a, &g] { run(*a, g); });
 }
 

@@ -62,6 +62,7 @@ constexpr Setting kSettings[] = {
     {"reflectance_map_file", "reflectance map file"},
     {"variation", "variation"},
     {"outputs", "outputs"},
+    {"lens", "lens"},  // absent: the pinhole of camera.fov_deg
 };
 
 }  // namespace

@@ -53,6 +53,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/core/memory.hpp>
 
 #include "core/json_parse.hpp"
 
@@ -714,6 +715,21 @@ Lens parseOcamCalib(std::string_view text, const std::string& file) {
 
 Lens readOcamCalib(const std::filesystem::path& path) {
     return parseOcamCalib(readTextFile(path), path.string());
+}
+
+Lens readLensFile(const std::filesystem::path& path) {
+    return path.extension() == ".json" ? readLens(path) : readOcamCalib(path);
+}
+
+image::ImageF rayImage(const Lens& lens) {
+    requireMemory(saturatingMul(static_cast<std::uint64_t>(lens.width) * static_cast<std::uint64_t>(lens.height), 12),
+                  "the lens's rays");
+    image::ImageF rays(lens.width, lens.height, 3);
+    for (int y = 0; y < lens.height; ++y)
+        for (int x = 0; x < lens.width; ++x)
+            if (const std::optional<Vec3d> r = unproject(lens, x, y))
+                for (int k = 0; k < 3; ++k) rays.at(x, y, k) = static_cast<float>((*r)[k]);
+    return rays;
 }
 
 }  // namespace mucosa::dataset

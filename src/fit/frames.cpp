@@ -118,6 +118,14 @@ FrameSet readFrames(const fs::path& path) {
     parseCommon(j, file, set.response, set.lightOffset);
     if (!j.contains("frames") || !j["frames"].is_array() || j["frames"].empty())
         throw InputError("field 'frames'", file, "must be a non-empty array");
+    // A dataset rendered through a fisheye or omnidirectional lens carries it
+    // here (mucosa render --lens); these frames are pinhole frames.
+    if (j.contains("lens") && j["lens"].is_object() && j["lens"].contains("model") && j["lens"]["model"].is_string() &&
+        j["lens"]["model"].get<std::string>() != "pinhole")
+        throw InputError(
+            "field 'lens'", file,
+            fmt::format("is a {} lens; these tools read pinhole frames (intrinsics fx, fy, cx, cy, k1, k2)",
+                        j["lens"]["model"].get<std::string>()));
     const fs::path dir = path.parent_path();
     for (std::size_t i = 0; i < j["frames"].size(); ++i) {
         const json& f = j["frames"][i];

@@ -541,7 +541,19 @@ void readCamera(const Parser& P, const json& j, Scene& s) {
     P.object(c, "camera");
     // The lens and the path, and the registry's camera group (exposure,
     // sensor, tone curve, mask: shaders/camera.glsl).
-    P.registryGroup(c, "camera", s.params, {"fov_deg", "near_mm", "far_mm", "pose", "path"});
+    P.registryGroup(c, "camera", s.params, {"fov_deg", "near_mm", "far_mm", "lens", "pose", "path"});
+    if (c.contains("lens")) {
+        const json& l = c["lens"];
+        if (l.is_object()) {
+            s.lensModelJson = l.dump();
+            s.lensModelFile.clear();
+        } else if (l.is_string()) {
+            s.lensModelFile = P.path(l, "camera.lens");
+            s.lensModelJson.clear();
+        } else {
+            P.fail("camera.lens", "must be a lens object or the name of a lens file, not " + Parser::typeName(l));
+        }
+    }
     if (c.contains("fov_deg")) s.lens.fovDeg = static_cast<float>(P.number(c["fov_deg"], "camera.fov_deg"));
     if (c.contains("near_mm")) s.lens.nearMm = static_cast<float>(P.number(c["near_mm"], "camera.near_mm"));
     if (c.contains("far_mm")) s.lens.farMm = static_cast<float>(P.number(c["far_mm"], "camera.far_mm"));

@@ -26,15 +26,6 @@ namespace {
 constexpr float kPlaneDistance = 10.0f;  // mm, the camera on +z looking down -z at the z = 0 plane
 constexpr float kPeriod = 2.0f;          // mm of the plane per unit of u and v (the uv mode shows fract())
 
-image::ImageF raysOf(const dataset::Lens& lens) {
-    image::ImageF rays(lens.width, lens.height, 3);
-    for (int y = 0; y < lens.height; ++y)
-        for (int x = 0; x < lens.width; ++x)
-            if (const auto r = dataset::unproject(lens, x, y))
-                for (int k = 0; k < 3; ++k) rays.at(x, y, k) = static_cast<float>((*r)[k]);
-    return rays;
-}
-
 // A frame from `pose` with the lamp at the eye; `lens` gives the near and far
 // planes (and the field of view when no rays are set).
 shading::FrameSetup frameAt(const camera::Pose& pose, const camera::Lens& lens, int w, int h, shading::Mode mode) {
@@ -64,7 +55,7 @@ Reprojection renderPlane(const dataset::Lens& lens, bool throughLens) {
         plane.uvs[i] = {plane.positions[i][0] / kPeriod, plane.positions[i][1] / kPeriod};
     renderer.setMesh(plane);
     const int w = lens.width, h = lens.height;
-    if (throughLens) renderer.setLensRays(raysOf(lens));
+    if (throughLens) renderer.setLensRays(dataset::rayImage(lens));
     const camera::Pose pose = camera::lookAt({0, 0, kPlaneDistance}, {0, 0, 0}, {0, 1, 0});
     camera::Lens pinhole;
     pinhole.fovDeg = 2.0f * static_cast<float>(std::atan(0.5 * std::max(w, h) / lens.fx) * 180.0 / M_PI);
@@ -157,7 +148,7 @@ TEST(LensRender, APhotographicFrameThroughThePinholesRaysIsThePinholeFrame) {
     fb.bind();
     renderer.draw(f);
     const image::Image8 direct = fb.readRgb();
-    renderer.setLensRays(raysOf(dataset::fromIntrinsics(dataset::intrinsicsOf(lens, w, h))));
+    renderer.setLensRays(dataset::rayImage(dataset::fromIntrinsics(dataset::intrinsicsOf(lens, w, h))));
     render::Framebuffer fresh(w, h);  // nothing of the first frame in it
     fresh.bind();
     renderer.draw(f);
@@ -177,7 +168,7 @@ TEST(LensRender, RaysForAnotherSizeAreRefused) {
     test::glContext();
     render::Renderer renderer;
     renderer.setMesh(mesh::makeQuad(10.0f, 2));
-    renderer.setLensRays(raysOf(dataset::equidistantFisheye(64, 48, 120.0)));
+    renderer.setLensRays(dataset::rayImage(dataset::equidistantFisheye(64, 48, 120.0)));
     EXPECT_GT(renderer.cubeFaceSize(), 16);
     shading::FrameSetup f;
     f.view = camera::viewMatrix(camera::lookAt({0, 0, 5}, {0, 0, 0}));

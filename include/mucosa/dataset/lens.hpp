@@ -32,6 +32,7 @@
 #include <nlohmann/json.hpp>
 
 #include <mucosa/fit/frames.hpp>
+#include <mucosa/image/image.hpp>
 
 namespace mucosa::dataset {
 
@@ -161,6 +162,15 @@ nlohmann::json lensJson(const Lens& lens);
 // size "height width". A malformed file is refused with one InputError at
 // its line and column.
 Lens readOcamCalib(const std::filesystem::path& path);
+
+// A lens file of either kind: OCamCalib's calib_results.txt when the name
+// does not end in .json, else readLens.
+Lens readLensFile(const std::filesystem::path& path);
+
+// Every pixel centre's ray (unproject), as a width x height x 3 image in the
+// camera's frame (OpenCV axes); (0, 0, 0) where the lens sees nothing. What
+// render::Renderer::setLensRays draws through.
+image::ImageF rayImage(const Lens& lens);
 Lens parseOcamCalib(std::string_view text, const std::string& file = "");
 
 }  // namespace mucosa::dataset

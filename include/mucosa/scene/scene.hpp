@@ -78,6 +78,12 @@ struct Scene {
     // built-in phantom (watertight by construction), false otherwise.
     std::optional<bool> closed;
     camera::Lens lens;
+    // "camera.lens": the endoscope's lens model (docs/datasets.md, "Lens
+    // models"): a lens object, kept as its JSON text, or the file of one (a
+    // lens JSON, or OCamCalib's calib_results.txt). Neither: the pinhole of
+    // lens.fovDeg. `mucosa render` reads it (dataset::lensFromJson).
+    std::string lensModelJson;
+    std::filesystem::path lensModelFile;
     camera::TipLight light;
     std::optional<camera::Pose> pose;  // a fixed pose (overrides the path's first pose)
     PathSpec path;
