@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/core/memory.hpp>
+#include <mucosa/core/parallel.hpp>
 #include <mucosa/core/version.hpp>
 #include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/dataset/lens.hpp>
@@ -199,8 +201,11 @@ void run(const RenderArgs& a, const Global& g) {
             scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height));
         return t;
     };
-    std::optional<dataset::GroundTruth> previous;
+    std::shared_ptr<const dataset::GroundTruth> previous;
     int previousIndex = -1;
+    // Each frame's files are encoded and written on a background thread while
+    // the next frame renders (at most two frames queued: memory stays flat).
+    SerialWorker writer(2);
     // Branch labels: each vertex's branch, once.
     std::vector<std::int32_t> vertexBranch;
     if (outputs.branch) {
@@ -226,18 +231,19 @@ void run(const RenderArgs& a, const Global& g) {
             if (settle) (void)renderFrame(i);
             continue;
         }
-        std::vector<std::byte> png;
-        if (outputs.rgb) png = image::encodePng(renderFrame(i));
-        std::optional<dataset::GroundTruth> truth;
+        auto rgb = std::make_shared<image::Image8>();
+        if (outputs.rgb) *rgb = renderFrame(i);
+        std::shared_ptr<dataset::GroundTruth> truth;
         std::uint64_t truthBytes = 0;
         if (outputs.any()) {
-            truth = truthOf(i);
+            truth = std::make_shared<dataset::GroundTruth>(truthOf(i));
             if (outputs.branch) dataset::labelBranches(*truth, assets.mesh, vertexBranch);
             if (outputs.flow) {
                 // The flow needs the frame before (kept from the last frame
                 // rendered, else computed: the first frame of a resumed run).
-                if (i > 0 && previousIndex != i - 1) previous = truthOf(i - 1), previousIndex = i - 1;
-                dataset::flowToPrevious(*truth, K, cameraToWorld(i), i > 0 ? &*previous : nullptr,
+                if (i > 0 && previousIndex != i - 1)
+                    previous = std::make_shared<const dataset::GroundTruth>(truthOf(i - 1)), previousIndex = i - 1;
+                dataset::flowToPrevious(*truth, K, cameraToWorld(i), i > 0 ? previous.get() : nullptr,
                                         i > 0 ? cameraToWorld(i - 1) : cameraToWorld(i), scene.lens.nearMm);
             }
             // Upper bound of the ground truth's files: float EXR / 16-bit PNG, uncompressed.
@@ -245,23 +251,32 @@ void run(const RenderArgs& a, const Global& g) {
             truthBytes = px * (outputs.depth * 6 + outputs.normals * 18 + outputs.mask + outputs.uv * 12 +
                                outputs.face * 4 + outputs.flow * 13 + outputs.branch * 2);
         }
-        if (written == 0 && frames - existing > 1) {
-            // The first frame encoded is the estimate for the rest: refuse a run
-            // whose frames will not fit before writing any of them (x1.25 for
-            // frames that compress less well, plus 64 MiB to spare).
-            const std::uint64_t toWrite = static_cast<std::uint64_t>(frames - existing);
-            // Absolute: the disk probe walks up from the path, and "fly.png" alone has no parent to walk to.
-            const std::uint64_t perFrame = png.size() + png.size() / 4 + truthBytes;
-            requireDisk(saturatingMul(toWrite, perFrame) + (64ull << 20), fs::absolute(out),
-                        fmt::format("{} of ~{}", count(toWrite, "frame"), formatBytes(perFrame)));
+        auto png = std::make_shared<std::vector<std::byte>>();
+        if (written == 0) {
+            // The first frame is encoded here: its size is the estimate for
+            // the rest, and nothing is written before the disk check.
+            if (outputs.rgb) *png = image::encodePng(*rgb);
+            if (frames - existing > 1) {
+                // Refuse a run whose frames will not fit before writing any
+                // of them (x1.25 for frames that compress less well, plus 64
+                // MiB to spare).
+                const std::uint64_t toWrite = static_cast<std::uint64_t>(frames - existing);
+                // Absolute: the disk probe walks up from the path, and "fly.png" alone has no parent to walk to.
+                const std::uint64_t perFrame = png->size() + png->size() / 4 + truthBytes;
+                requireDisk(saturatingMul(toWrite, perFrame) + (64ull << 20), fs::absolute(out),
+                            fmt::format("{} of ~{}", count(toWrite, "frame"), formatBytes(perFrame)));
+            }
+            if (frames > 1) writeFileAtomic(manifestPath(out), manifest.dump(2) + "\n");
+            if (asDataset)
+                writeDatasetManifest(out, scene, poses, names, outputs, a.depthScaleMm, manifest, assets.centerlineTree,
+                                     lens);
         }
-        if (written == 0 && frames > 1) writeFileAtomic(manifestPath(out), manifest.dump(2) + "\n");
-        if (written == 0 && asDataset)
-            writeDatasetManifest(out, scene, poses, names, outputs, a.depthScaleMm, manifest, assets.centerlineTree,
-                                 lens);
-        if (truth) dataset::writeGroundTruth(*truth, name, outputs, a.depthScaleMm);
-        if (truth && outputs.flow) previous = std::move(truth), previousIndex = i;
-        if (outputs.rgb) writeFileAtomic(name, png);
+        // The colour frame last: a frame is complete when all its files are.
+        writer.push([rgb, png, truth, name, &outputs, scale = a.depthScaleMm] {
+            if (truth) dataset::writeGroundTruth(*truth, name, outputs, scale);
+            if (outputs.rgb) writeFileAtomic(name, png->empty() ? image::encodePng(*rgb) : *png);
+        });
+        if (truth && outputs.flow) previous = truth, previousIndex = i;
         ++written;
         if (frames > 1 && !g.quiet) {
             const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -276,6 +291,7 @@ void run(const RenderArgs& a, const Global& g) {
                 std::fprintf(stderr, "%s\n", line.c_str());
         }
     }
+    writer.finish();
     if (tty && frames > 1) std::fprintf(stderr, "\n");
     if (frames == 1)
         info(g, fmt::format("wrote {} ({}x{}, mode {})", out.string(), scene.width, scene.height,

@@ -4,7 +4,8 @@
 // phantom, 141 k triangles), and where the time goes: the GL frame (draw and
 // readback), PNG encoding, the ground truth (z-buffer, field of view, branch
 // labels, flow) and writing its files (EXR and 16-bit PNG encoding).
-// Everything runs one stage after another on this thread, as the CLI does.
+// Everything runs one stage after another on this thread, so each stage is
+// timed alone (the CLI overlaps the writing with the next frame: bench/README).
 //
 // Usage: bench_dataset [frames=20]
 #include <sys/resource.h>
