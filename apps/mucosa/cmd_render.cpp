@@ -37,6 +37,7 @@ struct RenderArgs {
     std::string outputs;  // --outputs (empty: the scene's "outputs", else the colour frames alone)
     double depthScaleMm = dataset::kDefaultDepthPngScaleMm;
     std::string lens;  // --lens FILE (overrides the scene's camera.lens)
+    int rgbBits = 8;   // --rgb-bits
 };
 
 // The scene's lens model (camera.lens, or --lens), checked against the
@@ -122,11 +123,14 @@ void run(const RenderArgs& a, const Global& g) {
     // What each frame writes: --outputs, else the scene's "outputs"; with
     // either, a dataset manifest (out.frames.json) goes beside the frames.
     const bool asDataset = !a.outputs.empty() || !scene.outputs.empty();
-    const dataset::Outputs outputs =
+    dataset::Outputs outputs =
         !a.outputs.empty() ? dataset::parseOutputs(a.outputs, "--outputs", "the command line")
         : asDataset
             ? dataset::parseOutputs(scene.outputs, "outputs", scene.file.empty() ? "the scene" : scene.file.string())
             : dataset::Outputs{};
+    outputs.rgbBits = a.rgbBits;
+    if (a.rgbBits == 16 && a.reference)
+        throw InputError("--rgb-bits", "the command line", "16-bit frames come from OpenGL; drop --reference");
     if (!(a.depthScaleMm > 0 && a.depthScaleMm <= 1000))
         throw InputError("--depth-png-scale", "the command line", "must be in (0, 1000] mm");
     std::vector<fs::path> names;
@@ -153,6 +157,7 @@ void run(const RenderArgs& a, const Global& g) {
                          "ground truth through a lens is not available yet (rgb only with --lens or camera.lens)");
     nlohmann::json manifest = renderManifest(scene, a.scene, frames, a.reference, dataset::outputNames(outputs));
     if (lens) manifest["lens"] = dataset::lensJson(*lens);
+    if (a.rgbBits != 8) manifest["rgb_bits"] = a.rgbBits;  // absent: 8
     int existing = 0;
     if (frames > 1 && !a.overwrite)
         for (int i = 0; i < frames; ++i) existing += onDisk(i);
@@ -232,7 +237,16 @@ void run(const RenderArgs& a, const Global& g) {
             continue;
         }
         auto rgb = std::make_shared<image::Image8>();
-        if (outputs.rgb) *rgb = renderFrame(i);
+        auto rgb16 = std::make_shared<image::Image16>();
+        if (outputs.rgb && a.rgbBits == 16) {
+            shading::FrameSetup f =
+                scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height);
+            f.frameIndex = i;
+            *rgb16 = session->renderFrame16(f);
+        } else if (outputs.rgb) {
+            *rgb = renderFrame(i);
+        }
+        auto encode = [rgb, rgb16] { return rgb16->empty() ? image::encodePng(*rgb) : image::encodePng(*rgb16); };
         std::shared_ptr<dataset::GroundTruth> truth;
         std::uint64_t truthBytes = 0;
         if (outputs.any()) {
@@ -255,7 +269,7 @@ void run(const RenderArgs& a, const Global& g) {
         if (written == 0) {
             // The first frame is encoded here: its size is the estimate for
             // the rest, and nothing is written before the disk check.
-            if (outputs.rgb) *png = image::encodePng(*rgb);
+            if (outputs.rgb) *png = encode();
             if (frames - existing > 1) {
                 // Refuse a run whose frames will not fit before writing any
                 // of them (x1.25 for frames that compress less well, plus 64
@@ -272,9 +286,9 @@ void run(const RenderArgs& a, const Global& g) {
                                      lens);
         }
         // The colour frame last: a frame is complete when all its files are.
-        writer.push([rgb, png, truth, name, &outputs, scale = a.depthScaleMm] {
+        writer.push([encode, png, truth, name, &outputs, scale = a.depthScaleMm] {
             if (truth) dataset::writeGroundTruth(*truth, name, outputs, scale);
-            if (outputs.rgb) writeFileAtomic(name, png->empty() ? image::encodePng(*rgb) : *png);
+            if (outputs.rgb) writeFileAtomic(name, png->empty() ? encode() : *png);
         });
         if (truth && outputs.flow) previous = truth, previousIndex = i;
         ++written;
@@ -326,6 +340,10 @@ void addRenderCommand(CLI::App& app, Global& g) {
                   "docs/datasets.md) [the scene's \"outputs\", else rgb]");
     c->add_option("--depth-png-scale", a->depthScaleMm,
                   "Millimetres per unit of the 16-bit depth PNG [0.01: up to 655 mm]");
+    c->add_option("--rgb-bits", a->rgbBits,
+                  "Bits per channel of the colour frames' PNGs: 8, or 16 (drawn into a float target and rounded "
+                  "once) [8]")
+        ->check(CLI::IsMember({8, 16}));
     c->add_option("--lens", a->lens,
                   "Render through this lens: a lens JSON (pinhole, fisheye, omnidirectional) or OCamCalib's "
                   "calib_results.txt, at its size (docs/datasets.md, \"Lens models\") [the scene's camera.lens, else "

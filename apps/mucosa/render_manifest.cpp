@@ -62,7 +62,8 @@ constexpr Setting kSettings[] = {
     {"reflectance_map_file", "reflectance map file"},
     {"variation", "variation"},
     {"outputs", "outputs"},
-    {"lens", "lens"},  // absent: the pinhole of camera.fov_deg
+    {"lens", "lens"},          // absent: the pinhole of camera.fov_deg
+    {"rgb_bits", "rgb bits"},  // absent: 8
 };
 
 }  // namespace

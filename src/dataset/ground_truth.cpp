@@ -354,9 +354,10 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
     nlohmann::json j = nlohmann::json::object();
     const std::string none = "0 where the pixel sees no surface (mask.png)";
     if (o.rgb)
-        j["rgb"] = {{"file", stem + output.extension().string()},
-                    {"encoding", "8-bit sRGB-curve PNG, RGB"},
-                    {"content", "the frame as the endoscope's camera puts it out (display-referred)"}};
+        j["rgb"] = {
+            {"file", stem + output.extension().string()},
+            {"encoding", fmt::format("{}-bit PNG, RGB, display-referred (the camera's tone curve applied)", o.rgbBits)},
+            {"content", "the frame as the endoscope's camera puts it out (display-referred)"}};
     if (o.depth) {
         j["depth"] = {{"file", stem + ".depth.exr"},
                       {"encoding", "OpenEXR, one FLOAT channel 'Y', ZIP"},

@@ -147,7 +147,10 @@ Framebuffer::Framebuffer(int width, int height, ColorFormat format) : width_(wid
     glGenRenderbuffers(1, &color_);
     glGenRenderbuffers(1, &depth_);
     glBindRenderbuffer(GL_RENDERBUFFER, color_);
-    glRenderbufferStorage(GL_RENDERBUFFER, format == ColorFormat::Rgba16F ? GL_RGBA16F : GL_RGBA8, width, height);
+    const GLenum internal = format == ColorFormat::Rgba16F   ? GL_RGBA16F
+                            : format == ColorFormat::Rgba32F ? GL_RGBA32F
+                                                             : GL_RGBA8;
+    glRenderbufferStorage(GL_RENDERBUFFER, internal, width, height);
     glBindRenderbuffer(GL_RENDERBUFFER, depth_);
     glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
     glBindFramebuffer(GL_FRAMEBUFFER, fbo_);

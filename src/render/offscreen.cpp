@@ -1,5 +1,8 @@
 #include <mucosa/render/offscreen.hpp>
 
+#include <algorithm>
+#include <cmath>
+
 #include <fmt/format.h>
 
 #include "render/gl.hpp"
@@ -22,6 +25,7 @@ OffscreenSession::OffscreenSession(const scene::Scene& scene, const scene::Scene
 OffscreenSession::~OffscreenSession() {
     context_->makeCurrent();
     framebuffer_.reset();
+    deep_.reset();
     renderer_.reset();
 }
 
@@ -68,6 +72,20 @@ image::Image8 OffscreenSession::renderFrame(const shading::FrameSetup& frame) {
         framebuffer_ = std::make_unique<Framebuffer>(width_, height_);
     }
     return img;
+}
+
+image::Image16 OffscreenSession::renderFrame16(const shading::FrameSetup& frame) {
+    if (!deep_ || deep_->width() != frame.width || deep_->height() != frame.height) {
+        deep_.reset();
+        deep_ = std::make_unique<Framebuffer>(frame.width, frame.height, ColorFormat::Rgba32F);
+    }
+    deep_->bind();
+    renderer_->draw(frame);
+    const image::ImageF v = deep_->readRgbLinear();
+    image::Image16 out(v.width(), v.height(), 3);
+    for (std::size_t i = 0; i < v.size(); ++i)
+        out.data()[i] = static_cast<std::uint16_t>(std::lround(std::clamp(v.data()[i], 0.0f, 1.0f) * 65535.0f));
+    return out;
 }
 
 std::filesystem::path frameName(const std::filesystem::path& output, int index) {

@@ -30,6 +30,7 @@ namespace mucosa::dataset {
 // The outputs a dataset frame can have (`--outputs rgb,depth,...`).
 struct Outputs {
     bool rgb = true;
+    int rgbBits = 8;       // the colour frame's PNG: 8 or 16 bits per channel
     bool depth = false;    // planar z in mm: float32 EXR + 16-bit PNG with a declared scale
     bool normals = false;  // camera space, OpenCV axes: float32 EXR + 16-bit PNG
     bool mask = false;     // the pixels that see a surface: 8-bit PNG

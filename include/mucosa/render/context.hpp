@@ -41,7 +41,8 @@ std::string glVersion();
 // a display shows: values clamp to [0, 1]) or RGBA16F (linear radiance,
 // unclamped up to the largest half float: for callers that develop the
 // frame themselves, as `mucosa categories` does with the video's response).
-enum class ColorFormat { Rgba8, Rgba16F };
+// Rgba32F: a frame read back without rounding (16-bit PNGs).
+enum class ColorFormat { Rgba8, Rgba16F, Rgba32F };
 class Framebuffer {
 public:
     Framebuffer(int width, int height, ColorFormat format = ColorFormat::Rgba8);  // throws GraphicsError if incomplete

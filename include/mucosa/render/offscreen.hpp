@@ -28,6 +28,10 @@ public:
     // One frame of any setup (render::frameSetup(scene, ...) with changes:
     // a jittered projection, another size, anti-aliasing off, ...).
     image::Image8 renderFrame(const shading::FrameSetup& frame);
+    // The same frame at 16 bits per channel: drawn into a float target and
+    // rounded once (v x 65535), where renderFrame's 8-bit target rounds to
+    // v x 255 (the two agree to half an 8-bit step).
+    image::Image16 renderFrame16(const shading::FrameSetup& frame);
     // Draws without reading back (benchmarks call glFinish through finish()).
     void draw(const camera::Pose& pose, shading::Mode mode);
     void draw(const shading::FrameSetup& frame);  // at the session's size
@@ -45,6 +49,7 @@ private:
     std::unique_ptr<HeadlessContext> context_;
     std::unique_ptr<Renderer> renderer_;
     std::unique_ptr<Framebuffer> framebuffer_;
+    std::unique_ptr<Framebuffer> deep_;  // renderFrame16's float target, made on first use
     std::string rendererName_;
 };
 
