@@ -6,8 +6,10 @@
 #include <string>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
 #include <mucosa/dataset/export.hpp>
 #include <mucosa/fit/frames.hpp>
 
@@ -30,8 +32,11 @@ std::string writtenFiles(const dataset::Export& e) {
 
 void runExport(const ExportArgs& a, const Global& g) {
     const dataset::ExportFormat format = dataset::parseExportFormat(a.format, "--format");
-    const fit::FrameSet set = fit::readFrames(a.frames);
+    const fit::FrameSet set = fit::readFrames(a.frames, true);
     dataset::ExportOptions o;
+    // A dataset rendered through a lens (mucosa render --lens) carries it.
+    const nlohmann::json j = nlohmann::json::parse(readTextFile(a.frames), nullptr, false);
+    if (j.is_object() && j.contains("lens")) o.lens = dataset::lensFromJson(j["lens"], a.frames, "lens.");
     o.fps = a.fps;
     o.scale = a.scale;
     o.source = a.frames;

@@ -64,7 +64,8 @@ constexpr double kPixelCentreShift = 0.5;
 constexpr double kMaxFps = 100000;
 
 struct Context {
-    std::string file;  // the frames file: named in errors and recorded in the outputs
+    std::string file;            // the frames file: named in errors and recorded in the outputs
+    const Lens* lens = nullptr;  // the frames file's lens (ExportOptions::lens)
 };
 
 std::string frameField(std::size_t i, const char* key) {
@@ -188,13 +189,15 @@ struct ColmapCamera {
 };
 
 // One case per lens. A fisheye lens: OPENCV_FISHEYE {fx, fy, cx, cy, k1, k2, k3, k4}.
-ColmapCamera colmapCamera(const fit::Intrinsics& K) {
+ColmapCamera colmapCamera(const fit::Intrinsics& K, const Lens* lens) {
     const double cx = K.cx + kPixelCentreShift, cy = K.cy + kPixelCentreShift;
-    switch (lensOf(K)) {
-        case Lens::Pinhole:
+    switch (lensOf(K, lens)) {
+        case ExportLens::Pinhole:
             return {"PINHOLE", {K.fx, K.fy, cx, cy}};
-        case Lens::BrownRadial:
+        case ExportLens::BrownRadial:
             return {"OPENCV", {K.fx, K.fy, cx, cy, K.k1, K.k2, 0.0, 0.0}};
+        case ExportLens::Fisheye:
+            return {"OPENCV_FISHEYE", {K.fx, K.fy, cx, cy, lens->k1, lens->k2, lens->k3, lens->k4}};
     }
     MUCOSA_CHECK(false, "unknown lens");
     return {};
@@ -216,7 +219,7 @@ void buildColmap(const fit::FrameSet& set, const std::vector<std::size_t>& keep,
     cams += "# CAMERA_ID MODEL WIDTH HEIGHT PARAMS...: pixels, the top-left pixel's centre at (0.5, 0.5)\n";
     cams += fmt::format("# {} camera{}\n", cameras.size(), cameras.size() == 1 ? "" : "s");
     for (std::size_t k = 0; k < cameras.size(); ++k) {
-        const ColmapCamera cam = colmapCamera(*cameras[k]);
+        const ColmapCamera cam = colmapCamera(*cameras[k], c.lens);
         cams += fmt::format("{} {} {} {}", k + 1, cam.model, cameras[k]->width, cameras[k]->height);
         for (double v : cam.params) cams += fmt::format(" {}", num(v));
         cams += "\n";
@@ -255,22 +258,30 @@ void buildColmap(const fit::FrameSet& set, const std::vector<std::size_t>& keep,
 
 // One case per lens. A fisheye lens: "OPENCV_FISHEYE" with k1..k4 (nerfstudio's
 // CAMERA_MODEL_TO_TYPE), no p1, p2.
-const char* nerfstudioModel(const fit::Intrinsics& K) {
-    switch (lensOf(K)) {
-        case Lens::Pinhole:
-        case Lens::BrownRadial:
+const char* nerfstudioModel(const fit::Intrinsics& K, const Lens* lens) {
+    switch (lensOf(K, lens)) {
+        case ExportLens::Pinhole:
+        case ExportLens::BrownRadial:
             return "OPENCV";  // a pinhole is OPENCV with zero coefficients
+        case ExportLens::Fisheye:
+            return "OPENCV_FISHEYE";
     }
     MUCOSA_CHECK(false, "unknown lens");
     return "";
 }
 
-ojson nerfstudioIntrinsics(const fit::Intrinsics& K) {
+ojson nerfstudioIntrinsics(const fit::Intrinsics& K, const Lens* lens) {
     ojson j{{"fl_x", K.fx}, {"fl_y", K.fy}, {"cx", K.cx + kPixelCentreShift}, {"cy", K.cy + kPixelCentreShift},
             {"w", K.width}, {"h", K.height}};
-    switch (lensOf(K)) {
-        case Lens::Pinhole:
-        case Lens::BrownRadial:
+    switch (lensOf(K, lens)) {
+        case ExportLens::Fisheye:
+            j["k1"] = lens->k1;
+            j["k2"] = lens->k2;
+            j["k3"] = lens->k3;
+            j["k4"] = lens->k4;
+            break;
+        case ExportLens::Pinhole:
+        case ExportLens::BrownRadial:
             j["k1"] = K.k1;
             j["k2"] = K.k2;
             j["k3"] = 0.0;
@@ -286,12 +297,12 @@ void buildNerfstudio(const fit::FrameSet& set, const std::vector<std::size_t>& k
                      const fs::path& out) {
     std::error_code ec;
     const fs::path file = fs::is_directory(out, ec) ? out / "transforms.json" : out;
-    const char* model = nerfstudioModel(set.frames[keep.front()].K);
+    const char* model = nerfstudioModel(set.frames[keep.front()].K, c.lens);
     bool shared = true;
     std::vector<const fit::Intrinsics*> distinct;
     for (std::size_t i : keep) {
         const fit::Intrinsics& K = set.frames[i].K;
-        if (std::string_view(nerfstudioModel(K)) != model)
+        if (std::string_view(nerfstudioModel(K, c.lens)) != model)
             throw InputError(frameField(i, "intrinsics"), c.file,
                              "nerfstudio has one camera_model per file, and this frame's lens needs another");
         shared = shared && sameIntrinsics(K, set.frames[keep.front()].K);
@@ -303,7 +314,7 @@ void buildNerfstudio(const fit::FrameSet& set, const std::vector<std::size_t>& k
     ojson j = ojson::object();
     j["camera_model"] = model;
     if (shared) {
-        const ojson K = nerfstudioIntrinsics(set.frames[keep.front()].K);
+        const ojson K = nerfstudioIntrinsics(set.frames[keep.front()].K, c.lens);
         for (const auto& [key, value] : K.items()) j[key] = value;
     }
     j["frames"] = ojson::array();
@@ -315,7 +326,7 @@ void buildNerfstudio(const fit::FrameSet& set, const std::vector<std::size_t>& k
         m.push_back({0.0, 0.0, 0.0, 1.0});
         ojson f{{"file_path", relativeName(set.frames[i].image, file.parent_path())}};
         if (!shared) {
-            const ojson K = nerfstudioIntrinsics(set.frames[i].K);
+            const ojson K = nerfstudioIntrinsics(set.frames[i].K, c.lens);
             for (const auto& [key, value] : K.items()) f[key] = value;
         }
         f["transform_matrix"] = std::move(m);
@@ -361,8 +372,9 @@ std::string unitName(double scale) {
     return fmt::format("{} x mm", num(scale));
 }
 
-Lens lensOf(const fit::Intrinsics& K) noexcept {
-    return K.k1 == 0 && K.k2 == 0 ? Lens::Pinhole : Lens::BrownRadial;
+ExportLens lensOf(const fit::Intrinsics& K, const Lens* lens) noexcept {
+    if (lens && lens->model == LensModel::Fisheye) return ExportLens::Fisheye;
+    return K.k1 == 0 && K.k2 == 0 ? ExportLens::Pinhole : ExportLens::BrownRadial;
 }
 
 Quaternion quaternionFromRotation(const fit::Mat4& m) noexcept {
@@ -400,7 +412,12 @@ fit::Mat4 rotationFromQuaternion(const Quaternion& q) noexcept {
 }
 
 Export buildExport(const fit::FrameSet& set, ExportFormat format, const fs::path& out, const ExportOptions& o) {
-    const Context c{o.source.string()};
+    const Context c{o.source.string(), o.lens ? &*o.lens : nullptr};
+    if (o.lens && o.lens->model == LensModel::Omnidirectional && format != ExportFormat::Tum)
+        throw InputError("field 'lens'", c.file,
+                         fmt::format("is omnidirectional (Scaramuzza's model), which {} cannot describe; export "
+                                     "the trajectory (--format tum), or render the dataset through a fisheye",
+                                     exportFormatName(format)));
     if (!(o.fps > 0) || !(o.fps <= kMaxFps))
         throw InputError("fps", "", fmt::format("must be a number of frames per second in (0, {}]", num(kMaxFps)));
     Export e;

@@ -110,7 +110,7 @@ void parseCommon(const json& j, const std::string& file, Response& response, Vec
 
 }  // namespace
 
-FrameSet readFrames(const fs::path& path) {
+FrameSet readFrames(const fs::path& path, bool anyLens) {
     const std::string file = path.string();
     const json j = detail::parseJsonFile(readTextFile(path), file);
     if (!j.is_object()) throw InputError("frames file", file, "must be a JSON object");
@@ -120,8 +120,8 @@ FrameSet readFrames(const fs::path& path) {
         throw InputError("field 'frames'", file, "must be a non-empty array");
     // A dataset rendered through a fisheye or omnidirectional lens carries it
     // here (mucosa render --lens); these frames are pinhole frames.
-    if (j.contains("lens") && j["lens"].is_object() && j["lens"].contains("model") && j["lens"]["model"].is_string() &&
-        j["lens"]["model"].get<std::string>() != "pinhole")
+    if (!anyLens && j.contains("lens") && j["lens"].is_object() && j["lens"].contains("model") &&
+        j["lens"]["model"].is_string() && j["lens"]["model"].get<std::string>() != "pinhole")
         throw InputError(
             "field 'lens'", file,
             fmt::format("is a {} lens; these tools read pinhole frames (intrinsics fx, fy, cx, cy, k1, k2)",

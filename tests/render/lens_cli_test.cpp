@@ -76,6 +76,39 @@ TEST(LensCli, RenderDrawsThroughTheLensAndRecordsIt) {
     EXPECT_EQ(manifest["lens"]["model"], "fisheye");
     EXPECT_DOUBLE_EQ(manifest["frames"][1]["intrinsics"]["fx"].get<double>(), 40.0);
     EXPECT_THROW(fit::readFrames(dir / "ds.frames.json"), InputError);
+    // The exporters write the fisheye as OPENCV_FISHEYE with its k1..k4 (pixel centres at +0.5).
+    r = test::runCli("dataset export '" + (dir / "ds.frames.json").string() + "' --format colmap -o '" +
+                     (dir / "colmap").string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(test::readBytes(dir / "colmap" / "cameras.txt").find("1 OPENCV_FISHEYE 96 72 40 40 48 36 -0.01 0 0 0"),
+              std::string::npos)
+        << test::readBytes(dir / "colmap" / "cameras.txt");
+    r = test::runCli("dataset export '" + (dir / "ds.frames.json").string() + "' --format nerfstudio -o '" +
+                     (dir / "transforms.json").string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json ns = nlohmann::json::parse(test::readBytes(dir / "transforms.json"));
+    EXPECT_EQ(ns["camera_model"], "OPENCV_FISHEYE");
+    EXPECT_DOUBLE_EQ(ns["k1"].get<double>(), -0.01);
+    EXPECT_DOUBLE_EQ(ns["cx"].get<double>(), 48.0);
+}
+
+TEST(LensCli, AnOmnidirectionalDatasetExportsItsTrajectoryOnly) {
+    test::TempDir dir;
+    std::ofstream(dir / "ocam.json")
+        << R"({"model": "omnidirectional", "width": 96, "height": 72, "pol": [-40, 0, 0.005], "xc": 35.5, "yc": 47.5})";
+    test::RunResult r =
+        test::runCli("render -o '" + (dir / "o.png").string() + "' --size 96x72 --frames 2 --outputs rgb --lens '" +
+                     (dir / "ocam.json").string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(test::readBytes(dir / "o.frames.json"))["lens"]["model"], "omnidirectional");
+    r = test::runCli("dataset export '" + (dir / "o.frames.json").string() + "' --format colmap -o '" +
+                     (dir / "colmap").string() + "'");
+    test::expectOneErrorLine(r, "omnidirectional");
+    EXPECT_FALSE(fs::exists(dir / "colmap"));
+    r = test::runCli("dataset export '" + (dir / "o.frames.json").string() + "' --format tum -o '" +
+                     (dir / "t.txt").string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(fs::exists(dir / "t.txt"));
 }
 
 TEST(LensCli, BadLensesAreOneLine) {

@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include <mucosa/dataset/lens.hpp>
 #include <mucosa/fit/frames.hpp>
 
 namespace mucosa::dataset {
@@ -45,6 +46,11 @@ struct ExportOptions {
     // COLMAP's image NAMEs are relative to this folder (the frames file's,
     // so COLMAP's --image_path is that folder). Empty: the current folder.
     std::filesystem::path imageRoot;
+    // The frames file's "lens" (mucosa render --lens), when it has one: a
+    // fisheye is exported as OPENCV_FISHEYE with its k1..k4 (the frames'
+    // intrinsics give fx, fy, cx, cy); an omnidirectional lens only as the
+    // TUM trajectory (COLMAP and nerfstudio have no such model).
+    std::optional<Lens> lens;
 };
 
 // The default scale of a format (see ExportOptions::scale).
@@ -100,11 +106,10 @@ Quaternion quaternionFromRotation(const fit::Mat4& m) noexcept;
 // The rotation matrix of a unit quaternion, in a Mat4 with no translation.
 fit::Mat4 rotationFromQuaternion(const Quaternion& q) noexcept;
 
-// The lens models the exporters know, one case each. fit::Intrinsics has one
-// lens (pinhole with Brown radial k1, k2); a fisheye lens (Kannala-Brandt
-// k1..k4: COLMAP's and nerfstudio's OPENCV_FISHEYE) is one more case here, in
-// lensOf, and in the per-format camera functions of export.cpp.
-enum class Lens { Pinhole, BrownRadial };
-Lens lensOf(const fit::Intrinsics& K) noexcept;
+// The lens models the exporters know, one case each: a frame's intrinsics
+// (a pinhole with Brown radial k1, k2), or the frames file's fisheye lens
+// (Kannala-Brandt k1..k4: COLMAP's and nerfstudio's OPENCV_FISHEYE).
+enum class ExportLens { Pinhole, BrownRadial, Fisheye };
+ExportLens lensOf(const fit::Intrinsics& K, const Lens* lens = nullptr) noexcept;
 
 }  // namespace mucosa::dataset

@@ -60,7 +60,11 @@ struct FrameSet {
 };
 
 // Throws InputError naming the file and the field (e.g. "frames[2].intrinsics.fx").
-FrameSet readFrames(const std::filesystem::path& path);
+// A frames file whose top-level "lens" is not a pinhole (mucosa render
+// --lens: a fisheye or omnidirectional dataset) is refused unless anyLens:
+// its intrinsics are then the lens's fx, fy, cx, cy only, and the caller
+// reads the lens itself (dataset::lensFromJson).
+FrameSet readFrames(const std::filesystem::path& path, bool anyLens = false);
 // `extra`: top-level keys written after the frames file's own (a dataset's
 // "outputs" and "dataset" blocks); readFrames ignores them.
 void writeFrames(const std::filesystem::path& path, const FrameSet& set,
