@@ -152,9 +152,6 @@ void run(const RenderArgs& a, const Global& g) {
     if (lens && a.reference)
         throw InputError("--reference", "the command line",
                          "renders through the pinhole only; render through the lens without it");
-    if (lens && outputs.any())
-        throw InputError("--outputs", "the command line",
-                         "ground truth through a lens is not available yet (rgb only with --lens or camera.lens)");
     nlohmann::json manifest = renderManifest(scene, a.scene, frames, a.reference, dataset::outputNames(outputs));
     if (lens) manifest["lens"] = dataset::lensJson(*lens);
     if (a.rgbBits != 8) manifest["rgb_bits"] = a.rgbBits;  // absent: 8
@@ -201,9 +198,13 @@ void run(const RenderArgs& a, const Global& g) {
     const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
     auto cameraToWorld = [&](int i) { return dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]); };
     auto truthOf = [&](int i) {
-        dataset::GroundTruth t = dataset::groundTruth(assets.mesh, K, cameraToWorld(i), scene.lens.nearMm, g.threads);
-        t.inView = dataset::fieldOfView(
+        // Through a lens: exact per pixel-centre ray, the same rays the frame is drawn along.
+        dataset::GroundTruth t =
+            lens ? dataset::groundTruth(assets.mesh, *lens, cameraToWorld(i), scene.lens.nearMm, g.threads)
+                 : dataset::groundTruth(assets.mesh, K, cameraToWorld(i), scene.lens.nearMm, g.threads);
+        const std::vector<std::uint8_t> mask = dataset::fieldOfView(
             scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height));
+        for (std::size_t p = 0; p < mask.size(); ++p) t.inView[p] = t.inView[p] && mask[p];
         return t;
     };
     std::shared_ptr<const dataset::GroundTruth> previous;
@@ -257,8 +258,13 @@ void run(const RenderArgs& a, const Global& g) {
                 // rendered, else computed: the first frame of a resumed run).
                 if (i > 0 && previousIndex != i - 1)
                     previous = std::make_shared<const dataset::GroundTruth>(truthOf(i - 1)), previousIndex = i - 1;
-                dataset::flowToPrevious(*truth, K, cameraToWorld(i), i > 0 ? previous.get() : nullptr,
-                                        i > 0 ? cameraToWorld(i - 1) : cameraToWorld(i), scene.lens.nearMm);
+                const fit::Mat4 before = i > 0 ? cameraToWorld(i - 1) : cameraToWorld(i);
+                if (lens)
+                    dataset::flowToPrevious(*truth, *lens, cameraToWorld(i), i > 0 ? previous.get() : nullptr, before,
+                                            scene.lens.nearMm);
+                else
+                    dataset::flowToPrevious(*truth, K, cameraToWorld(i), i > 0 ? previous.get() : nullptr, before,
+                                            scene.lens.nearMm);
             }
             // Upper bound of the ground truth's files: float EXR / 16-bit PNG, uncompressed.
             const std::uint64_t px = static_cast<std::uint64_t>(scene.width) * scene.height;

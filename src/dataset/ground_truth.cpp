@@ -2,17 +2,22 @@
 #include <mucosa/dataset/ground_truth.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/memory.hpp>
+#include <mucosa/core/parallel.hpp>
 #include <mucosa/fit/raster.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
+#include <mucosa/render/renderer.hpp>
 
 #include "shading/glsl.hpp"
 
@@ -45,6 +50,56 @@ fs::path beside(const fs::path& rgbName, const std::string& suffix) {
     fs::path p = rgbName;
     p.replace_filename(rgbName.stem().string() + suffix);
     return p;
+}
+
+// Pixel (x, y) sees triangle `tri` at barycentrics (b1, b2) and planar
+// depth `depth`: its depth, normal (facing the camera, camera axes) and uv.
+void fillPixel(GroundTruth& t, const mesh::Mesh& mesh, const fit::Mat4& c2w, int x, int y, std::int32_t tri, double b1,
+               double b2, float depth) {
+    const std::size_t i = static_cast<std::size_t>(y) * t.width + x;
+    t.valid[i] = 1;
+    t.face[i] = tri;
+    t.b1[i] = static_cast<float>(b1);
+    t.b2[i] = static_cast<float>(b2);
+    t.depth.at(x, y) = depth;
+    const std::uint32_t* v = &mesh.indices[3 * static_cast<std::size_t>(tri)];
+    const double b0 = 1.0 - b1 - b2;
+    // World normal: interpolated vertex normals, or the face's.
+    double nw[3];
+    const auto& p0 = mesh.positions[v[0]];
+    const auto& p1 = mesh.positions[v[1]];
+    const auto& p2 = mesh.positions[v[2]];
+    if (mesh.normals.size() == mesh.positions.size()) {
+        for (int k = 0; k < 3; ++k)
+            nw[k] = b0 * mesh.normals[v[0]][k] + b1 * mesh.normals[v[1]][k] + b2 * mesh.normals[v[2]][k];
+    } else {
+        const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+        const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+        nw[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        nw[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        nw[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    }
+    // Facing the camera: against the ray from the eye to the point.
+    const fit::Vec3d eye = fit::cameraCentre(c2w);
+    double ray[3];
+    for (int k = 0; k < 3; ++k) ray[k] = b0 * p0[k] + b1 * p1[k] + b2 * p2[k] - eye[k];
+    if (nw[0] * ray[0] + nw[1] * ray[1] + nw[2] * ray[2] > 0)
+        for (double& c : nw) c = -c;
+    // To camera axes: R^T n (R = c2w's rotation).
+    double nc[3], len = 0;
+    for (int r = 0; r < 3; ++r) {
+        nc[r] = c2w[0][r] * nw[0] + c2w[1][r] * nw[1] + c2w[2][r] * nw[2];
+        len += nc[r] * nc[r];
+    }
+    len = std::sqrt(len);
+    if (len > 0)
+        for (int r = 0; r < 3; ++r) t.normals.at(x, y, r) = static_cast<float>(nc[r] / len);
+    if (mesh.uvs.size() == mesh.positions.size()) {
+        for (int k = 0; k < 2; ++k)
+            t.uv.at(x, y, k) =
+                static_cast<float>(b0 * mesh.uvs[v[0]][k] + b1 * mesh.uvs[v[1]][k] + b2 * mesh.uvs[v[2]][k]);
+        t.uv.at(x, y, 2) = 1.f;
+    }
 }
 
 }  // namespace
@@ -118,64 +173,163 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
     t.depth = image::ImageF(K.width, K.height, 1);
     t.normals = image::ImageF(K.width, K.height, 3);
     t.uv = image::ImageF(K.width, K.height, 3);
-    t.face = g.triangle;
-    t.b1 = g.b1;
-    t.b2 = g.b2;
+    t.face.assign(n, -1);
+    t.b1.assign(n, 0.f);
+    t.b2.assign(n, 0.f);
     t.valid.assign(n, 0);
     t.inView.assign(n, 1);
-    const bool normals = mesh.normals.size() == mesh.positions.size();
-    const bool uvs = mesh.uvs.size() == mesh.positions.size();
-    const fit::Vec3d eye = fit::cameraCentre(c2w);
     for (int y = 0; y < K.height; ++y)
         for (int x = 0; x < K.width; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * K.width + x;
-            const std::int32_t tri = g.triangle[i];
-            if (tri < 0) continue;
-            t.valid[i] = 1;
-            t.depth.at(x, y) = g.depth[i];
-            const std::uint32_t* v = &mesh.indices[3 * static_cast<std::size_t>(tri)];
-            const double b1 = g.b1[i], b2 = g.b2[i], b0 = 1.0 - b1 - b2;
-            // World normal: interpolated vertex normals, or the face's.
-            double nw[3];
-            const auto& p0 = mesh.positions[v[0]];
-            const auto& p1 = mesh.positions[v[1]];
-            const auto& p2 = mesh.positions[v[2]];
-            if (normals) {
-                for (int k = 0; k < 3; ++k)
-                    nw[k] = b0 * mesh.normals[v[0]][k] + b1 * mesh.normals[v[1]][k] + b2 * mesh.normals[v[2]][k];
-            } else {
-                const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-                const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-                nw[0] = e1[1] * e2[2] - e1[2] * e2[1];
-                nw[1] = e1[2] * e2[0] - e1[0] * e2[2];
-                nw[2] = e1[0] * e2[1] - e1[1] * e2[0];
-            }
-            // Facing the camera: against the ray from the eye to the point.
-            double ray[3];
-            for (int k = 0; k < 3; ++k) ray[k] = b0 * p0[k] + b1 * p1[k] + b2 * p2[k] - eye[k];
-            if (nw[0] * ray[0] + nw[1] * ray[1] + nw[2] * ray[2] > 0)
-                for (double& c : nw) c = -c;
-            // To camera axes: R^T n (R = c2w's rotation).
-            double nc[3], len = 0;
-            for (int r = 0; r < 3; ++r) {
-                nc[r] = c2w[0][r] * nw[0] + c2w[1][r] * nw[1] + c2w[2][r] * nw[2];
-                len += nc[r] * nc[r];
-            }
-            len = std::sqrt(len);
-            if (len > 0)
-                for (int r = 0; r < 3; ++r) t.normals.at(x, y, r) = static_cast<float>(nc[r] / len);
-            if (uvs) {
-                for (int k = 0; k < 2; ++k)
-                    t.uv.at(x, y, k) =
-                        static_cast<float>(b0 * mesh.uvs[v[0]][k] + b1 * mesh.uvs[v[1]][k] + b2 * mesh.uvs[v[2]][k]);
-                t.uv.at(x, y, 2) = 1.f;
-            }
+            if (g.triangle[i] >= 0) fillPixel(t, mesh, c2w, x, y, g.triangle[i], g.b1[i], g.b2[i], g.depth[i]);
         }
     return t;
 }
 
-void flowToPrevious(GroundTruth& t, const fit::Intrinsics& K, const fit::Mat4& c2w, const GroundTruth* prev,
-                    const fit::Mat4& prevC2w, double nearMm) {
+GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat4& c2w, double nearMm, int threads,
+                        int faceSize) {
+    if (mesh.triangleCount() > (std::size_t{1} << 24))
+        throw InputError("mesh", "ground truth",
+                         fmt::format("has {} triangles; face ids are exact up to 2^24", mesh.triangleCount()));
+    const int w = lens.width, h = lens.height;
+    const std::size_t n = static_cast<std::size_t>(w) * h;
+    requireMemory(saturatingMul(n, 12 + 4 * 10 + 2), "ground truth");
+    const image::ImageF rays = rayImage(lens);
+    if (faceSize <= 0) faceSize = render::lensFaceSize(rays);
+    // The cube's faces in camera axes: face f looks along +x, -x, +y, -y, +z,
+    // -z; kAxes[f][r] is its axis r (a right-handed frame whose z is that
+    // direction) in camera coordinates.
+    static const double kAxes[6][3][3] = {{{0, 0, -1}, {0, 1, 0}, {1, 0, 0}}, {{0, 0, 1}, {0, 1, 0}, {-1, 0, 0}},
+                                          {{1, 0, 0}, {0, 0, -1}, {0, 1, 0}}, {{1, 0, 0}, {0, 0, 1}, {0, -1, 0}},
+                                          {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},  {{-1, 0, 0}, {0, 1, 0}, {0, 0, -1}}};
+    auto faceOf = [](const double d[3]) {
+        const double a[3] = {std::fabs(d[0]), std::fabs(d[1]), std::fabs(d[2])};
+        const int k = a[0] >= a[1] && a[0] >= a[2] ? 0 : a[1] >= a[2] ? 1 : 2;
+        return 2 * k + (d[k] < 0);
+    };
+    // Which faces the rays reach.
+    std::array<bool, 6> used{};
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double d[3] = {rays.at(x, y, 0), rays.at(x, y, 1), rays.at(x, y, 2)};
+            if (d[0] != 0 || d[1] != 0 || d[2] != 0) used[static_cast<std::size_t>(faceOf(d))] = true;
+        }
+    fit::Intrinsics F;
+    F.width = F.height = faceSize;
+    F.fx = F.fy = 0.5 * faceSize;
+    F.cx = F.cy = 0.5 * (faceSize - 1);
+    const fit::Mat4 w2c = fit::invertRigid(c2w);
+    std::array<fit::GBuffer, 6> faces;
+    for (int f = 0; f < 6; ++f) {
+        if (!used[static_cast<std::size_t>(f)]) continue;
+        // World to face: the face's axes' components of the camera point.
+        fit::Mat4 wf{};
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c)
+                for (int k = 0; k < 3; ++k) wf[r][c] += kAxes[f][r][k] * w2c[k][c];
+        wf[3] = {0, 0, 0, 1};
+        faces[static_cast<std::size_t>(f)] = fit::rasterize(mesh, F, wf, nearMm, threads);
+    }
+    GroundTruth t;
+    t.width = w;
+    t.height = h;
+    t.depth = image::ImageF(w, h, 1);
+    t.normals = image::ImageF(w, h, 3);
+    t.uv = image::ImageF(w, h, 3);
+    t.face.assign(n, -1);
+    t.b1.assign(n, 0.f);
+    t.b2.assign(n, 0.f);
+    t.valid.assign(n, 0);
+    t.inView.assign(n, 0);
+    const fit::Vec3d eye = fit::cameraCentre(c2w);
+    tbb::task_arena arena(resolveThreads(threads));
+    arena.execute([&] {
+        tbb::parallel_for(0, h, [&](int y) {
+            for (int x = 0; x < w; ++x) {
+                const double d[3] = {rays.at(x, y, 0), rays.at(x, y, 1), rays.at(x, y, 2)};
+                if (d[0] == 0 && d[1] == 0 && d[2] == 0) continue;
+                t.inView[static_cast<std::size_t>(y) * w + x] = 1;
+                if (!(d[2] > 1e-9)) continue;  // 90 degrees or more from the axis: no planar depth
+                const int f = faceOf(d);
+                const fit::GBuffer& g = faces[static_cast<std::size_t>(f)];
+                // The ray in the face's pixels, and the triangles of the 2 x 2 texels around it.
+                double q[3];
+                for (int r = 0; r < 3; ++r)
+                    q[r] = kAxes[f][r][0] * d[0] + kAxes[f][r][1] * d[1] + kAxes[f][r][2] * d[2];
+                const double u = F.fx * q[0] / q[2] + F.cx, v = F.fy * q[1] / q[2] + F.cy;
+                const int u0 = std::clamp(static_cast<int>(std::floor(u)), 0, faceSize - 2);
+                const int v0 = std::clamp(static_cast<int>(std::floor(v)), 0, faceSize - 2);
+                // The ray in world space.
+                double dir[3];
+                for (int r = 0; r < 3; ++r) dir[r] = c2w[r][0] * d[0] + c2w[r][1] * d[1] + c2w[r][2] * d[2];
+                double bestT = std::numeric_limits<double>::infinity(), bestB1 = 0, bestB2 = 0;
+                std::int32_t best = -1;
+                double nearInside = -std::numeric_limits<double>::infinity(), nearT = 0, nearB1 = 0, nearB2 = 0;
+                std::int32_t near = -1;
+                // The 2 x 2 texels around the ray, then wider rings until a hit
+                // (a sliver, as at a UV sphere's pole, may own no texel centre
+                // for several texels around).
+                for (int ring = 0; ring < 24 && best < 0; ++ring)
+                    for (int ty = v0 - ring; ty <= v0 + 1 + ring; ++ty)
+                        for (int tx = u0 - ring; tx <= u0 + 1 + ring; ++tx) {
+                            if (ty < 0 || tx < 0 || ty >= faceSize || tx >= faceSize) continue;
+                            if (ring > 0 && ty > v0 - ring && ty < v0 + 1 + ring && tx > u0 - ring &&
+                                tx < u0 + 1 + ring)
+                                continue;  // searched in an inner ring
+                            const std::int32_t tri = g.triangle[static_cast<std::size_t>(ty) * faceSize + tx];
+                            if (tri < 0 || tri == best) continue;
+                            // Moller-Trumbore, double precision.
+                            const std::uint32_t* vi = &mesh.indices[3 * static_cast<std::size_t>(tri)];
+                            const auto& p0 = mesh.positions[vi[0]];
+                            const auto& p1 = mesh.positions[vi[1]];
+                            const auto& p2 = mesh.positions[vi[2]];
+                            double e1[3], e2[3], s0[3], pv[3], qv[3];
+                            for (int r = 0; r < 3; ++r)
+                                e1[r] = double(p1[r]) - p0[r], e2[r] = double(p2[r]) - p0[r], s0[r] = eye[r] - p0[r];
+                            pv[0] = dir[1] * e2[2] - dir[2] * e2[1];
+                            pv[1] = dir[2] * e2[0] - dir[0] * e2[2];
+                            pv[2] = dir[0] * e2[1] - dir[1] * e2[0];
+                            const double det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
+                            if (std::fabs(det) < 1e-18) continue;
+                            const double b1 = (s0[0] * pv[0] + s0[1] * pv[1] + s0[2] * pv[2]) / det;
+                            qv[0] = s0[1] * e1[2] - s0[2] * e1[1];
+                            qv[1] = s0[2] * e1[0] - s0[0] * e1[2];
+                            qv[2] = s0[0] * e1[1] - s0[1] * e1[0];
+                            const double b2 = (dir[0] * qv[0] + dir[1] * qv[1] + dir[2] * qv[2]) / det;
+                            const double tt = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;
+                            // Inside (a hair of slack for rays along an edge), in front of
+                            // the near plane of the face it was drawn in (the renderer's).
+                            if (!(tt * q[2] >= nearMm)) continue;  // the face's near plane, as the renderer clips
+                            const double inside = std::min({b1, b2, 1 - b1 - b2});
+                            if (inside >= -1e-9) {
+                                if (tt < bestT) bestT = tt, best = tri, bestB1 = b1, bestB2 = b2;
+                            } else if (ring <= 1 && inside > nearInside) {
+                                nearInside = inside, nearT = tt, near = tri, nearB1 = b1, nearB2 = b2;
+                            }
+                        }
+                // No triangle around contains the ray: it passes through a
+                // crack (an unwelded seam, which the rasteriser's pixel
+                // centres cover) or meets a triangle too small to own a texel
+                // centre (far away, where many fit in one texel). It takes the
+                // plane of the triangle of the nearest texels it passes
+                // nearest: its depth is that plane's, off the surface by the
+                // surface's curvature over a fraction of a texel.
+                if (best < 0 && near >= 0) best = near, bestT = nearT, bestB1 = nearB1, bestB2 = nearB2;
+                if (best < 0) continue;
+                fillPixel(t, mesh, c2w, x, y, best, bestB1, bestB2, static_cast<float>(bestT * d[2]));
+            }
+        });
+    });
+    return t;
+}
+
+namespace {
+
+// The flow of `t` given each pixel's point (camera axes) from its depth and
+// where a point of the previous camera's frame lands in its image.
+template <class PointAt, class Project>
+void flowWith(GroundTruth& t, const fit::Mat4& c2w, const GroundTruth* prev, const fit::Mat4& prevC2w, double nearMm,
+              PointAt pointAt, Project projectTo) {
     t.flow = image::ImageF(t.width, t.height, 3);
     if (!prev) return;
     if (prev->width != t.width || prev->height != t.height)
@@ -191,12 +345,14 @@ void flowToPrevious(GroundTruth& t, const fit::Intrinsics& K, const fit::Mat4& c
         for (int x = 0; x < w; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * w + x;
             if (!t.valid[i]) continue;
-            const double z = t.depth.at(x, y);
-            const double X[3] = {(x - K.cx) / K.fx * z, (y - K.cy) / K.fy * z, z};
+            const std::optional<fit::Vec3d> X = pointAt(x, y, static_cast<double>(t.depth.at(x, y)));
+            if (!X) continue;
             double P[3];
-            for (int r = 0; r < 3; ++r) P[r] = m[r][0] * X[0] + m[r][1] * X[1] + m[r][2] * X[2] + m[r][3];
+            for (int r = 0; r < 3; ++r) P[r] = m[r][0] * (*X)[0] + m[r][1] * (*X)[1] + m[r][2] * (*X)[2] + m[r][3];
             if (!(P[2] > nearMm)) continue;
-            const double u = K.fx * P[0] / P[2] + K.cx, v = K.fy * P[1] / P[2] + K.cy;
+            const std::optional<PixelPoint> p = projectTo(fit::Vec3d{P[0], P[1], P[2]});
+            if (!p) continue;
+            const double u = p->u, v = p->v;
             t.flow.at(x, y, 0) = static_cast<float>(u - x);
             t.flow.at(x, y, 1) = static_cast<float>(v - y);
             if (!(u >= 0 && v >= 0 && u <= w - 1 && v <= h - 1)) continue;
@@ -217,6 +373,33 @@ void flowToPrevious(GroundTruth& t, const fit::Intrinsics& K, const fit::Mat4& c
             depth /= weight;
             if (std::abs(depth - P[2]) <= 0.01 * P[2] + 0.01) t.flow.at(x, y, 2) = 1.f;
         }
+}
+
+}  // namespace
+
+void flowToPrevious(GroundTruth& t, const fit::Intrinsics& K, const fit::Mat4& c2w, const GroundTruth* prev,
+                    const fit::Mat4& prevC2w, double nearMm) {
+    flowWith(
+        t, c2w, prev, prevC2w, nearMm,
+        [&](int x, int y, double z) {
+            return std::optional<fit::Vec3d>(fit::Vec3d{(x - K.cx) / K.fx * z, (y - K.cy) / K.fy * z, z});
+        },
+        [&](const fit::Vec3d& P) {
+            return std::optional<PixelPoint>(PixelPoint{K.fx * P[0] / P[2] + K.cx, K.fy * P[1] / P[2] + K.cy});
+        });
+}
+
+void flowToPrevious(GroundTruth& t, const Lens& lens, const fit::Mat4& c2w, const GroundTruth* prev,
+                    const fit::Mat4& prevC2w, double nearMm) {
+    flowWith(
+        t, c2w, prev, prevC2w, nearMm,
+        [&](int x, int y, double z) -> std::optional<fit::Vec3d> {
+            const std::optional<Vec3d> d = unproject(lens, x, y);
+            if (!d || !((*d)[2] > 1e-9)) return std::nullopt;
+            const double s = z / (*d)[2];
+            return fit::Vec3d{(*d)[0] * s, (*d)[1] * s, z};
+        },
+        [&](const fit::Vec3d& P) { return project(lens, P); });
 }
 
 std::vector<std::int32_t> vertexBranches(const mesh::Mesh& mesh, const mesh::Centerline& tree) {

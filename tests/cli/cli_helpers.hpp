@@ -5,9 +5,24 @@
 
 #include <gtest/gtest.h>
 
+#include <mucosa/image/png.hpp>
+
 #include "test_support.hpp"
 
 namespace mucosa::test {
+
+// The share of pixels where a dataset's mask (mask.png) says what the colour
+// frame shows: lit (any channel above 0) inside the mask, black outside.
+inline double maskAgreesWithLitPixels(const image::PngImage& rgb, const image::PngImage& mask) {
+    int agree = 0;
+    const int w = rgb.pixels.width(), h = rgb.pixels.height();
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const bool lit = rgb.pixels.at(x, y, 0) + rgb.pixels.at(x, y, 1) + rgb.pixels.at(x, y, 2) > 0;
+            agree += lit == (mask.pixels.at(x, y) > 0);
+        }
+    return static_cast<double>(agree) / (static_cast<double>(w) * h);
+}
 
 inline int lineCount(const std::string& s) {
     return static_cast<int>(std::count(s.begin(), s.end(), '\n'));

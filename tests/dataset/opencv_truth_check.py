@@ -19,41 +19,9 @@ Debian's python3-opencv and python3-numpy; a missing module fails the test.
 """
 import json
 import os
-import subprocess
 import sys
 
-os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"  # before cv2 is imported
-import cv2  # noqa: E402
-import numpy as np  # noqa: E402
-
-
-def run(cli, *args, cwd):
-    r = subprocess.run([cli, *args], cwd=cwd, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"FAIL: mucosa {' '.join(args)}: {r.stderr.strip()}")
-
-
-def read_obj(path):
-    verts, tris = [], []
-    with open(path) as f:
-        for line in f:
-            p = line.split()
-            if not p:
-                continue
-            if p[0] == "v":
-                verts.append([float(x) for x in p[1:4]])
-            elif p[0] == "f":
-                idx = [int(x.split("/")[0]) - 1 for x in p[1:]]
-                for k in range(1, len(idx) - 1):  # a fan, as OBJ readers triangulate
-                    tris.append([idx[0], idx[k], idx[k + 1]])
-    return np.array(verts), np.array(tris)
-
-
-def read_exr(path):
-    img = cv2.imread(path, cv2.IMREAD_UNCHANGED)
-    if img is None:
-        sys.exit(f"FAIL: OpenCV cannot read {path}")
-    return img
+from truth_check_common import cv2, face_planes, np, read_exr, read_obj, reprojection_rms, run
 
 
 def main():
@@ -88,19 +56,13 @@ def main():
         rvec, _ = cv2.Rodrigues(R.T)
         tvec = -R.T @ t
         proj, _ = cv2.projectPoints(world, rvec, tvec, K, None)
-        err = np.linalg.norm(proj.reshape(-1, 2) - np.stack([u, v], axis=1), axis=1)
-        rms = float(np.sqrt(np.mean(err ** 2)))
-        print(f"frame {i}: {len(u)} pixels; back-projected and cv2.projectPoints: RMS {rms:.2e} px")
-        if rms > 0.1:
-            failures.append(f"frame {i}: cv2.projectPoints RMS {rms} px")
+        reprojection_rms(proj, np.stack([u, v], axis=1), "cv2.projectPoints", i, failures)
         # The face output: the point is on that triangle of the OBJ.
-        f = face[v, u]
-        if f.min() < 0 or f.max() >= len(tris):
+        planes = face_planes(face[v, u], verts, tris)
+        if planes is None:
             failures.append(f"frame {i}: face ids outside 0..{len(tris) - 1}")
             continue
-        a, b, c = verts[tris[f, 0]], verts[tris[f, 1]], verts[tris[f, 2]]
-        n = np.cross(b - a, c - a)
-        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        a, b, c, n = planes
         dist = np.abs(np.sum((world - a) * n, axis=1))
         worst = float(np.max(dist / z))
         print(f"frame {i}: distance to the named triangle's plane, worst {worst:.2e} x depth")

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include <mucosa/camera/camera.hpp>
+#include <mucosa/dataset/lens.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/centerline.hpp>
@@ -83,6 +84,23 @@ struct GroundTruth {
 GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld, double nearMm,
                         int threads = 0);
 
+// The same through any lens (lens.hpp: a distorted pinhole, a fisheye, an
+// omnidirectional lens), exact per pixel: each pixel centre's ray
+// (unproject) is intersected with the triangle it meets first. The
+// triangles are found by z-buffers of the faces of a cube around the camera
+// that the rays reach (fit::rasterize, `faceSize` pixels square; 0: one
+// texel per pixel where the rays are densest, render::lensFaceSize), then
+// each ray is intersected exactly with the candidates around its face pixel
+// (the nearest hit inside a triangle wins; a ray through a crack or onto a
+// triangle smaller than a texel takes the plane of the nearest candidate).
+// Surfaces are clipped at `nearMm` along the axis of the cube face the ray
+// falls in, as the renderer clips them. Depth stays planar: the hit's z
+// along the optical axis (not the ray's length); a ray 90 degrees or more
+// from the axis has no depth (invalid). Pixels without a ray are invalid and
+// outside the field of view (inView 0).
+GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat4& cameraToWorld, double nearMm,
+                        int threads = 0, int faceSize = 0);
+
 // Fills `current.flow`: each pixel's surface point projected into the
 // previous frame's camera (exact: from the depth and the two poses, not
 // estimated from the images). The point counts as visible there when it
@@ -91,6 +109,10 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
 // place (bilinear over the neighbours that see a surface); otherwise it is
 // occluded. `previous` null (the first frame): no flow, nothing visible.
 void flowToPrevious(GroundTruth& current, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld,
+                    const GroundTruth* previous, const fit::Mat4& previousCameraToWorld, double nearMm);
+// The same through a lens: the pixel's point is its ray scaled to the depth,
+// projected into the previous frame with project().
+void flowToPrevious(GroundTruth& current, const Lens& lens, const fit::Mat4& cameraToWorld,
                     const GroundTruth* previous, const fit::Mat4& previousCameraToWorld, double nearMm);
 
 // The branch of each vertex: the one whose centerline passes nearest, in
