@@ -18,6 +18,7 @@
 #include <mucosa/core/version.hpp>
 #include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/dataset/lens.hpp>
+#include <mucosa/dataset/raycast.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/offscreen.hpp>
 
@@ -197,11 +198,14 @@ void run(const RenderArgs& a, const Global& g) {
     // The ground truth of frame i: the manifest's camera on the scene's mesh.
     const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
     auto cameraToWorld = [&](int i) { return dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]); };
+    // Through a lens: exact per pixel-centre ray (the rays the frame is drawn
+    // along), cast into a tree of the mesh built once.
+    std::optional<dataset::RayCaster> caster;
+    if (lens && outputs.any()) caster.emplace(assets.mesh);
     auto truthOf = [&](int i) {
-        // Through a lens: exact per pixel-centre ray, the same rays the frame is drawn along.
         dataset::GroundTruth t =
-            lens ? dataset::groundTruth(assets.mesh, *lens, cameraToWorld(i), scene.lens.nearMm, g.threads)
-                 : dataset::groundTruth(assets.mesh, K, cameraToWorld(i), scene.lens.nearMm, g.threads);
+            caster ? dataset::groundTruth(*caster, *lens, cameraToWorld(i), scene.lens.nearMm, g.threads)
+                   : dataset::groundTruth(assets.mesh, K, cameraToWorld(i), scene.lens.nearMm, g.threads);
         const std::vector<std::uint8_t> mask = dataset::fieldOfView(
             scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height));
         for (std::size_t p = 0; p < mask.size(); ++p) t.inView[p] = t.inView[p] && mask[p];

@@ -2,7 +2,6 @@
 #include <mucosa/dataset/ground_truth.hpp>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -14,10 +13,10 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/memory.hpp>
 #include <mucosa/core/parallel.hpp>
+#include <mucosa/dataset/raycast.hpp>
 #include <mucosa/fit/raster.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
-#include <mucosa/render/renderer.hpp>
 
 #include "shading/glsl.hpp"
 
@@ -186,50 +185,16 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
     return t;
 }
 
-GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat4& c2w, double nearMm, int threads,
-                        int faceSize) {
+GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const fit::Mat4& c2w, double nearMm, int threads) {
+    const mesh::Mesh& mesh = caster.mesh();
     if (mesh.triangleCount() > (std::size_t{1} << 24))
         throw InputError("mesh", "ground truth",
                          fmt::format("has {} triangles; face ids are exact up to 2^24", mesh.triangleCount()));
     const int w = lens.width, h = lens.height;
     const std::size_t n = static_cast<std::size_t>(w) * h;
-    requireMemory(saturatingMul(n, 12 + 4 * 10 + 2), "ground truth");
-    const image::ImageF rays = rayImage(lens);
-    if (faceSize <= 0) faceSize = render::lensFaceSize(rays);
-    // The cube's faces in camera axes: face f looks along +x, -x, +y, -y, +z,
-    // -z; kAxes[f][r] is its axis r (a right-handed frame whose z is that
-    // direction) in camera coordinates.
-    static const double kAxes[6][3][3] = {{{0, 0, -1}, {0, 1, 0}, {1, 0, 0}}, {{0, 0, 1}, {0, 1, 0}, {-1, 0, 0}},
-                                          {{1, 0, 0}, {0, 0, -1}, {0, 1, 0}}, {{1, 0, 0}, {0, 0, 1}, {0, -1, 0}},
-                                          {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},  {{-1, 0, 0}, {0, 1, 0}, {0, 0, -1}}};
-    auto faceOf = [](const double d[3]) {
-        const double a[3] = {std::fabs(d[0]), std::fabs(d[1]), std::fabs(d[2])};
-        const int k = a[0] >= a[1] && a[0] >= a[2] ? 0 : a[1] >= a[2] ? 1 : 2;
-        return 2 * k + (d[k] < 0);
-    };
-    // Which faces the rays reach.
-    std::array<bool, 6> used{};
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const double d[3] = {rays.at(x, y, 0), rays.at(x, y, 1), rays.at(x, y, 2)};
-            if (d[0] != 0 || d[1] != 0 || d[2] != 0) used[static_cast<std::size_t>(faceOf(d))] = true;
-        }
-    fit::Intrinsics F;
-    F.width = F.height = faceSize;
-    F.fx = F.fy = 0.5 * faceSize;
-    F.cx = F.cy = 0.5 * (faceSize - 1);
-    const fit::Mat4 w2c = fit::invertRigid(c2w);
-    std::array<fit::GBuffer, 6> faces;
-    for (int f = 0; f < 6; ++f) {
-        if (!used[static_cast<std::size_t>(f)]) continue;
-        // World to face: the face's axes' components of the camera point.
-        fit::Mat4 wf{};
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 4; ++c)
-                for (int k = 0; k < 3; ++k) wf[r][c] += kAxes[f][r][k] * w2c[k][c];
-        wf[3] = {0, 0, 0, 1};
-        faces[static_cast<std::size_t>(f)] = fit::rasterize(mesh, F, wf, nearMm, threads);
-    }
+    // Per pixel: depth, normals, uv, face and two barycentrics (10 floats)
+    // and two masks.
+    requireMemory(saturatingMul(n, 4 * 10 + 2), "ground truth");
     GroundTruth t;
     t.width = w;
     t.height = h;
@@ -242,85 +207,32 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat
     t.valid.assign(n, 0);
     t.inView.assign(n, 0);
     const fit::Vec3d eye = fit::cameraCentre(c2w);
+    // Each pixel is computed alone from its own ray, so the result does not
+    // depend on how the rows are shared out.
     tbb::task_arena arena(resolveThreads(threads));
     arena.execute([&] {
         tbb::parallel_for(0, h, [&](int y) {
             for (int x = 0; x < w; ++x) {
-                const double d[3] = {rays.at(x, y, 0), rays.at(x, y, 1), rays.at(x, y, 2)};
-                if (d[0] == 0 && d[1] == 0 && d[2] == 0) continue;
+                const std::optional<Vec3d> ray = unproject(lens, x, y);
+                if (!ray) continue;
+                const Vec3d& d = *ray;
                 t.inView[static_cast<std::size_t>(y) * w + x] = 1;
-                if (!(d[2] > 1e-9)) continue;  // 90 degrees or more from the axis: no planar depth
-                const int f = faceOf(d);
-                const fit::GBuffer& g = faces[static_cast<std::size_t>(f)];
-                // The ray in the face's pixels, and the triangles of the 2 x 2 texels around it.
-                double q[3];
-                for (int r = 0; r < 3; ++r)
-                    q[r] = kAxes[f][r][0] * d[0] + kAxes[f][r][1] * d[1] + kAxes[f][r][2] * d[2];
-                const double u = F.fx * q[0] / q[2] + F.cx, v = F.fy * q[1] / q[2] + F.cy;
-                const int u0 = std::clamp(static_cast<int>(std::floor(u)), 0, faceSize - 2);
-                const int v0 = std::clamp(static_cast<int>(std::floor(v)), 0, faceSize - 2);
-                // The ray in world space.
-                double dir[3];
-                for (int r = 0; r < 3; ++r) dir[r] = c2w[r][0] * d[0] + c2w[r][1] * d[1] + c2w[r][2] * d[2];
-                double bestT = std::numeric_limits<double>::infinity(), bestB1 = 0, bestB2 = 0;
-                std::int32_t best = -1;
-                double nearInside = -std::numeric_limits<double>::infinity(), nearT = 0, nearB1 = 0, nearB2 = 0;
-                std::int32_t near = -1;
-                // The 2 x 2 texels around the ray, then wider rings until a hit
-                // (a sliver, as at a UV sphere's pole, may own no texel centre
-                // for several texels around).
-                for (int ring = 0; ring < 24 && best < 0; ++ring)
-                    for (int ty = v0 - ring; ty <= v0 + 1 + ring; ++ty)
-                        for (int tx = u0 - ring; tx <= u0 + 1 + ring; ++tx) {
-                            if (ty < 0 || tx < 0 || ty >= faceSize || tx >= faceSize) continue;
-                            if (ring > 0 && ty > v0 - ring && ty < v0 + 1 + ring && tx > u0 - ring &&
-                                tx < u0 + 1 + ring)
-                                continue;  // searched in an inner ring
-                            const std::int32_t tri = g.triangle[static_cast<std::size_t>(ty) * faceSize + tx];
-                            if (tri < 0 || tri == best) continue;
-                            // Moller-Trumbore, double precision.
-                            const std::uint32_t* vi = &mesh.indices[3 * static_cast<std::size_t>(tri)];
-                            const auto& p0 = mesh.positions[vi[0]];
-                            const auto& p1 = mesh.positions[vi[1]];
-                            const auto& p2 = mesh.positions[vi[2]];
-                            double e1[3], e2[3], s0[3], pv[3], qv[3];
-                            for (int r = 0; r < 3; ++r)
-                                e1[r] = double(p1[r]) - p0[r], e2[r] = double(p2[r]) - p0[r], s0[r] = eye[r] - p0[r];
-                            pv[0] = dir[1] * e2[2] - dir[2] * e2[1];
-                            pv[1] = dir[2] * e2[0] - dir[0] * e2[2];
-                            pv[2] = dir[0] * e2[1] - dir[1] * e2[0];
-                            const double det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
-                            if (std::fabs(det) < 1e-18) continue;
-                            const double b1 = (s0[0] * pv[0] + s0[1] * pv[1] + s0[2] * pv[2]) / det;
-                            qv[0] = s0[1] * e1[2] - s0[2] * e1[1];
-                            qv[1] = s0[2] * e1[0] - s0[0] * e1[2];
-                            qv[2] = s0[0] * e1[1] - s0[1] * e1[0];
-                            const double b2 = (dir[0] * qv[0] + dir[1] * qv[1] + dir[2] * qv[2]) / det;
-                            const double tt = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;
-                            // Inside (a hair of slack for rays along an edge), in front of
-                            // the near plane of the face it was drawn in (the renderer's).
-                            if (!(tt * q[2] >= nearMm)) continue;  // the face's near plane, as the renderer clips
-                            const double inside = std::min({b1, b2, 1 - b1 - b2});
-                            if (inside >= -1e-9) {
-                                if (tt < bestT) bestT = tt, best = tri, bestB1 = b1, bestB2 = b2;
-                            } else if (ring <= 1 && inside > nearInside) {
-                                nearInside = inside, nearT = tt, near = tri, nearB1 = b1, nearB2 = b2;
-                            }
-                        }
-                // No triangle around contains the ray: it passes through a
-                // crack (an unwelded seam, which the rasteriser's pixel
-                // centres cover) or meets a triangle too small to own a texel
-                // centre (far away, where many fit in one texel). It takes the
-                // plane of the triangle of the nearest texels it passes
-                // nearest: its depth is that plane's, off the surface by the
-                // surface's curvature over a fraction of a texel.
-                if (best < 0 && near >= 0) best = near, bestT = nearT, bestB1 = nearB1, bestB2 = nearB2;
-                if (best < 0) continue;
-                fillPixel(t, mesh, c2w, x, y, best, bestB1, bestB2, static_cast<float>(bestT * d[2]));
+                if (!(d[2] > 0)) continue;  // 90 degrees or more from the axis: no planar depth
+                // The renderer draws a lens through a cube map whose faces clip
+                // at nearMm along their own axis: the ray's largest component.
+                const double axis = std::max({std::fabs(d[0]), std::fabs(d[1]), d[2]});
+                const fit::Vec3d dir = fit::transformDirection(c2w, d);
+                const std::optional<Hit> hit = caster.firstHit(eye, dir, nearMm / axis);
+                if (!hit) continue;
+                fillPixel(t, mesh, c2w, x, y, hit->triangle, hit->b1, hit->b2, static_cast<float>(hit->t * d[2]));
             }
         });
     });
     return t;
+}
+
+GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat4& c2w, double nearMm, int threads) {
+    return groundTruth(RayCaster(mesh), lens, c2w, nearMm, threads);
 }
 
 namespace {

@@ -14,3 +14,11 @@ add_test(NAME dataset_lens_opencv_crosscheck
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/opencv_lens_check.py $<TARGET_FILE:lens_points>
           ${CMAKE_CURRENT_BINARY_DIR}/opencv_lens)
 set_tests_properties(dataset_lens_opencv_crosscheck PROPERTIES TIMEOUT 120)
+
+# Ground truth through a lens (lens_points --truth) against OpenCV: the mesh
+# point each pixel names projects onto it (cv2.fisheye.projectPoints,
+# cv2.projectPoints), and OpenCV's ray meets that triangle first.
+add_test(NAME dataset_lens_truth_opencv_crosscheck
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/opencv_lens_truth_check.py $<TARGET_FILE:lens_points>
+          ${CMAKE_CURRENT_BINARY_DIR}/opencv_lens_truth)
+set_tests_properties(dataset_lens_truth_opencv_crosscheck PROPERTIES TIMEOUT 120)

@@ -19,7 +19,7 @@ import json
 import os
 import sys
 
-from truth_check_common import cv2, face_planes, np, read_exr, read_obj, reprojection_rms, run
+from truth_check_common import cv2, face_planes, finish, np, read_exr, read_obj, reprojection_rms, run
 
 
 def main():
@@ -82,10 +82,7 @@ def main():
             if visible.sum() < 0.3 * len(u) or ferr > 1e-2:
                 failures.append(f"frame {i}: flow worst {ferr} px over {int(visible.sum())} pixels")
         previous = (rvec, tvec)
-    if failures:
-        print("FAIL:\n  " + "\n  ".join(failures))
-        sys.exit(1)
-    print("PASS")
+    finish(failures)
 
 
 if __name__ == "__main__":

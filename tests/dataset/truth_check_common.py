@@ -55,3 +55,11 @@ def face_planes(f, verts, tris):
     n = np.cross(b - a, c - a)
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     return a, b, c, n
+
+
+def finish(failures):
+    """Every failure on its own line and a non-zero exit, or PASS."""
+    if failures:
+        print("FAIL:\n  " + "\n  ".join(failures))
+        sys.exit(1)
+    print("PASS")

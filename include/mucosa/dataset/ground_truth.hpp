@@ -2,10 +2,12 @@
 // Per-frame ground truth of a rendered endoscope frame: metric depth, surface
 // normals, the triangle and texture coordinates each pixel sees, and the
 // pixels that see a surface. Computed exactly from the mesh and the camera
-// (a z-buffer at the pixel centres, fit::rasterize), not read back from the
-// colour render, so it does not depend on the GL driver's precision; the
-// colour frame is rendered with the same intrinsics and pose
-// (fit::glProjectionMatrix), so the two align pixel for pixel.
+// (for a pinhole a z-buffer at the pixel centres, fit::rasterize; through a
+// lens each pixel centre's ray cast into the mesh, raycast.hpp), not read
+// back from the colour render, so it does not depend on the GL driver's
+// precision; the colour frame is rendered with the same intrinsics (or the
+// same lens's rays) and pose (fit::glProjectionMatrix), so the two align
+// pixel for pixel.
 //
 // Conventions (written into every dataset manifest, docs/datasets.md):
 // OpenCV camera axes (x right, y down, z forward), pixel centres at integer
@@ -20,6 +22,7 @@
 
 #include <mucosa/camera/camera.hpp>
 #include <mucosa/dataset/lens.hpp>
+#include <mucosa/dataset/raycast.hpp>
 #include <mucosa/fit/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/centerline.hpp>
@@ -86,20 +89,30 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
 
 // The same through any lens (lens.hpp: a distorted pinhole, a fisheye, an
 // omnidirectional lens), exact per pixel: each pixel centre's ray
-// (unproject) is intersected with the triangle it meets first. The
-// triangles are found by z-buffers of the faces of a cube around the camera
-// that the rays reach (fit::rasterize, `faceSize` pixels square; 0: one
-// texel per pixel where the rays are densest, render::lensFaceSize), then
-// each ray is intersected exactly with the candidates around its face pixel
-// (the nearest hit inside a triangle wins; a ray through a crack or onto a
-// triangle smaller than a texel takes the plane of the nearest candidate).
-// Surfaces are clipped at `nearMm` along the axis of the cube face the ray
-// falls in, as the renderer clips them. Depth stays planar: the hit's z
-// along the optical axis (not the ray's length); a ray 90 degrees or more
-// from the axis has no depth (invalid). Pixels without a ray are invalid and
-// outside the field of view (inView 0).
+// (unproject, double precision) is cast from the camera centre into the
+// mesh (raycast.hpp: the first triangle it meets, watertight, in double
+// precision), so every output is that triangle's at the ray's own hit.
+//  - Near clipping: a hit counts from nearMm along the axis of the cube-map
+//    face the ray falls in (t max(|x|, |y|, z) >= nearMm for the unit ray),
+//    where the renderer's cube faces clip it; for rays within 45 degrees of
+//    the optical axis that is planar z >= nearMm, the pinhole's near plane.
+//  - Depth stays planar: the hit's z along the optical axis (not the ray's
+//    length), as the pinhole's. A ray 90 degrees or more from the axis
+//    (z <= 0: a fisheye wider than 180 degrees) has no planar depth: its
+//    pixel is invalid (no depth, normal, uv or face) but in view.
+//  - Pixels without a ray (beyond the lens's field) are invalid and outside
+//    the field of view (inView 0); inView is 1 wherever a ray exists.
+//  - Normals and uv as the pinhole's; face, b1, b2 the hit's (raycast.hpp's
+//    Hit, fit::GBuffer's convention).
+// The result is the same bytes for any thread count. The caster is built
+// once per mesh and shared by the frames of a sequence; the form taking the
+// mesh builds one per call (0.1 s for the phantom's 140k triangles). Throws
+// InputError for a mesh of more than 2^24 triangles, ResourceError when the
+// buffers would not fit in memory.
+GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const fit::Mat4& cameraToWorld, double nearMm,
+                        int threads = 0);
 GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat4& cameraToWorld, double nearMm,
-                        int threads = 0, int faceSize = 0);
+                        int threads = 0);
 
 // Fills `current.flow`: each pixel's surface point projected into the
 // previous frame's camera (exact: from the depth and the two poses, not
@@ -110,10 +123,12 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat
 // occluded. `previous` null (the first frame): no flow, nothing visible.
 void flowToPrevious(GroundTruth& current, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld,
                     const GroundTruth* previous, const fit::Mat4& previousCameraToWorld, double nearMm);
-// The same through a lens: the pixel's point is its ray scaled to the depth,
-// projected into the previous frame with project().
-void flowToPrevious(GroundTruth& current, const Lens& lens, const fit::Mat4& cameraToWorld,
-                    const GroundTruth* previous, const fit::Mat4& previousCameraToWorld, double nearMm);
+// The same through a lens: the pixel's point is its ray (unproject) scaled
+// to the planar depth, X = ray z / ray_z, projected into the previous frame
+// with project(); the visibility test is the pinhole's. For a pinhole lens
+// (fromIntrinsics(K)) it is the form above to rounding (within 1e-6 px).
+void flowToPrevious(GroundTruth& current, const Lens& lens, const fit::Mat4& cameraToWorld, const GroundTruth* previous,
+                    const fit::Mat4& previousCameraToWorld, double nearMm);
 
 // The branch of each vertex: the one whose centerline passes nearest, in
 // units of its lumen radius there (so a thin branch beside a thick one gets
