@@ -59,10 +59,17 @@ TEST(SerialWorker, AtMostCapacityJobsWait) {
 
 TEST(SerialWorker, AJobsExceptionReachesTheCallerAndStopsTheQueue) {
     int ran = 0;
+    std::atomic<bool> queued{false};
     SerialWorker w(4);
     w.push([&ran] { ++ran; });
-    w.push([] { throw std::runtime_error("disk full"); });
+    // The failing job waits until the third job is queued, so the error
+    // reaches finish() (a push after the failure would report it instead).
+    w.push([&queued] {
+        while (!queued) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        throw std::runtime_error("disk full");
+    });
     w.push([&ran] { ++ran; });
+    queued = true;
     try {
         w.finish();
         ADD_FAILURE() << "finish() did not rethrow";
@@ -73,6 +80,25 @@ TEST(SerialWorker, AJobsExceptionReachesTheCallerAndStopsTheQueue) {
     w.push([&ran] { ++ran; });  // reported once: the worker goes on
     w.finish();
     EXPECT_EQ(ran, 2);
+}
+
+TEST(SerialWorker, APushAfterAFailedJobReportsIt) {
+    SerialWorker w(4);
+    w.push([] { throw std::runtime_error("disk full"); });
+    // Wait (bounded) until the failure is recorded: the next push reports it.
+    bool reported = false;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (!reported && std::chrono::steady_clock::now() < deadline) {
+        try {
+            w.push([] {});
+            w.finish();  // may rethrow if the failure came after this push
+        } catch (const std::runtime_error& e) {
+            EXPECT_STREQ(e.what(), "disk full");
+            reported = true;
+        }
+    }
+    EXPECT_TRUE(reported);
+    w.finish();  // reported once
 }
 
 }  // namespace
