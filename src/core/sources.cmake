@@ -1,4 +1,5 @@
 target_sources(mucosa_core PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/checksum.cpp
   ${CMAKE_CURRENT_LIST_DIR}/error.cpp
   ${CMAKE_CURRENT_LIST_DIR}/file.cpp
   ${CMAKE_CURRENT_LIST_DIR}/isolate.cpp

@@ -665,7 +665,7 @@ void Renderer::Impl::occludeOutsideMask(const shading::FrameSetup& frame) {
 // nearest-neighbour blit picks the same pixels as shading::meterPixel), set
 // the exposure (shading::exposureFor), then the post pass into `target`.
 void Renderer::Impl::developFrame(const shading::FrameSetup& frame, GLint target, const GLint viewport[4]) {
-    if (frame.frameIndex == 0) exposure = {};
+    if (frame.frameIndex == 0 || frame.restartExposure) exposure = {};
     float metered = 0.0f;
     if (frame.params[shading::Param::AutoExposure] != 0.0f) {
         constexpr int n = shading::kMeterGrid;

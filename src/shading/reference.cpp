@@ -320,7 +320,7 @@ float exposureFor(const FrameSetup& frame, float metered, ExposureState& state) 
     // diverging: the gain of a real camera has a ceiling.
     const float floor = 1e-8f;
     const float target = std::log2(p[Param::AutoKey] / std::max(metered, floor)) + p[Param::ExposureEv];
-    if (frame.frameIndex == 0 || !state.primed) {
+    if (frame.frameIndex == 0 || frame.restartExposure || !state.primed) {
         state = {true, target};
     } else {
         // First-order lag with time constant tau, sampled at the frame rate.

@@ -66,6 +66,9 @@ struct FrameSetup {
     // The frame's number along its camera path: the sensor noise's pattern,
     // and frame 0 starts auto-exposure afresh (ExposureState).
     int frameIndex = 0;
+    // This frame starts auto-exposure afresh, as frame 0 does: where a run
+    // starts partway along a path (a dataset shard's warm-up).
+    bool restartExposure = false;
 };
 
 // Auto-exposure (docs/theory.md, "The endoscope's camera"), as video

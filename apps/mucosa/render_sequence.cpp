@@ -1,0 +1,404 @@
+// The frame loop of mucosa render and mucosa dataset run (render_sequence.hpp).
+#include "render_sequence.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
+#include <mucosa/core/memory.hpp>
+#include <mucosa/core/parallel.hpp>
+#include <mucosa/core/version.hpp>
+#include <mucosa/dataset/ground_truth.hpp>
+#include <mucosa/dataset/lens.hpp>
+#include <mucosa/dataset/raycast.hpp>
+#include <mucosa/image/png.hpp>
+#include <mucosa/render/offscreen.hpp>
+
+#include "render_manifest.hpp"
+
+namespace mucosa::cli {
+
+namespace {
+
+// The scene's lens model (camera.lens, or --lens), checked against the
+// frame size; nullopt: the pinhole of camera.fov_deg.
+std::optional<dataset::Lens> sceneLens(const scene::Scene& scene) {
+    std::optional<dataset::Lens> lens;
+    std::string where;
+    if (!scene.lensModelFile.empty()) {
+        where = scene.lensModelFile.string();
+        if (!std::filesystem::exists(scene.lensModelFile)) throw IoError("lens", where, "no such file");
+        lens = dataset::readLensFile(scene.lensModelFile);
+    } else if (!scene.lensModelJson.empty()) {
+        where = scene.file.empty() ? "the scene" : scene.file.string();
+        lens = dataset::lensFromJson(nlohmann::json::parse(scene.lensModelJson), where, "camera.lens.");
+    }
+    if (lens && (lens->width != scene.width || lens->height != scene.height))
+        throw InputError("lens", where,
+                         fmt::format("is for {}x{} frames and the frames are {}x{} (render at the lens's size: "
+                                     "--size {}x{})",
+                                     lens->width, lens->height, scene.width, scene.height, lens->width, lens->height));
+    return lens;
+}
+
+// The dataset manifest beside the frames: out.png -> out.frames.json.
+std::filesystem::path datasetManifestPath(const std::filesystem::path& output) {
+    std::filesystem::path p = output;
+    return p.replace_extension(".frames.json");
+}
+
+// The frames file `mucosa fit` reads (intrinsics, camera_to_world in OpenCV
+// axes and mm), with the outputs' files and conventions and the settings
+// that made them.
+void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::filesystem::path& output,
+                          const scene::Scene& scene, const std::vector<camera::Pose>& poses,
+                          const std::vector<std::filesystem::path>& names, const dataset::Outputs& outputs,
+                          double depthScaleMm, const nlohmann::json& settings, const mesh::Centerline& tree,
+                          const std::optional<dataset::Lens>& lens) {
+    fit::FrameSet set;
+    set.response.toneCurve = static_cast<int>(scene.params[shading::Param::ToneCurve]);
+    set.response.vignetting = scene.params[shading::Param::Vignetting];
+    // The renderer's tip light is in x right, y up, z forward; OpenCV's y is down.
+    set.lightOffset = {scene.light.offset[0], -scene.light.offset[1], scene.light.offset[2]};
+    fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
+    if (lens && lens->model != dataset::LensModel::Omnidirectional) {
+        K.fx = lens->fx, K.fy = lens->fy, K.cx = lens->cx, K.cy = lens->cy;
+        if (lens->model == dataset::LensModel::Pinhole) K.k1 = lens->k1, K.k2 = lens->k2;
+    }
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+        fit::Frame f;
+        f.image = names[i];
+        f.K = K;
+        f.cameraToWorld = dataset::cameraToWorldOf(poses[i]);
+        set.frames.push_back(f);
+    }
+    nlohmann::json extra;
+    extra["outputs"] = dataset::describeOutputs(output, static_cast<int>(poses.size()), outputs, depthScaleMm, &tree);
+    // The outputs' file patterns are relative to the manifest's folder.
+    const std::filesystem::path folder =
+        std::filesystem::absolute(output).parent_path().lexically_normal().lexically_relative(
+            std::filesystem::absolute(manifestFile).parent_path().lexically_normal());
+    if (!folder.empty() && folder != ".")
+        for (auto& [key, o] : extra["outputs"].items())
+            if (o.is_object() && o.contains("file") && o["file"].is_string())
+                o["file"] = (folder / o["file"].get<std::string>()).generic_string();
+    extra["conventions"] = {
+        {"camera_axes", "OpenCV: x right, y down, z forward"},
+        {"camera_to_world", "row-major 4x4, rotation columns = the camera's axes in world coordinates, mm"},
+        {"intrinsics", "pinhole, pixel centres at integer coordinates (the first pixel's centre is (0, 0))"},
+        {"world_units", "mm"},
+        {"image_rows", "the first row is the top of the picture"}};
+    if (lens && lens->model != dataset::LensModel::Pinhole) {
+        // The frames' intrinsics hold the lens's focal lengths and centre
+        // (none for the omnidirectional model); the lens itself is here, and
+        // `mucosa fit`, which reads pinhole frames, refuses the file.
+        extra["lens"] = dataset::lensJson(*lens);
+        extra["conventions"]["intrinsics"] = fmt::format(
+            "the {} lens in 'lens' (docs/datasets.md, \"Lens models\"); pixel centres at integer "
+            "coordinates",
+            dataset::lensModelName(lens->model));
+    }
+    extra["dataset"] = {{"made_by", "mucosa render"}, {"mucosa", std::string(version())}, {"settings", settings}};
+    fit::writeFrames(manifestFile, set, extra);
+}
+
+// What a run renders: the scene with its overrides, the lens, the outputs
+// and the settings record, checked before any work.
+struct Prepared {
+    scene::Scene scene;
+    int frames = 1;
+    dataset::Outputs outputs;
+    bool asDataset = false;
+    std::optional<dataset::Lens> lens;
+    nlohmann::json manifest;
+};
+
+Prepared prepare(const RenderArgs& a) {
+    Prepared p;
+    p.scene = resolveScene(a.scene);
+    scene::Scene& scene = p.scene;
+    p.frames = a.frames > 0 ? a.frames : scene.frames;
+    // What each frame writes: --outputs, else the scene's "outputs"; with
+    // either, a dataset manifest (out.frames.json) goes beside the frames.
+    p.asDataset = !a.outputs.empty() || !scene.outputs.empty();
+    p.outputs = !a.outputs.empty() ? dataset::parseOutputs(a.outputs, "--outputs", "the command line")
+                : p.asDataset      ? dataset::parseOutputs(scene.outputs, "outputs",
+                                                      scene.file.empty() ? "the scene" : scene.file.string())
+                                   : dataset::Outputs{};
+    p.outputs.rgbBits = a.rgbBits;
+    if (a.rgbBits == 16 && a.reference)
+        throw InputError("--rgb-bits", "the command line", "16-bit frames come from OpenGL; drop --reference");
+    if (!(a.depthScaleMm > 0 && a.depthScaleMm <= 1000))
+        throw InputError("--depth-png-scale", "the command line", "must be in (0, 1000] mm");
+    if (!a.lens.empty()) {
+        scene.lensModelFile = a.lens;
+        scene.lensModelJson.clear();
+    }
+    p.lens = sceneLens(scene);
+    if (p.lens && a.reference)
+        throw InputError("--reference", "the command line",
+                         "renders through the pinhole only; render through the lens without it");
+    p.manifest = renderManifest(scene, a.scene, p.frames, a.reference, dataset::outputNames(p.outputs));
+    if (p.lens) p.manifest["lens"] = dataset::lensJson(*p.lens);
+    if (a.rgbBits != 8) p.manifest["rgb_bits"] = a.rgbBits;  // absent: 8
+    return p;
+}
+
+}  // namespace
+
+std::filesystem::path sequenceFrameName(const std::filesystem::path& output, int frames, int index) {
+    return frames == 1 ? output : render::frameName(output, index);
+}
+
+nlohmann::json sequenceSettings(const RenderArgs& a) {
+    return prepare(a).manifest;
+}
+
+void writeSequenceManifest(const RenderArgs& a, const Global& g, const std::filesystem::path& file) {
+    Prepared prep = prepare(a);
+    const scene::SceneAssets assets = scene::loadAssets(prep.scene, g.threads, false);
+    const std::vector<camera::Pose> poses = scene::cameraPoses(prep.scene, assets, prep.frames);
+    const std::filesystem::path out = a.output;
+    std::vector<std::filesystem::path> names;
+    for (int i = 0; i < prep.frames; ++i) names.push_back(sequenceFrameName(out, prep.frames, i));
+    writeDatasetManifest(file, out, prep.scene, poses, names, prep.outputs, a.depthScaleMm, prep.manifest,
+                         assets.centerlineTree, prep.lens);
+}
+
+void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard) {
+    namespace fs = std::filesystem;
+    Prepared prep = prepare(a);
+    scene::Scene& scene = prep.scene;
+    const int frames = prep.frames;
+    const dataset::Outputs& outputs = prep.outputs;
+    const std::optional<dataset::Lens>& lens = prep.lens;
+    const nlohmann::json& manifest = prep.manifest;
+    const fs::path out = a.output;
+    if (out.extension() != ".png") throw InputError("--output", out.string(), "must end in .png");
+    requireWritable(out);
+    std::vector<fs::path> names;
+    for (int i = 0; i < frames; ++i) names.push_back(sequenceFrameName(out, frames, i));
+    // A frame is on disk when every one of its outputs is (each is written
+    // atomically, so a file that exists is complete); a plan's frame, when its
+    // checksum file is.
+    auto onDisk = [&](int i) {
+        for (const fs::path& p : dataset::outputFiles(names[static_cast<std::size_t>(i)], outputs))
+            if (!fs::exists(p)) return false;
+        return true;
+    };
+    auto done = [&](int i) { return shard ? shard->done(i) : frames > 1 && !a.overwrite && onDisk(i); };
+    // What to render: a plan's segments, else the whole path, from shortly
+    // before the first missing frame (auto-exposure settles there as in an
+    // uninterrupted run: after kSettleTimeConstants time constants the state
+    // left differs by e^-8).
+    constexpr float kSettleTimeConstants = 8.0f;
+    const bool autoExposure = scene.params[shading::Param::AutoExposure] != 0.0f;
+    std::vector<PlanShard::Segment> segments;
+    int existing = 0, toRender = 0;
+    if (shard) {
+        segments = shard->segments;
+        for (const PlanShard::Segment& s : segments)
+            for (int i = s.begin; i < s.end; ++i) done(i) ? ++existing : ++toRender;
+        if (toRender == 0) {
+            info(g, fmt::format("all {} of this shard are done; nothing to do", count(existing, "frame")));
+            return;
+        }
+    } else {
+        for (int i = 0; i < frames; ++i) existing += done(i);
+        toRender = frames - existing;
+        // A sequence is resumable: frames already on disk are kept, if the
+        // record next to them says they were made with this run's settings.
+        if (existing > 0) requireResumable(out, manifest, existing);
+        if (frames > 1 && existing == frames) {
+            info(g,
+                 fmt::format("all {} exist ({} ...) and match this run; nothing to do (--overwrite renders them again)",
+                             count(frames, "frame"), names.front().string()));
+            return;
+        }
+        int firstMissing = 0;
+        while (firstMissing < frames && done(firstMissing)) ++firstMissing;
+        const int settleFrames = static_cast<int>(std::ceil(
+            kSettleTimeConstants * scene.params[shading::Param::Adaptation] * scene.params[shading::Param::FrameRate]));
+        segments.push_back({std::max(0, firstMissing - settleFrames), 0, frames});
+    }
+    // One mode per run: a mode that reads no map (procedural, the baselines)
+    // does not generate one.
+    const scene::SceneAssets assets = scene::loadAssets(scene, g.threads, shading::info(scene.mode).readsMap);
+    for (const std::string& n : assets.notes) info(g, n);
+    const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, frames);
+    std::unique_ptr<render::OffscreenSession> session;
+    if (!a.reference) {
+        session = std::make_unique<render::OffscreenSession>(scene, assets, scene.width, scene.height);
+        info(g, "GL_RENDERER: " + session->glRendererName());
+        if (lens) {
+            session->renderer().setLensRays(dataset::rayImage(*lens));
+            info(g, fmt::format("lens: {} {}x{}, drawn through a cube map of {}-pixel faces",
+                                dataset::lensModelName(lens->model), lens->width, lens->height,
+                                session->renderer().cubeFaceSize()));
+        }
+    }
+    const shading::Textures refTextures = scene::referenceTextures(scene, assets);
+    const bool tty = isatty(2) && !g.quiet;
+    const auto t0 = std::chrono::steady_clock::now();
+    int written = 0, firstWritten = 0, lastWritten = frames - 1;
+    shading::ExposureState exposure;
+    // The ground truth of frame i: the manifest's camera on the scene's mesh.
+    const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
+    auto cameraToWorld = [&](int i) { return dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]); };
+    // Through a lens: exact per pixel-centre ray (the rays the frame is drawn
+    // along), cast into a tree of the mesh built once.
+    std::optional<dataset::RayCaster> caster;
+    if (lens && outputs.any()) caster.emplace(assets.mesh);
+    auto truthOf = [&](int i) {
+        dataset::GroundTruth t =
+            caster ? dataset::groundTruth(*caster, *lens, cameraToWorld(i), scene.lens.nearMm, g.threads)
+                   : dataset::groundTruth(assets.mesh, K, cameraToWorld(i), scene.lens.nearMm, g.threads);
+        const std::vector<std::uint8_t> mask = dataset::fieldOfView(
+            scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height));
+        for (std::size_t p = 0; p < mask.size(); ++p) t.inView[p] = t.inView[p] && mask[p];
+        return t;
+    };
+    std::shared_ptr<const dataset::GroundTruth> previous;
+    int previousIndex = -1;
+    // Each frame's files are encoded and written on a background thread while
+    // the next frame renders (at most two frames queued: memory stays flat).
+    SerialWorker writer(2);
+    // Branch labels: each vertex's branch, once.
+    std::vector<std::int32_t> vertexBranch;
+    if (outputs.branch) {
+        if (assets.centerlineTree.branches.empty())
+            throw InputError("--outputs", "branch",
+                             "needs the airway's centerline tree (the phantom, a centerline JSON beside the mesh or in "
+                             "camera.path.centerline, or one computed from the mesh), which this scene's camera path "
+                             "does not have");
+        vertexBranch = dataset::vertexBranches(assets.mesh, assets.centerlineTree);
+    }
+    bool restart = false;  // the next frame rendered starts auto-exposure afresh
+    auto setupOf = [&](int i) {
+        shading::FrameSetup f = scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height);
+        f.frameIndex = i;
+        f.restartExposure = restart;
+        restart = false;
+        return f;
+    };
+    auto renderFrame = [&](int i) {
+        const shading::FrameSetup f = setupOf(i);
+        return a.reference ? shading::renderReference(assets.mesh, f, refTextures, &exposure) : session->renderFrame(f);
+    };
+    auto renderAndWrite = [&](int i) {
+        const fs::path& name = names[static_cast<std::size_t>(i)];
+        auto rgb = std::make_shared<image::Image8>();
+        auto rgb16 = std::make_shared<image::Image16>();
+        if (outputs.rgb && a.rgbBits == 16)
+            *rgb16 = session->renderFrame16(setupOf(i));
+        else if (outputs.rgb)
+            *rgb = renderFrame(i);
+        auto encode = [rgb, rgb16] { return rgb16->empty() ? image::encodePng(*rgb) : image::encodePng(*rgb16); };
+        std::shared_ptr<dataset::GroundTruth> truth;
+        std::uint64_t truthBytes = 0;
+        if (outputs.any()) {
+            truth = std::make_shared<dataset::GroundTruth>(truthOf(i));
+            if (outputs.branch) dataset::labelBranches(*truth, assets.mesh, vertexBranch);
+            if (outputs.flow) {
+                // The flow needs the frame before (kept from the last frame
+                // rendered, else computed: the first frame of a resumed run).
+                if (i > 0 && previousIndex != i - 1)
+                    previous = std::make_shared<const dataset::GroundTruth>(truthOf(i - 1)), previousIndex = i - 1;
+                const fit::Mat4 before = i > 0 ? cameraToWorld(i - 1) : cameraToWorld(i);
+                if (lens)
+                    dataset::flowToPrevious(*truth, *lens, cameraToWorld(i), i > 0 ? previous.get() : nullptr, before,
+                                            scene.lens.nearMm);
+                else
+                    dataset::flowToPrevious(*truth, K, cameraToWorld(i), i > 0 ? previous.get() : nullptr, before,
+                                            scene.lens.nearMm);
+            }
+            // Upper bound of the ground truth's files: float EXR / 16-bit PNG, uncompressed.
+            const std::uint64_t px = static_cast<std::uint64_t>(scene.width) * scene.height;
+            truthBytes = px * (outputs.depth * 6 + outputs.normals * 18 + outputs.mask + outputs.uv * 12 +
+                               outputs.face * 4 + outputs.flow * 13 + outputs.branch * 2);
+        }
+        auto png = std::make_shared<std::vector<std::byte>>();
+        if (written == 0) {
+            // The first frame is encoded here: its size is the estimate for
+            // the rest, and nothing is written before the disk check.
+            if (outputs.rgb) *png = encode();
+            if (toRender > 1) {
+                // Refuse a run whose frames will not fit before writing any
+                // of them (x1.25 for frames that compress less well, plus 64
+                // MiB to spare).
+                const std::uint64_t toWrite = static_cast<std::uint64_t>(toRender);
+                // Absolute: the disk probe walks up from the path, and "fly.png" alone has no parent to walk to.
+                const std::uint64_t perFrame = png->size() + png->size() / 4 + truthBytes;
+                requireDisk(saturatingMul(toWrite, perFrame) + (64ull << 20), fs::absolute(out),
+                            fmt::format("{} of ~{}", count(toWrite, "frame"), formatBytes(perFrame)));
+            }
+            if (frames > 1 && !shard) writeFileAtomic(manifestPath(out), manifest.dump(2) + "\n");
+            if (prep.asDataset && !shard)
+                writeDatasetManifest(datasetManifestPath(out), out, scene, poses, names, outputs, a.depthScaleMm,
+                                     manifest, assets.centerlineTree, lens);
+        }
+        // The colour frame last: a frame is complete when all its files are.
+        writer.push([encode, png, truth, name, &outputs, scale = a.depthScaleMm, shard, i] {
+            if (truth) dataset::writeGroundTruth(*truth, name, outputs, scale);
+            if (outputs.rgb) writeFileAtomic(name, png->empty() ? encode() : *png);
+            if (shard && shard->written) shard->written(i);
+        });
+        if (truth && outputs.flow) previous = truth, previousIndex = i;
+        if (written++ == 0) firstWritten = i;
+        lastWritten = i;
+        if (frames > 1 && !g.quiet) {
+            const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            const double rate = written / std::max(s, 1e-9);
+            const int left = toRender - written;
+            const std::string line =
+                fmt::format("frame {}/{} {}: {} of {} to render ({:.0f}%, {:.1f} frames/s, ETA {})", i + 1, frames,
+                            name.filename().string(), written, toRender, 100.0 * written / toRender, rate,
+                            formatDuration(left / rate));
+            if (tty)
+                std::fprintf(stderr, "\r%s\x1b[K", line.c_str());
+            else if (written % std::max(1, toRender / 10) == 0 || written == toRender)
+                std::fprintf(stderr, "%s\n", line.c_str());
+        }
+    };
+    for (const PlanShard::Segment& s : segments) {
+        int lastMissing = -1, firstMissing = s.end;
+        for (int i = s.begin; i < s.end; ++i)
+            if (!done(i)) lastMissing = i, firstMissing = std::min(firstMissing, i);
+        if (lastMissing < 0) continue;
+        // Auto-exposure carries state from frame to frame: it starts afresh at
+        // the segment's warm-up frame and every frame from there on is
+        // rendered (those on disk, or before the segment, are discarded).
+        const int start = autoExposure ? std::min(s.warm, firstMissing) : firstMissing;
+        restart = true;
+        for (int i = start; i <= lastMissing; ++i) {
+            if (i < s.begin || done(i)) {
+                if (autoExposure) (void)renderFrame(i);
+                continue;
+            }
+            renderAndWrite(i);
+        }
+    }
+    writer.finish();
+    if (tty && frames > 1) std::fprintf(stderr, "\n");
+    if (frames == 1 && !shard)
+        info(g, fmt::format("wrote {} ({}x{}, mode {})", out.string(), scene.width, scene.height,
+                            shading::modeName(scene.mode)));
+    else
+        info(g, fmt::format("wrote {} of {} .. {} ({}x{}, mode {}){}", count(written, "frame"),
+                            names[static_cast<std::size_t>(shard ? firstWritten : 0)].string(),
+                            names[static_cast<std::size_t>(shard ? lastWritten : frames - 1)].string(), scene.width,
+                            scene.height, shading::modeName(scene.mode),
+                            existing ? fmt::format(", kept {} existing", existing) : ""));
+}
+
+}  // namespace mucosa::cli
