@@ -424,7 +424,8 @@ void addPlanCommands(CLI::App& dataset, Global& g) {
         ->required()
         ->check(wholeNumber(1, 10000000));
     plan->add_option("--outputs", pa->render.outputs,
-                     "What each frame writes: rgb, depth, normals, mask, uv, face, flow, branch (as mucosa render) "
+                     "What each frame writes: rgb, linear, highlight, depth, normals, mask, uv, face, flow, branch (as "
+                     "mucosa render) "
                      "[the scene's \"outputs\", else rgb]");
     plan->add_option("--depth-png-scale", pa->render.depthScaleMm,
                      "Millimetres per unit of the 16-bit depth PNG [0.01]");

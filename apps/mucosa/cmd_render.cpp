@@ -28,7 +28,8 @@ void addRenderCommand(CLI::App& app, Global& g) {
                 "OUT.render.json says they were made with the same settings)");
     c->add_flag("--reference", a->reference, "Use the C++ reference renderer (no OpenGL; slow)");
     c->add_option("--outputs", a->outputs,
-                  "What each frame writes, comma-separated: rgb, depth, normals, mask, uv, face, flow, branch (ground "
+                  "What each frame writes, comma-separated: rgb, linear, highlight, depth, normals, mask, uv, face, "
+                  "flow, branch (ground "
                   "truth beside "
                   "each frame, and OUT.frames.json: poses, intrinsics, every file's encoding and unit; "
                   "docs/datasets.md) [the scene's \"outputs\", else rgb]");

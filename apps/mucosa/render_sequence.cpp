@@ -21,6 +21,7 @@
 #include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/dataset/lens.hpp>
 #include <mucosa/dataset/raycast.hpp>
+#include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/offscreen.hpp>
 
@@ -145,6 +146,11 @@ Prepared prepare(const RenderArgs& a) {
         scene.lensModelJson.clear();
     }
     p.lens = sceneLens(scene);
+    if ((p.outputs.linear || p.outputs.highlight) && a.reference)
+        throw InputError("--outputs", "linear, highlight", "are drawn with OpenGL; drop --reference");
+    if ((p.outputs.linear || p.outputs.highlight) && !shading::info(scene.mode).photographic)
+        throw InputError("--outputs", "linear, highlight",
+                         fmt::format("need a photographic mode; '{}' is a debug view", shading::modeName(scene.mode)));
     if (p.lens && a.reference)
         throw InputError("--reference", "the command line",
                          "renders through the pinhole only; render through the lens without it");
@@ -299,10 +305,30 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
         const fs::path& name = names[static_cast<std::size_t>(i)];
         auto rgb = std::make_shared<image::Image8>();
         auto rgb16 = std::make_shared<image::Image16>();
-        if (outputs.rgb && a.rgbBits == 16)
+        const bool draws = outputs.rgb || outputs.linear || outputs.highlight;
+        if (draws && a.rgbBits == 16)
             *rgb16 = session->renderFrame16(setupOf(i));
-        else if (outputs.rgb)
+        else if (draws)
             *rgb = renderFrame(i);
+        // The colour frame's other developments, with the exposure it got:
+        // its linear signal, and the highlights (its specular lobe's share).
+        auto linear = std::make_shared<image::ImageF>();
+        auto highlight = std::make_shared<image::Image8>();
+        if (outputs.linear || outputs.highlight) {
+            const float exposure = session->renderer().lastExposure();
+            auto develop = [&](bool noise, bool specular) {
+                shading::FrameSetup f =
+                    scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height);
+                f.frameIndex = i;
+                f.fixedExposure = exposure;
+                f.params.set(shading::Param::ToneCurve, 0.0f);
+                if (!noise) f.params.set(shading::Param::FullWell, 0.0f), f.params.set(shading::Param::ReadNoise, 0.0f);
+                if (!specular) f.params.set(shading::Param::SpecularStrength, 0.0f);
+                return session->renderFrameFloat(f);
+            };
+            if (outputs.linear) *linear = develop(true, true);
+            if (outputs.highlight) *highlight = dataset::highlightMask(develop(false, true), develop(false, false));
+        }
         auto encode = [rgb, rgb16] { return rgb16->empty() ? image::encodePng(*rgb) : image::encodePng(*rgb16); };
         std::shared_ptr<dataset::GroundTruth> truth;
         std::uint64_t truthBytes = 0;
@@ -327,6 +353,8 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
             truthBytes = px * (outputs.depth * 6 + outputs.normals * 18 + outputs.mask + outputs.uv * 12 +
                                outputs.face * 4 + outputs.flow * 13 + outputs.branch * 2);
         }
+        truthBytes +=
+            static_cast<std::uint64_t>(scene.width) * scene.height * (outputs.linear * 12 + outputs.highlight);
         auto png = std::make_shared<std::vector<std::byte>>();
         if (written == 0) {
             // The first frame is encoded here: its size is the estimate for
@@ -348,8 +376,14 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
                                      manifest, assets.centerlineTree, lens);
         }
         // The colour frame last: a frame is complete when all its files are.
-        writer.push([encode, png, truth, name, &outputs, scale = a.depthScaleMm, shard, i] {
+        writer.push([encode, png, truth, linear, highlight, name, &outputs, scale = a.depthScaleMm, shard, i] {
             if (truth) dataset::writeGroundTruth(*truth, name, outputs, scale);
+            auto beside = [&name](const char* suffix) {
+                fs::path p = name;
+                return p.replace_filename(name.stem().string() + suffix);
+            };
+            if (outputs.linear) image::writeExr(beside(".linear.exr"), *linear);
+            if (outputs.highlight) image::writePng(beside(".highlight.png"), *highlight);
             if (outputs.rgb) writeFileAtomic(name, png->empty() ? encode() : *png);
             if (shard && shard->written) shard->written(i);
         });

@@ -26,7 +26,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kNames[] = {"rgb", "depth", "normals", "mask", "uv", "face", "flow", "branch"};
+constexpr const char* kNames[] = {"rgb",  "depth", "normals", "mask",   "uv",
+                                  "face", "flow",  "branch",  "linear", "highlight"};
 
 bool* flag(Outputs& o, std::string_view name) {
     if (name == "rgb") return &o.rgb;
@@ -37,6 +38,8 @@ bool* flag(Outputs& o, std::string_view name) {
     if (name == "face") return &o.face;
     if (name == "flow") return &o.flow;
     if (name == "branch") return &o.branch;
+    if (name == "linear") return &o.linear;
+    if (name == "highlight") return &o.highlight;
     return nullptr;
 }
 
@@ -117,8 +120,10 @@ Outputs parseOutputs(std::string_view list, const std::string& what, const std::
         if (!f)
             throw InputError(
                 what, where,
-                fmt::format("unknown output '{}' (the outputs: rgb, depth, normals, mask, uv, face, flow, branch)",
-                            std::string(name)));
+                fmt::format(
+                    "unknown output '{}' (the outputs: rgb, linear, highlight, depth, normals, mask, uv, face, flow, "
+                    "branch)",
+                    std::string(name)));
         if (*f) throw InputError(what, where, fmt::format("'{}' is listed twice", std::string(name)));
         *f = any = true;
         start = comma + 1;
@@ -377,6 +382,22 @@ std::vector<std::uint8_t> fieldOfView(const shading::FrameSetup& frame) {
     return in;
 }
 
+image::Image8 highlightMask(const image::ImageF& with, const image::ImageF& without) {
+    if (with.width() != without.width() || with.height() != without.height() || with.channels() != 3 ||
+        without.channels() != 3)
+        throw InputError("highlight mask", "", "needs two RGB images of one size");
+    auto luminance = [](const image::ImageF& img, int x, int y) {
+        return 0.2126f * img.at(x, y, 0) + 0.7152f * img.at(x, y, 1) + 0.0722f * img.at(x, y, 2);
+    };
+    image::Image8 mask(with.width(), with.height(), 1);
+    for (int y = 0; y < with.height(); ++y)
+        for (int x = 0; x < with.width(); ++x) {
+            const float specular = luminance(with, x, y) - luminance(without, x, y);
+            mask.at(x, y) = specular >= kHighlightMinSignal ? 255 : 0;
+        }
+    return mask;
+}
+
 std::vector<fs::path> outputFiles(const fs::path& rgbName, const Outputs& o) {
     std::vector<fs::path> files;
     if (o.rgb) files.push_back(rgbName);
@@ -387,6 +408,8 @@ std::vector<fs::path> outputFiles(const fs::path& rgbName, const Outputs& o) {
     if (o.face) files.push_back(beside(rgbName, ".face.exr"));
     if (o.flow) files.push_back(beside(rgbName, ".flow.exr")), files.push_back(beside(rgbName, ".occlusion.png"));
     if (o.branch) files.push_back(beside(rgbName, ".branch.png"));
+    if (o.linear) files.push_back(beside(rgbName, ".linear.exr"));
+    if (o.highlight) files.push_back(beside(rgbName, ".highlight.png"));
     return files;
 }
 
@@ -453,6 +476,23 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
             {"file", stem + output.extension().string()},
             {"encoding", fmt::format("{}-bit PNG, RGB, display-referred (the camera's tone curve applied)", o.rgbBits)},
             {"content", "the frame as the endoscope's camera puts it out (display-referred)"}};
+    if (o.linear)
+        j["linear"] = {
+            {"file", stem + ".linear.exr"},
+            {"encoding", "OpenEXR, FLOAT channels 'R','G','B', ZIP"},
+            {"unit", "sensor signal: 1 = full scale (saturation)"},
+            {"content",
+             "the camera's linear signal of the colour frame: the same exposure, vignetting, sensor noise and mask, "
+             "before the tone curve and the colour enhancement (camera.saturation), without quantisation; "
+             "clipped to [0, 1] as the sensor saturates"}};
+    if (o.highlight)
+        j["highlight"] = {
+            {"file", stem + ".highlight.png"},
+            {"encoding", "8-bit grey PNG"},
+            {"content", fmt::format("255 where the pixel is a specular highlight: the specular reflection "
+                                    "(material.specular_strength's lobe) adds at least {} of full scale to the "
+                                    "luminance of the noise-free linear signal (after clipping); 0 elsewhere",
+                                    kHighlightMinSignal)}};
     if (o.depth) {
         j["depth"] = {{"file", stem + ".depth.exr"},
                       {"encoding", "OpenEXR, one FLOAT channel 'Y', ZIP"},

@@ -74,14 +74,18 @@ image::Image8 OffscreenSession::renderFrame(const shading::FrameSetup& frame) {
     return img;
 }
 
-image::Image16 OffscreenSession::renderFrame16(const shading::FrameSetup& frame) {
+image::ImageF OffscreenSession::renderFrameFloat(const shading::FrameSetup& frame) {
     if (!deep_ || deep_->width() != frame.width || deep_->height() != frame.height) {
         deep_.reset();
         deep_ = std::make_unique<Framebuffer>(frame.width, frame.height, ColorFormat::Rgba32F);
     }
     deep_->bind();
     renderer_->draw(frame);
-    const image::ImageF v = deep_->readRgbLinear();
+    return deep_->readRgbLinear();
+}
+
+image::Image16 OffscreenSession::renderFrame16(const shading::FrameSetup& frame) {
+    const image::ImageF v = renderFrameFloat(frame);
     image::Image16 out(v.width(), v.height(), 3);
     for (std::size_t i = 0; i < v.size(); ++i)
         out.data()[i] = static_cast<std::uint16_t>(std::lround(std::clamp(v.data()[i], 0.0f, 1.0f) * 65535.0f));

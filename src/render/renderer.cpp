@@ -665,9 +665,10 @@ void Renderer::Impl::occludeOutsideMask(const shading::FrameSetup& frame) {
 // nearest-neighbour blit picks the same pixels as shading::meterPixel), set
 // the exposure (shading::exposureFor), then the post pass into `target`.
 void Renderer::Impl::developFrame(const shading::FrameSetup& frame, GLint target, const GLint viewport[4]) {
-    if (frame.frameIndex == 0 || frame.restartExposure) exposure = {};
+    const bool fixed = frame.fixedExposure > 0.0f;
+    if ((frame.frameIndex == 0 || frame.restartExposure) && !fixed) exposure = {};
     float metered = 0.0f;
-    if (frame.params[shading::Param::AutoExposure] != 0.0f) {
+    if (frame.params[shading::Param::AutoExposure] != 0.0f && !fixed) {
         constexpr int n = shading::kMeterGrid;
         glBindFramebuffer(GL_READ_FRAMEBUFFER, hdr.fbo);
         glBindFramebuffer(GL_DRAW_FRAMEBUFFER, hdr.meterFbo);
@@ -783,6 +784,10 @@ void Renderer::setLensRays(const image::ImageF& rays, int faceSize) {
 
 int Renderer::cubeFaceSize() const noexcept {
     return impl_->lens.faceSize;
+}
+
+float Renderer::lastExposure() const noexcept {
+    return std::exp2(impl_->exposure.ev);
 }
 
 // Each face the rays reach: the frame's camera turned to the face, a 90

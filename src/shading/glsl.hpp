@@ -92,7 +92,10 @@ inline Camera packCamera(const FrameSetup& f, float exposure) {
     c.fullWell = p[Param::FullWell];
     c.readNoise = p[Param::ReadNoise];
     c.toneCurve = static_cast<int>(p[Param::ToneCurve]);
-    c.frameSeed = f.frameIndex;
+    // Seed 0 is the frame index itself; another seed scatters it (Weyl's
+    // golden-ratio constant), so each (seed, frame) has its own pattern.
+    c.frameSeed = static_cast<int>(static_cast<std::uint32_t>(f.frameIndex) ^
+                                   (static_cast<std::uint32_t>(p[Param::NoiseSeed]) * 0x9E3779B1u));
     c.saturation = p[Param::Saturation];
     return c;
 }

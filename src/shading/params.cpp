@@ -406,6 +406,17 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      "",
      "Colour enhancement of the video processor: saturation gain about the luma after the tone curve (1 = none)",
      false},
+    {P::NoiseSeed,
+     "noise_seed",
+     "camera",
+     1,
+     {0.0f, 0, 0},
+     0.0f,
+     2047.0f,
+     "",
+     "The sensor noise's seed (a whole number): each frame's noise pattern is a function of (seed, frame index); "
+     "another seed, another realisation of the same frames",
+     false},
 }};
 
 constexpr bool registryInOrder() {

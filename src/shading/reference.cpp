@@ -310,6 +310,7 @@ float inverseToneCurve(float value, int curve) noexcept {
 }
 
 float exposureFor(const FrameSetup& frame, float metered, ExposureState& state) {
+    if (frame.fixedExposure > 0.0f) return frame.fixedExposure;
     const ParamSet& p = frame.params;
     if (p[Param::AutoExposure] == 0.0f) {
         state = {true, p[Param::ExposureEv]};

@@ -42,8 +42,20 @@ struct Outputs {
     bool face = false;     // the triangle index: float32 EXR (exact up to 2^24)
     bool flow = false;     // optical flow to the previous frame and its occlusion: float32 EXR + 8-bit PNG
     bool branch = false;   // the airway branch seen (segmentation labels from the centerline): 16-bit PNG
+    // Drawn by the renderer with the colour frame's exposure:
+    bool linear = false;     // the camera's linear signal (before the tone curve): float32 EXR
+    bool highlight = false;  // the specular-highlight pixels: 8-bit PNG
     bool any() const noexcept { return depth || normals || mask || uv || face || flow || branch; }  // any ground truth
 };
+// The highlight mask: a pixel is a specular highlight where the specular
+// lobe (material.specular_strength) adds at least this much, of full scale,
+// to the noise-free linear signal's luminance (after the sensor clips: a
+// glint on a saturated wall adds nothing visible and is not one).
+inline constexpr float kHighlightMinSignal = 0.05f;
+// 255 / 0 per pixel from the linear signal with and without the specular
+// lobe (3-channel images, Rec. 709 luminance).
+image::Image8 highlightMask(const image::ImageF& withSpecular, const image::ImageF& withoutSpecular);
+
 // "rgb,depth,normals": throws InputError naming `what` and `where` for an
 // unknown or repeated name or an empty list.
 Outputs parseOutputs(std::string_view list, const std::string& what, const std::string& where);

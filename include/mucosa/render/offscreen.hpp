@@ -32,6 +32,8 @@ public:
     // rounded once (v x 65535), where renderFrame's 8-bit target rounds to
     // v x 255 (the two agree to half an 8-bit step).
     image::Image16 renderFrame16(const shading::FrameSetup& frame);
+    // The same frame as floats, unrounded (the developed signal in [0, 1]).
+    image::ImageF renderFrameFloat(const shading::FrameSetup& frame);
     // Draws without reading back (benchmarks call glFinish through finish()).
     void draw(const camera::Pose& pose, shading::Mode mode);
     void draw(const shading::FrameSetup& frame);  // at the session's size

@@ -57,6 +57,11 @@ public:
     void setLensRays(const image::ImageF& rays, int faceSize = 0);
     int cubeFaceSize() const noexcept;  // the lens's faces (0 without a lens)
 
+    // The linear exposure factor the camera developed the last frame with
+    // (after auto-exposure); FrameSetup::fixedExposure develops another
+    // version of it with the same.
+    float lastExposure() const noexcept;
+
     std::size_t triangleCount() const noexcept;
     // Triangles in the chunks the last draw() did not cull (frustum culling).
     std::size_t lastDrawnTriangles() const noexcept;

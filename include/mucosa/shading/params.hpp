@@ -108,8 +108,9 @@ enum class Param : int {
     ToneCurve,
     AutoPeak,
     Saturation,
+    NoiseSeed,
 };
-inline constexpr std::size_t kParamCount = 39;
+inline constexpr std::size_t kParamCount = 40;
 
 struct ParamInfo {
     Param id;

@@ -69,6 +69,10 @@ struct FrameSetup {
     // This frame starts auto-exposure afresh, as frame 0 does: where a run
     // starts partway along a path (a dataset shard's warm-up).
     bool restartExposure = false;
+    // > 0: develop with this linear exposure factor instead of metering; the
+    // auto-exposure state is neither used nor changed (a second development
+    // of a frame already rendered: its linear signal, its highlights).
+    float fixedExposure = 0.0f;
 };
 
 // Auto-exposure (docs/theory.md, "The endoscope's camera"), as video
