@@ -4,6 +4,8 @@
 // phantom, 141 k triangles), and where the time goes: the GL frame (draw and
 // readback), PNG encoding, the ground truth (z-buffer, field of view, branch
 // labels, flow) and writing its files (EXR and 16-bit PNG encoding).
+// Then the same frames through a fisheye: the GL frame and the ground truth
+// against the pinhole's.
 // Everything runs one stage after another on this thread, so each stage is
 // timed alone (the CLI overlaps the writing with the next frame: bench/README).
 //
@@ -20,6 +22,8 @@
 
 #include <mucosa/core/file.hpp>
 #include <mucosa/dataset/ground_truth.hpp>
+#include <mucosa/dataset/lens.hpp>
+#include <mucosa/dataset/raycast.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/offscreen.hpp>
 #include <mucosa/scene/scene.hpp>
@@ -114,6 +118,37 @@ int main(int argc, char** argv) {
             std::printf(" %s %.3f", kTruthOutputs[k], perOutput[k] / n);
         std::printf("\n  ratio all / rgb: %.2f (target <= 1.5); branch labels' setup once: %.2f s\n",
                     full.total() / rgbOnly.total(), branchSetup);
+        std::fflush(stdout);
+
+        // Through a fisheye (equidistant, 160 degrees across the diagonal):
+        // the cube map's faces and the remap against the pinhole's frame, and
+        // the ground truth by ray casting (the tree built once) against the
+        // pinhole's z-buffer.
+        const dataset::Lens lens = dataset::equidistantFisheye(w, h, 160.0);
+        auto s = Clock::now();
+        const dataset::RayCaster caster(assets.mesh);
+        const double tree = since(s);
+        session.renderer().setLensRays(dataset::rayImage(lens));
+        const int faceSize = session.renderer().cubeFaceSize();
+        double fisheyeGl = 0, fisheyeTruth = 0;
+        for (int i = 0; i < frames; ++i) {
+            shading::FrameSetup f =
+                scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height);
+            f.frameIndex = i;
+            s = Clock::now();
+            const image::Image8 img = session.renderFrame(f);
+            fisheyeGl += since(s);
+            s = Clock::now();
+            const dataset::GroundTruth g = dataset::groundTruth(
+                caster, lens, dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]), scene.lens.nearMm);
+            fisheyeTruth += since(s);
+        }
+        session.renderer().setLensRays({});
+        std::printf(
+            "  fisheye 160 deg (%d-px cube faces): GL %.3f s/frame (%.2f x the pinhole's %.3f); ground truth "
+            "by ray casting %.3f s/frame (%.2f x the pinhole's z-buffer %.3f; tree once %.2f s)\n",
+            faceSize, fisheyeGl / n, fisheyeGl / rgbOnly.gl, rgbOnly.gl / n, fisheyeTruth / n, fisheyeTruth / raster,
+            raster / n, tree);
         std::fflush(stdout);
     }
     fs::remove_all(dir);

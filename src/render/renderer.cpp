@@ -143,6 +143,10 @@ struct LensTarget {
     GLuint cube = 0, depth = 0, fbo = 0, rays = 0;
     int faceSize = 0, width = 0, height = 0;
     std::array<bool, 6> faces{};  // GL_TEXTURE_CUBE_MAP_POSITIVE_X + i drawn
+    // Each face's texels the rays (and their bilinear footprint) reach, as
+    // x0, y0, x1, y1 (exclusive) in the face's window coordinates: only those
+    // are drawn (a 160-degree fisheye uses under half of its side faces).
+    std::array<std::array<int, 4>, 6> rects{};
     PostProgram remap;
 
     bool active() const noexcept { return rays != 0; }
@@ -154,8 +158,39 @@ struct LensTarget {
         fbo = cube = rays = depth = 0;
         faceSize = width = height = 0;
         faces = {};
+        rects = {};
     }
 };
+
+// Where direction d (eye axes) meets cube face i, in the face's texture
+// coordinates s, t in [0, 1] (the OpenGL specification's cube-map table: the
+// major axis ma and the coordinates sc, tc per face), clamped to the face.
+std::pair<float, float> cubeFaceCoordinates(const glm::vec3& d, int face) {
+    const int k = face / 2;
+    const float ma = std::max(std::abs(d[k]), 1e-12f);
+    float sc = 0, tc = 0;
+    switch (face) {
+        case 0:
+            sc = -d.z, tc = -d.y;
+            break;  // +x
+        case 1:
+            sc = d.z, tc = -d.y;
+            break;  // -x
+        case 2:
+            sc = d.x, tc = d.z;
+            break;  // +y
+        case 3:
+            sc = d.x, tc = -d.z;
+            break;  // -y
+        case 4:
+            sc = d.x, tc = -d.y;
+            break;  // +z
+        default:
+            sc = -d.x, tc = -d.y;
+            break;  // -z
+    }
+    return {std::clamp(0.5f * (sc / ma + 1.0f), 0.0f, 1.0f), std::clamp(0.5f * (tc / ma + 1.0f), 0.0f, 1.0f)};
+}
 
 // The rotation from the camera's eye axes to cube face i's, in OpenGL's
 // cube-map convention (the face's image as samplerCube reads it: +x, -x, +y,
@@ -741,8 +776,28 @@ void Renderer::setLensRays(const image::ImageF& rays, int faceSize) {
             const glm::vec3 a = glm::abs(d);
             const float major = std::max({a.x, a.y, a.z});
             for (int k = 0; k < 3; ++k)
-                if (a[k] >= edge * major) t.faces[static_cast<std::size_t>(2 * k + (d[k] < 0))] = true;
+                if (a[k] >= edge * major) {
+                    const int face = 2 * k + (d[k] < 0);
+                    const auto [s, tc] = cubeFaceCoordinates(d, face);
+                    // The bilinear footprint, plus a texel to spare.
+                    const float fs = s * static_cast<float>(faceSize), ft = tc * static_cast<float>(faceSize);
+                    std::array<int, 4>& r = t.rects[static_cast<std::size_t>(face)];
+                    const std::array<int, 4> here = {
+                        static_cast<int>(std::floor(fs)) - 2, static_cast<int>(std::floor(ft)) - 2,
+                        static_cast<int>(std::ceil(fs)) + 2, static_cast<int>(std::ceil(ft)) + 2};
+                    if (!t.faces[static_cast<std::size_t>(face)]) {
+                        r = here;
+                    } else {
+                        r[0] = std::min(r[0], here[0]), r[1] = std::min(r[1], here[1]);
+                        r[2] = std::max(r[2], here[2]), r[3] = std::max(r[3], here[3]);
+                    }
+                    t.faces[static_cast<std::size_t>(face)] = true;
+                }
         }
+    for (std::array<int, 4>& r : t.rects) {
+        r[0] = std::max(r[0], 0), r[1] = std::max(r[1], 0);
+        r[2] = std::min(r[2], faceSize), r[3] = std::min(r[3], faceSize);
+    }
     t.faceSize = faceSize;
     t.width = w;
     t.height = h;
@@ -817,6 +872,9 @@ void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& 
         if (!lens.faces[static_cast<std::size_t>(i)]) continue;
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0,
                                static_cast<GLenum>(GL_TEXTURE_CUBE_MAP_POSITIVE_X + i), lens.cube, 0);
+        const std::array<int, 4>& r = lens.rects[static_cast<std::size_t>(i)];
+        glEnable(GL_SCISSOR_TEST);  // the clear and the draw: only what the rays read
+        glScissor(r[0], r[1], r[2] - r[0], r[3] - r[1]);
         setPipelineState(frame);
         shading::glsl::Frame face = f;  // the lamp's axis, eye and light stay the camera's
         face.view = faceRotation(i) * f.view;
@@ -825,6 +883,7 @@ void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& 
         bindTextures(frame.specularAA);
         drawVisibleChunks(face.viewProj);
     }
+    glDisable(GL_SCISSOR_TEST);
     if (develop) {
         hdr.ensure(viewport[2], viewport[3]);
         glBindFramebuffer(GL_FRAMEBUFFER, hdr.fbo);
