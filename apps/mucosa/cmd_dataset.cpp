@@ -320,6 +320,18 @@ void runShard(const RunArgs& a, const Global& g) {
     shard.done = [&p](int i) { return fs::exists(checksumFile(p.frameName(i))); };
     shard.written = [&p](int i) { writeChecksums(p, i); };
     fs::create_directories(framesOutput(p.dir).parent_path());
+    // A task killed mid-write (SIGKILL, a node lost) leaves its temporaries:
+    // those of the frames this shard renders again go (no other task writes
+    // them).
+    std::vector<fs::path> again;
+    for (const PlanShard::Segment& s : shard.segments)
+        for (int i = s.begin; i < s.end; ++i)
+            if (!shard.done(i)) {
+                for (const fs::path& f : dataset::outputFiles(p.frameName(i), p.outputs)) again.push_back(f);
+                again.push_back(checksumFile(p.frameName(i)));
+            }
+    if (const std::size_t n = removeStaleTemporaries(again); n > 0)
+        info(g, fmt::format("removed {} an interrupted run left", count(n, "unfinished temporary file")));
     info(g, fmt::format("shard {}/{}: frames {} .. {} of {}", index, shards, shard.segments.front().begin,
                         shard.segments.back().end - 1, p.frames));
     renderSequence(p.args, g, &shard);
@@ -464,6 +476,7 @@ void addDatasetCommand(CLI::App& app, Global& g) {
         "other tools");
     dataset->require_subcommand(1);
     addPlanCommands(*dataset, g);
+    addSlurmCommand(*dataset, g);
     addExportCommand(*dataset, g);
 }
 

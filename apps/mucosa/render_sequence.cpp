@@ -231,6 +231,15 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
                              count(frames, "frame"), names.front().string()));
             return;
         }
+        // A run killed mid-write leaves its temporaries: those of the frames
+        // rendered again go.
+        std::vector<fs::path> again;
+        for (int i = 0; i < frames; ++i)
+            if (!done(i))
+                for (const fs::path& f : dataset::outputFiles(names[static_cast<std::size_t>(i)], outputs))
+                    again.push_back(f);
+        if (const std::size_t n = removeStaleTemporaries(again); n > 0)
+            info(g, fmt::format("removed {} an interrupted run left", count(n, "unfinished temporary file")));
         int firstMissing = 0;
         while (firstMissing < frames && done(firstMissing)) ++firstMissing;
         const int settleFrames = static_cast<int>(std::ceil(

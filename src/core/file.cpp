@@ -10,6 +10,9 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <set>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -46,6 +49,28 @@ AtomicFile::AtomicFile(fs::path path) : path_(std::move(path)) {
     if (fd_ < 0) throw IoError("output path", path_.string(), "cannot create a file there (" + errnoText(errno) + ")");
     ::fchmod(fd_, 0644);
     tmp_ = templ;
+}
+
+std::size_t removeStaleTemporaries(const std::vector<fs::path>& paths) {
+    // Per folder: the names whose temporaries go.
+    std::map<fs::path, std::set<std::string>> byFolder;
+    for (const fs::path& p : paths) byFolder[directoryOf(p)].insert(p.filename().string());
+    std::size_t removed = 0;
+    constexpr std::string_view kTmp = ".tmp-";
+    constexpr std::size_t kRandom = 6;  // mkstemp's XXXXXX
+    for (const auto& [dir, names] : byFolder) {
+        std::error_code ec;
+        for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+            const std::string n = it->path().filename().string();
+            if (n.size() < 1 + kTmp.size() + kRandom || n[0] != '.') continue;
+            const std::size_t at = n.size() - kRandom - kTmp.size();
+            if (n.compare(at, kTmp.size(), kTmp) != 0) continue;
+            if (!names.count(n.substr(1, at - 1))) continue;
+            std::error_code rm;
+            if (fs::remove(it->path(), rm)) ++removed;
+        }
+    }
+    return removed;
 }
 
 AtomicFile::~AtomicFile() {

@@ -123,5 +123,26 @@ TEST(JsonParse, SyntaxErrorIsAtTheOffendingCharacter) {
     }
 }
 
+// What a process killed mid-write leaves: `.<name>.tmp-XXXXXX`. Only those
+// of the names given go.
+TEST(AtomicFile, StaleTemporariesOfTheNamedFilesAreRemoved) {
+    TempDir dir;
+    for (const char* n : {".a.png.tmp-Ab3dE9", ".a.png.tmp-Zz9aaa", ".b.png.tmp-Ab3dE9", ".a.png.tmp-abc", "a.png",
+                          ".a.png", "x.a.png.tmp-Ab3dE9"})
+        std::ofstream(dir / n) << "x";
+    EXPECT_EQ(removeStaleTemporaries({dir / "a.png", dir / "c.png"}), 2u);
+    for (const char* kept : {".b.png.tmp-Ab3dE9", ".a.png.tmp-abc", "a.png", ".a.png", "x.a.png.tmp-Ab3dE9"})
+        EXPECT_TRUE(std::filesystem::exists(dir / kept)) << kept;
+    EXPECT_FALSE(std::filesystem::exists(dir / ".a.png.tmp-Ab3dE9"));
+    // A real writer's temporary, left by a destructor that never ran.
+    auto* leaked = new AtomicFile(dir / "b.png");
+    leaked->write(std::string("half"));
+    const auto tmp = leaked->temporaryPath();
+    EXPECT_EQ(removeStaleTemporaries({dir / "b.png"}), 2u);
+    EXPECT_FALSE(std::filesystem::exists(tmp));
+    delete leaked;  // its own removal finds nothing
+    EXPECT_EQ(removeStaleTemporaries({dir / "missing" / "b.png"}), 0u);
+}
+
 }  // namespace
 }  // namespace mucosa::test

@@ -37,6 +37,12 @@ private:
     bool committed_ = false;
 };
 
+// Removes the temporaries AtomicFile left beside any of `paths`
+// (`.<name>.tmp-XXXXXX`: a process killed mid-write, which no destructor
+// cleaned up). Only for paths no running process is writing, e.g. the frames
+// a resumed run is about to render again. Returns how many it removed.
+std::size_t removeStaleTemporaries(const std::vector<std::filesystem::path>& paths);
+
 // Writes a whole buffer atomically.
 void writeFileAtomic(const std::filesystem::path& path, std::span<const std::byte> bytes);
 void writeFileAtomic(const std::filesystem::path& path, const std::string& text);
