@@ -1,14 +1,21 @@
 #pragma once
-// SHA-256 (FIPS 180-4), for looking observer tokens up by their hash: the
+// SHA-256 (FIPS 180-4, core/checksum.hpp), for looking observer tokens up by their hash: the
 // lookup's timing then depends on the hash, never on how much of a secret a
 // guess got right.
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string_view>
+
+#include <mucosa/core/checksum.hpp>
 
 namespace mucosa::study::detail {
 
-std::array<std::uint8_t, 32> sha256(std::string_view data);
+inline std::array<std::uint8_t, 32> sha256(std::string_view data) {
+    Sha256 h;
+    h.update(std::as_bytes(std::span(data.data(), data.size())));
+    return h.finish();
+}
 
 // Equal bytes, in time independent of where they differ.
 template <std::size_t N>

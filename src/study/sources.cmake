@@ -32,7 +32,6 @@ target_sources(mucosa_study PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/data_io.cpp
   ${CMAKE_CURRENT_LIST_DIR}/report.cpp
   ${CMAKE_CURRENT_LIST_DIR}/store.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/sha256.cpp
   ${CMAKE_CURRENT_LIST_DIR}/http_handler.cpp
   ${CMAKE_CURRENT_LIST_DIR}/server.cpp
   ${mucosa_study_web_cpp})
