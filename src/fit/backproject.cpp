@@ -1,3 +1,5 @@
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -68,15 +70,27 @@ image::ImageF loadFrameImage(const Frame& frame, const Response& response, image
     image::ImageF out(px.width(), px.height(), 3);
     if (mask) *mask = image::Image8(px.width(), px.height(), 1);
     const int colour = px.channels() >= 3 ? 3 : 1;
+    const bool enhanced = colour == 3 && response.colourGain != 1;
     for (int y = 0; y < px.height(); ++y)
         for (int x = 0; x < px.width(); ++x) {
             const double vignette = response.vignette(frame.K, x, y);
             bool sat = false;
+            std::array<double, 3> v{};
             for (int c = 0; c < 3; ++c) {
-                const double v = px.at(x, y, colour == 3 ? c : 0) / maxv;
-                sat = sat || v >= saturation;
-                out.at(x, y, c) = static_cast<float>(response.linear(v) / vignette);
+                v[static_cast<std::size_t>(c)] = px.at(x, y, colour == 3 ? c : 0) / maxv;
+                sat = sat || v[static_cast<std::size_t>(c)] >= saturation;
             }
+            if (enhanced) {
+                // The colour enhancement undone. A gain above 1 clips: a
+                // channel at 0 beside lit ones may be one it clipped (one at 1
+                // is caught above).
+                const bool black = v[0] == 0 && v[1] == 0 && v[2] == 0;
+                sat = sat || (response.colourGain > 1 && !black && (v[0] == 0 || v[1] == 0 || v[2] == 0));
+                v = response.unenhance(v);
+            }
+            for (int c = 0; c < 3; ++c)
+                out.at(x, y, c) = static_cast<float>(
+                    response.linear(std::clamp(v[static_cast<std::size_t>(c)], 0.0, 1.0)) / vignette);
             if (mask) mask->at(x, y) = sat ? kMaskSaturated : 0;
         }
     if (mask) {

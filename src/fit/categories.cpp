@@ -87,10 +87,11 @@ image::Image8 toImage8(const image::ImageF& linear, double gamma) {
 
 // Categories 2-4 as the scope shows a frame: the fitted model's linear
 // signal (the frames' exposure is in the albedo, and so is any colour
-// processing the scope did) through the frames' own response, the inverse
-// of what `mucosa fit` did to read them: the vignetting cos^k put back,
-// clipping at 1, the tone curve; and black where the real frame is outside
-// the scope's field of view (its own mask, whatever its shape).
+// processing the scope did that the frames file does not name) through the
+// frames' own response, the inverse of what `mucosa fit` did to read them:
+// the vignetting cos^k put back, clipping at 1, the tone curve, the colour
+// enhancement ("saturation"); and black where the real frame is outside the
+// scope's field of view (its own mask, whatever its shape).
 image::Image8 develop(const image::ImageF& linear, const Intrinsics& K, const Response& response,
                       const std::vector<std::uint8_t>& outside) {
     image::Image8 out(linear.width(), linear.height(), 3);
@@ -98,10 +99,12 @@ image::Image8 develop(const image::ImageF& linear, const Intrinsics& K, const Re
         for (int x = 0; x < linear.width(); ++x) {
             if (outside[static_cast<std::size_t>(y) * linear.width() + x]) continue;
             const double vignette = response.vignette(K, x, y);
-            for (int c = 0; c < 3; ++c) {
-                const double v = std::clamp(linear.at(x, y, c) * vignette, 0.0, 1.0);
-                out.at(x, y, c) = static_cast<std::uint8_t>(std::lround(255.0 * response.encode(v)));
-            }
+            std::array<double, 3> v{};
+            for (int c = 0; c < 3; ++c)
+                v[static_cast<std::size_t>(c)] = response.encode(std::clamp(linear.at(x, y, c) * vignette, 0.0, 1.0));
+            v = response.enhance(v);
+            for (int c = 0; c < 3; ++c)
+                out.at(x, y, c) = static_cast<std::uint8_t>(std::lround(255.0 * v[static_cast<std::size_t>(c)]));
         }
     return out;
 }

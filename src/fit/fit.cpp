@@ -110,6 +110,13 @@ AtlasShape atlasShape(const mesh::Mesh& m, std::array<float, 2> uvMin, std::arra
 
 FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOptions& o) {
     const auto t0 = std::chrono::steady_clock::now();
+    // Each frame's own, unrecorded exposure would be read as shading (auto-
+    // exposure brightens the far, dark views: delta comes out flattened).
+    if (set.autoExposure)
+        throw InputError("field 'auto_exposure'", "",
+                         "is true: the frames were rendered with auto-exposure, each at an exposure of its own that "
+                         "the file does not record and the fit would take for shading; render them with a fixed "
+                         "exposure (--set camera.auto_exposure=0, and camera.exposure_ev)");
     if (!mesh.hasUvs())
         throw InputError("mesh", "",
                          "has no texture coordinates: prepare it with `mucosa mesh IN -o OUT --uv centerline`");

@@ -1,5 +1,6 @@
 #include <mucosa/fit/frames.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -84,6 +85,10 @@ void parseCommon(const json& j, const std::string& file, Response& response, Vec
     response.vignetting = number(j, "vignetting", "", file, false, 0.0);
     if (!(response.vignetting >= 0 && response.vignetting <= 16))
         throw InputError("field 'vignetting'", file, "must be between 0 and 16 (k of cos^k of the field angle)");
+    response.colourGain = number(j, "saturation", "", file, false, 1.0);
+    if (!(response.colourGain >= 0 && response.colourGain <= 16))
+        throw InputError("field 'saturation'", file,
+                         "must be between 0 and 16 (the colour gain about the luma after the tone curve)");
     if (j.contains("tone_curve")) {
         const json& t = j["tone_curve"];
         for (int c = 0; c < 3 && t.is_string(); ++c)
@@ -116,6 +121,10 @@ FrameSet readFrames(const fs::path& path, bool anyLens) {
     if (!j.is_object()) throw InputError("frames file", file, "must be a JSON object");
     FrameSet set;
     parseCommon(j, file, set.response, set.lightOffset);
+    if (j.contains("auto_exposure")) {
+        if (!j["auto_exposure"].is_boolean()) throw InputError("field 'auto_exposure'", file, "must be true or false");
+        set.autoExposure = j["auto_exposure"].get<bool>();
+    }
     if (!j.contains("frames") || !j["frames"].is_array() || j["frames"].empty())
         throw InputError("field 'frames'", file, "must be a non-empty array");
     // A dataset rendered through a fisheye or omnidirectional lens carries it
@@ -234,6 +243,7 @@ Rigidity rigidity(const Mat4& m) noexcept {
 void writeFrames(const fs::path& path, const FrameSet& set, const json& extra) {
     json j{{"units", set.units}, {"light", {{"offset", set.lightOffset}}}, {"frames", json::array()}};
     writeResponse(j, set.response);
+    if (set.autoExposure) j["auto_exposure"] = true;
     for (const Frame& f : set.frames) {
         json m = json::array();
         for (const auto& row : f.cameraToWorld) m.push_back(row);
@@ -268,6 +278,7 @@ void writeResponse(nlohmann::json& j, const Response& response) {
     else
         j["gamma"] = response.gamma;
     if (response.vignetting != 0) j["vignetting"] = response.vignetting;
+    if (response.colourGain != 1) j["saturation"] = response.colourGain;
 }
 
 const char* toneCurveName(int curve) noexcept {
@@ -284,6 +295,33 @@ double Response::vignette(const Intrinsics& K, double x, double y) const noexcep
     if (vignetting == 0) return 1.0;
     const double tx = (x - K.cx) / K.fx, ty = (y - K.cy) / K.fy;
     return std::pow(1.0 + tx * tx + ty * ty, -0.5 * vignetting);
+}
+
+namespace {
+
+// Rec. 709 luma of tone-curved values (camera.glsl, enhanceColour).
+double luma(const std::array<double, 3>& v) noexcept {
+    return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
+}
+
+}  // namespace
+
+std::array<double, 3> Response::enhance(const std::array<double, 3>& v) const noexcept {
+    if (colourGain == 1) return v;
+    const double y = luma(v);
+    std::array<double, 3> out{};
+    for (std::size_t c = 0; c < 3; ++c) out[c] = std::clamp(y + (v[c] - y) * colourGain, 0.0, 1.0);
+    return out;
+}
+
+std::array<double, 3> Response::unenhance(const std::array<double, 3>& v) const noexcept {
+    // Gain 0 made the frame grey, its luma: the colour does not come back.
+    if (colourGain == 1 || colourGain == 0) return v;
+    // The enhancement keeps the luma (its weights sum to 1): luma' = luma.
+    const double y = luma(v);
+    std::array<double, 3> out{};
+    for (std::size_t c = 0; c < 3; ++c) out[c] = y + (v[c] - y) / colourGain;
+    return out;
 }
 
 double Response::encode(double linear) const noexcept {

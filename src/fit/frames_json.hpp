@@ -15,7 +15,7 @@ std::string relativePath(const std::filesystem::path& target, const std::filesys
 // {"width", "height", "fx", "fy", "cx", "cy"[, "k1", "k2"]}: k1, k2 when not 0.
 nlohmann::json intrinsicsJson(const Intrinsics& K);
 
-// "gamma" or "tone_curve", and "vignetting" when not 0.
+// "gamma" or "tone_curve", "vignetting" when not 0, "saturation" when not 1.
 void writeResponse(nlohmann::json& j, const Response& response);
 
 }  // namespace mucosa::fit

@@ -35,15 +35,26 @@ struct Frame {
 // "srgb": the curves of shaders/camera.glsl; video bronchoscopes put out
 // BT.709).
 // A frame's natural vignetting, cos^k of the field angle (the file's
-// "vignetting": k), is divided out too.
+// "vignetting": k), is divided out too. A video processor's colour
+// enhancement (the file's "saturation": g, camera.saturation; shaders/
+// camera.glsl enhanceColour: v' = luma + g (v - luma) on the tone-curved
+// values, Rec. 709 luma, which it leaves unchanged) is undone first:
+// v = luma' + (v' - luma') / g, exact where it did not clip (g = 0, a grey
+// frame, is left as it is).
 struct Response {
     double gamma = 1.0;
     int toneCurve = -1;     // -1: the power law; else camera.tone_curve's choice (0 linear, 1 BT.709, 2 sRGB)
     double vignetting = 0;  // k of cos^k(field angle); 0 = none
+    double colourGain = 1;  // "saturation": colour gain g about the luma after the tone curve; 1 = none
     Response() = default;
     Response(double powerLaw) : gamma(powerLaw) {}  // NOLINT(google-explicit-constructor): a number is a power law
     double linear(double value) const noexcept;
     double encode(double linear) const noexcept;  // the inverse of linear(), for linear in [0, 1]
+    // The colour enhancement on an RGB pixel's values (0..1, after the tone
+    // curve), as the camera applies it (clamped to [0, 1]), and its inverse
+    // (unclamped: a value the enhancement clipped does not come back).
+    std::array<double, 3> enhance(const std::array<double, 3>& rgb) const noexcept;
+    std::array<double, 3> unenhance(const std::array<double, 3>& rgb) const noexcept;
     // cos^vignetting of the field angle at pixel (x, y) (shaders/camera.glsl;
     // pixel centres at integer coordinates): 1 without vignetting.
     double vignette(const Intrinsics& K, double x, double y) const noexcept;
@@ -56,6 +67,12 @@ struct FrameSet {
     std::string units = "mm";
     Response response;
     Vec3d lightOffset{0, 0, 0};
+    // The frames were rendered with auto-exposure (the file's "auto_exposure":
+    // true; mucosa render's manifest of a photographic mode with
+    // camera.auto_exposure on): each frame has an exposure of its own that the
+    // file does not record, which the shading cannot be told from, so
+    // fitFrames refuses them.
+    bool autoExposure = false;
     std::vector<Frame> frames;
 };
 
@@ -72,7 +89,7 @@ void writeFrames(const std::filesystem::path& path, const FrameSet& set,
 
 // A camera file (`mucosa register --camera`): the keys a frames file uses,
 // {"intrinsics": {width, height, fx, fy, cx, cy[, k1, k2]}, "gamma" or
-// "tone_curve", "vignetting", "light": {"offset", "spread",
+// "tone_curve", "vignetting", "saturation", "light": {"offset", "spread",
 // "source_radius_mm", "ambient"}, "units": "mm"}.
 // The lamp's profile beyond its position (the renderer's lamp, docs/theory.md
 // "The endoscope's lamp"): irradiance exp(-spread (1 - cos theta)) /
