@@ -136,6 +136,7 @@ json planArgs(const RenderArgs& a) {
             {"lens", absolute(a.lens)},
             {"rgb_bits", a.rgbBits},
             {"depth_png_scale", a.depthScaleMm},
+            {"exr_compression", a.exrCompression},
             {"frames", a.frames}};
 }
 
@@ -197,6 +198,7 @@ Plan readPlan(const fs::path& dir) {
         p.args.lens = text("lens");
         p.args.rgbBits = a.at("rgb_bits").get<int>();
         p.args.depthScaleMm = a.at("depth_png_scale").get<double>();
+        p.args.exrCompression = a.value("exr_compression", std::string("zip"));  // absent in older plans: zip
         p.args.frames = a.at("frames").get<int>();
         p.args.output = framesOutput(dir).string();
         p.settings = j.at("settings");
@@ -443,6 +445,9 @@ void addPlanCommands(CLI::App& dataset, Global& g) {
                      "Millimetres per unit of the 16-bit depth PNG [0.01]");
     plan->add_option("--rgb-bits", pa->render.rgbBits, "Bits per channel of the colour frames: 8 or 16 [8]")
         ->check(CLI::IsMember({8, 16}));
+    plan->add_option("--exr-compression", pa->render.exrCompression,
+                     "Lossless compression of the float EXR outputs: zip, piz, zips, rle or none (as mucosa render) "
+                     "[zip]");
     plan->add_option("--lens", pa->render.lens, "Render through this lens (as mucosa render --lens)");
     plan->add_option("--segment-frames", pa->segmentFrames,
                      "Frames per segment, the unit of sharding; auto-exposure restarts at each segment, warmed up "

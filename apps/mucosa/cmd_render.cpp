@@ -39,6 +39,9 @@ void addRenderCommand(CLI::App& app, Global& g) {
                   "Bits per channel of the colour frames' PNGs: 8, or 16 (drawn into a float target and rounded "
                   "once) [8]")
         ->check(CLI::IsMember({8, 16}));
+    c->add_option("--exr-compression", a->exrCompression,
+                  "Lossless compression of the float EXR outputs: zip (smallest on smooth data), piz, zips, rle, or "
+                  "none (fastest to write; docs/datasets.md) [zip]");
     c->add_option("--lens", a->lens,
                   "Render through this lens: a lens JSON (pinhole, fisheye, omnidirectional) or OCamCalib's "
                   "calib_results.txt, at its size (docs/datasets.md, \"Lens models\") [the scene's camera.lens, else "

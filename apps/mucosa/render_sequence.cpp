@@ -67,8 +67,28 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
                           double depthScaleMm, const nlohmann::json& settings, const mesh::Centerline& tree,
                           const std::optional<dataset::Lens>& lens) {
     fit::FrameSet set;
-    set.response.toneCurve = static_cast<int>(scene.params[shading::Param::ToneCurve]);
-    set.response.vignetting = scene.params[shading::Param::Vignetting];
+    // How to read the frames' pixels back to the signal. Only the
+    // photographic modes' frames go through the scope's camera (camera.glsl,
+    // Renderer::draw); the others write their values as they are: the brdf
+    // modes texture x rho x delta, linear (their texture and rho, delta are
+    // already a camera's linear output: mucosa fit's), the debug views
+    // display values. For those the camera's settings describe nothing in the
+    // frames: the manifest says linear, no vignetting. The photographic
+    // frames: the tone curve, the vignetting and the colour enhancement, which
+    // `mucosa fit` undoes; auto-exposure gives each frame an exposure this file
+    // does not record, which it refuses (a fixed exposure is one factor, which
+    // the albedo takes). Not undone: the sensor's noise (random: the fit's
+    // robust loss), the optics' softness (a blur under a pixel) and the mask
+    // (the fit finds it in the frames).
+    if (shading::info(scene.mode).photographic) {
+        set.response.toneCurve = static_cast<int>(scene.params[shading::Param::ToneCurve]);
+        set.response.vignetting = scene.params[shading::Param::Vignetting];
+        set.response.colourGain = scene.params[shading::Param::Saturation];
+        set.autoExposure = scene.params[shading::Param::AutoExposure] != 0.0f;
+    } else {
+        set.response.toneCurve = 0;  // linear
+        set.response.vignetting = 0;
+    }
     // The renderer's tip light is in x right, y up, z forward; OpenCV's y is down.
     set.lightOffset = {scene.light.offset[0], -scene.light.offset[1], scene.light.offset[2]};
     fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
@@ -137,6 +157,7 @@ Prepared prepare(const RenderArgs& a) {
                                                       scene.file.empty() ? "the scene" : scene.file.string())
                                    : dataset::Outputs{};
     p.outputs.rgbBits = a.rgbBits;
+    p.outputs.exrCompression = image::parseExrCompression(a.exrCompression, "--exr-compression", "the command line");
     if (a.rgbBits == 16 && a.reference)
         throw InputError("--rgb-bits", "the command line", "16-bit frames come from OpenGL; drop --reference");
     if (!(a.depthScaleMm > 0 && a.depthScaleMm <= 1000))
@@ -157,6 +178,8 @@ Prepared prepare(const RenderArgs& a) {
     p.manifest = renderManifest(scene, a.scene, p.frames, a.reference, dataset::outputNames(p.outputs));
     if (p.lens) p.manifest["lens"] = dataset::lensJson(*p.lens);
     if (a.rgbBits != 8) p.manifest["rgb_bits"] = a.rgbBits;  // absent: 8
+    if (p.outputs.exrCompression != image::ExrCompression::Zip)
+        p.manifest["exr_compression"] = a.exrCompression;  // absent: zip
     return p;
 }
 
@@ -274,10 +297,15 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
     // along), cast into a tree of the mesh built once.
     std::optional<dataset::RayCaster> caster;
     if (lens && outputs.any()) caster.emplace(assets.mesh);
+    const bool photographic = shading::info(scene.mode).photographic;
     auto truthOf = [&](int i) {
         dataset::GroundTruth t =
             caster ? dataset::groundTruth(*caster, *lens, cameraToWorld(i), scene.lens.nearMm, g.threads)
                    : dataset::groundTruth(assets.mesh, K, cameraToWorld(i), scene.lens.nearMm, g.threads);
+        // The scope's field-of-view mask is the camera's (camera.glsl): only
+        // the photographic modes' frames go through it; the others (brdf,
+        // the debug views) show the wall to the image's corners.
+        if (!photographic) return t;
         const std::vector<std::uint8_t> mask = dataset::fieldOfView(
             scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height));
         for (std::size_t p = 0; p < mask.size(); ++p) t.inView[p] = t.inView[p] && mask[p];
@@ -324,12 +352,12 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
         auto linear = std::make_shared<image::ImageF>();
         auto highlight = std::make_shared<image::Image8>();
         if (outputs.linear || outputs.highlight) {
-            const float exposure = session->renderer().lastExposure();
+            const float frameExposure = session->renderer().lastExposure();
             auto develop = [&](bool noise, bool specular) {
                 shading::FrameSetup f =
                     scene::frameSetup(scene, poses[static_cast<std::size_t>(i)], scene.width, scene.height);
                 f.frameIndex = i;
-                f.fixedExposure = exposure;
+                f.fixedExposure = frameExposure;
                 f.params.set(shading::Param::ToneCurve, 0.0f);
                 if (!noise) f.params.set(shading::Param::FullWell, 0.0f), f.params.set(shading::Param::ReadNoise, 0.0f);
                 if (!specular) f.params.set(shading::Param::SpecularStrength, 0.0f);
@@ -391,7 +419,7 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
                 fs::path p = name;
                 return p.replace_filename(name.stem().string() + suffix);
             };
-            if (outputs.linear) image::writeExr(beside(".linear.exr"), *linear);
+            if (outputs.linear) image::writeExr(beside(".linear.exr"), *linear, outputs.exrCompression);
             if (outputs.highlight) image::writePng(beside(".highlight.png"), *highlight);
             if (outputs.rgb) writeFileAtomic(name, png->empty() ? encode() : *png);
             if (shard && shard->written) shard->written(i);

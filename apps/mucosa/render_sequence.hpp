@@ -25,8 +25,9 @@ struct RenderArgs {
     bool reference = false;
     std::string outputs;  // --outputs (empty: the scene's "outputs", else the colour frames alone)
     double depthScaleMm = dataset::kDefaultDepthPngScaleMm;
-    std::string lens;  // --lens FILE (overrides the scene's camera.lens)
-    int rgbBits = 8;   // --rgb-bits
+    std::string lens;                    // --lens FILE (overrides the scene's camera.lens)
+    int rgbBits = 8;                     // --rgb-bits
+    std::string exrCompression = "zip";  // --exr-compression
 };
 
 // A dataset plan's share of a sequence (mucosa dataset run): which frames to

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/memory.hpp>
@@ -415,55 +416,72 @@ std::vector<fs::path> outputFiles(const fs::path& rgbName, const Outputs& o) {
 
 void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outputs& o, double depthScale) {
     if (!(depthScale > 0)) throw InputError("depth PNG scale", rgbName.string(), "must be positive");
+    if (o.flow && (t.flow.width() != t.width || t.flow.height() != t.height))
+        throw InputError("flow", rgbName.string(), "was not computed (flowToPrevious)");
+    if (o.branch && t.branch.size() != t.face.size())
+        throw InputError("branch", rgbName.string(), "was not labelled (labelBranches)");
     const int w = t.width, h = t.height;
+    // Each file is converted, encoded and written as a task of its own: they
+    // are independent, and one file's serial steps (the conversion, a PNG's
+    // filtering) leave cores free for another's. The first error is thrown
+    // once all have finished (each file is atomic: none is left half-written).
+    tbb::task_group files;
+    const image::ExrCompression exr = o.exrCompression;
     if (o.depth) {
-        image::writeExr(beside(rgbName, ".depth.exr"), t.depth);
-        image::Image16 png(w, h, 1);
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x)
-                png.at(x, y) = static_cast<std::uint16_t>(std::min(65535.0, std::round(t.depth.at(x, y) / depthScale)));
-        image::writePng(beside(rgbName, ".depth.png"), png);
+        files.run([&] { image::writeExr(beside(rgbName, ".depth.exr"), t.depth, exr); });
+        files.run([&] {
+            image::Image16 png(w, h, 1);
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x)
+                    png.at(x, y) =
+                        static_cast<std::uint16_t>(std::min(65535.0, std::round(t.depth.at(x, y) / depthScale)));
+            image::writePng(beside(rgbName, ".depth.png"), png);
+        });
     }
     if (o.normals) {
-        image::writeExr(beside(rgbName, ".normals.exr"), t.normals);
-        image::Image16 png(w, h, 3);
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x)
-                for (int c = 0; c < 3; ++c)
-                    png.at(x, y, c) =
-                        t.valid[static_cast<std::size_t>(y) * w + x]
-                            ? static_cast<std::uint16_t>(std::lround((t.normals.at(x, y, c) + 1.0) * 0.5 * 65535.0))
-                            : 0;
-        image::writePng(beside(rgbName, ".normals.png"), png);
+        files.run([&] { image::writeExr(beside(rgbName, ".normals.exr"), t.normals, exr); });
+        files.run([&] {
+            image::Image16 png(w, h, 3);
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x)
+                    for (int c = 0; c < 3; ++c)
+                        png.at(x, y, c) =
+                            t.valid[static_cast<std::size_t>(y) * w + x]
+                                ? static_cast<std::uint16_t>(std::lround((t.normals.at(x, y, c) + 1.0) * 0.5 * 65535.0))
+                                : 0;
+            image::writePng(beside(rgbName, ".normals.png"), png);
+        });
     }
-    if (o.mask) {
-        image::Image8 png(w, h, 1);
-        for (std::size_t i = 0; i < t.valid.size(); ++i) png.data()[i] = t.valid[i] && t.inView[i] ? 255 : 0;
-        image::writePng(beside(rgbName, ".mask.png"), png);
-    }
-    if (o.uv) image::writeExr(beside(rgbName, ".uv.exr"), t.uv);
-    if (o.face) {
-        image::ImageF f(w, h, 1);
-        for (std::size_t i = 0; i < t.face.size(); ++i) f.data()[i] = static_cast<float>(t.face[i]);
-        image::writeExr(beside(rgbName, ".face.exr"), f);
-    }
+    if (o.mask)
+        files.run([&] {
+            image::Image8 png(w, h, 1);
+            for (std::size_t i = 0; i < t.valid.size(); ++i) png.data()[i] = t.valid[i] && t.inView[i] ? 255 : 0;
+            image::writePng(beside(rgbName, ".mask.png"), png);
+        });
+    if (o.uv) files.run([&] { image::writeExr(beside(rgbName, ".uv.exr"), t.uv, exr); });
+    if (o.face)
+        files.run([&] {
+            image::ImageF f(w, h, 1);
+            for (std::size_t i = 0; i < t.face.size(); ++i) f.data()[i] = static_cast<float>(t.face[i]);
+            image::writeExr(beside(rgbName, ".face.exr"), f, exr);
+        });
     if (o.flow) {
-        if (t.flow.width() != w || t.flow.height() != h)
-            throw InputError("flow", rgbName.string(), "was not computed (flowToPrevious)");
-        image::writeExr(beside(rgbName, ".flow.exr"), t.flow);
-        image::Image8 png(w, h, 1);
-        for (int y = 0; y < h; ++y)
-            for (int x = 0; x < w; ++x) png.at(x, y) = t.flow.at(x, y, 2) > 0 ? 0 : 255;
-        image::writePng(beside(rgbName, ".occlusion.png"), png);
+        files.run([&] { image::writeExr(beside(rgbName, ".flow.exr"), t.flow, exr); });
+        files.run([&] {
+            image::Image8 png(w, h, 1);
+            for (int y = 0; y < h; ++y)
+                for (int x = 0; x < w; ++x) png.at(x, y) = t.flow.at(x, y, 2) > 0 ? 0 : 255;
+            image::writePng(beside(rgbName, ".occlusion.png"), png);
+        });
     }
-    if (o.branch) {
-        if (t.branch.size() != t.face.size())
-            throw InputError("branch", rgbName.string(), "was not labelled (labelBranches)");
-        image::Image16 png(w, h, 1);
-        for (std::size_t i = 0; i < t.branch.size(); ++i)
-            png.data()[i] = static_cast<std::uint16_t>(std::clamp(t.branch[i] + 1, 0, 65535));
-        image::writePng(beside(rgbName, ".branch.png"), png);
-    }
+    if (o.branch)
+        files.run([&] {
+            image::Image16 png(w, h, 1);
+            for (std::size_t i = 0; i < t.branch.size(); ++i)
+                png.data()[i] = static_cast<std::uint16_t>(std::clamp(t.branch[i] + 1, 0, 65535));
+            image::writePng(beside(rgbName, ".branch.png"), png);
+        });
+    files.wait();
 }
 
 nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs& o, double depthScale,
@@ -471,6 +489,10 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
     const std::string stem = output.stem().string() + (frames > 1 ? "_{frame:04}" : "");
     nlohmann::json j = nlohmann::json::object();
     const std::string none = "0 where the pixel sees no surface (mask.png)";
+    auto exr = [&o](const char* channels) {
+        return fmt::format("OpenEXR, {}, {} compression (lossless)", channels,
+                           image::exrCompressionName(o.exrCompression));
+    };
     if (o.rgb)
         j["rgb"] = {
             {"file", stem + output.extension().string()},
@@ -479,7 +501,7 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
     if (o.linear)
         j["linear"] = {
             {"file", stem + ".linear.exr"},
-            {"encoding", "OpenEXR, FLOAT channels 'R','G','B', ZIP"},
+            {"encoding", exr("FLOAT channels 'R','G','B'")},
             {"unit", "sensor signal: 1 = full scale (saturation)"},
             {"content",
              "the camera's linear signal of the colour frame: the same exposure, vignetting, sensor noise and mask, "
@@ -495,7 +517,7 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
                                     kHighlightMinSignal)}};
     if (o.depth) {
         j["depth"] = {{"file", stem + ".depth.exr"},
-                      {"encoding", "OpenEXR, one FLOAT channel 'Y', ZIP"},
+                      {"encoding", exr("one FLOAT channel 'Y'")},
                       {"unit", "mm"},
                       {"content", "planar depth: z of the surface point along the optical axis (not the ray length)"},
                       {"invalid", none}};
@@ -509,7 +531,7 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
     }
     if (o.normals) {
         j["normals"] = {{"file", stem + ".normals.exr"},
-                        {"encoding", "OpenEXR, FLOAT channels 'R','G','B' = x, y, z, ZIP"},
+                        {"encoding", exr("FLOAT channels 'R','G','B' = x, y, z")},
                         {"axes", "camera space, OpenCV: x right, y down, z forward"},
                         {"content", "unit surface normal (the mesh's interpolated vertex normals), facing the camera"},
                         {"invalid", "0, 0, 0"}};
@@ -527,17 +549,17 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
                       "elsewhere"}};
     if (o.uv)
         j["uv"] = {{"file", stem + ".uv.exr"},
-                   {"encoding", "OpenEXR, FLOAT channels 'R','G','B' = u, v, 1, ZIP"},
+                   {"encoding", exr("FLOAT channels 'R','G','B' = u, v, 1")},
                    {"content", "the mesh's texture coordinates (glTF/OpenGL: v up, the image's last row at v = 0)"},
                    {"invalid", "0, 0, 0 (also where the mesh has no texture coordinates)"}};
     if (o.face)
         j["face"] = {{"file", stem + ".face.exr"},
-                     {"encoding", "OpenEXR, one FLOAT channel 'Y', ZIP"},
+                     {"encoding", exr("one FLOAT channel 'Y'")},
                      {"content", "index of the mesh triangle seen (the mesh file's triangle order), exact integers"},
                      {"invalid", "-1"}};
     if (o.flow) {
         j["flow"] = {{"file", stem + ".flow.exr"},
-                     {"encoding", "OpenEXR, FLOAT channels 'R','G','B' = du, dv, visible, ZIP"},
+                     {"encoding", exr("FLOAT channels 'R','G','B' = du, dv, visible")},
                      {"unit", "pixels"},
                      {"content",
                       "backward flow: where the pixel's surface point was in the previous frame minus where it is "

@@ -184,7 +184,30 @@ void checkExrHeader(const std::vector<std::byte>& b, const std::string& name) {
 
 }  // namespace
 
-void writeExr(const std::filesystem::path& path, const ImageF& img) {
+const char* exrCompressionName(ExrCompression c) noexcept {
+    switch (c) {
+        case ExrCompression::None:
+            return "none";
+        case ExrCompression::Rle:
+            return "rle";
+        case ExrCompression::Zips:
+            return "zips";
+        case ExrCompression::Zip:
+            return "zip";
+        case ExrCompression::Piz:
+            return "piz";
+    }
+    return "zip";
+}
+
+ExrCompression parseExrCompression(const std::string& name, const std::string& what, const std::string& where) {
+    for (ExrCompression c :
+         {ExrCompression::None, ExrCompression::Rle, ExrCompression::Zips, ExrCompression::Zip, ExrCompression::Piz})
+        if (name == exrCompressionName(c)) return c;
+    throw InputError(what, where, fmt::format("'{}' is not an EXR compression: none, rle, zips, zip or piz", name));
+}
+
+void writeExr(const std::filesystem::path& path, const ImageF& img, ExrCompression compression) {
     if (img.empty()) throw InputError("image", path.string(), "is empty");
     // OpenEXR compresses a file's line blocks on its global thread pool, which
     // is empty unless the program sizes it: size it to the machine once,
@@ -197,7 +220,23 @@ void writeExr(const std::filesystem::path& path, const ImageF& img) {
     AtomicFile file(path);  // reserves the temporary name; OpenEXR writes it
     try {
         Imf::Header header(img.width(), img.height());
-        header.compression() = Imf::ZIP_COMPRESSION;
+        switch (compression) {
+            case ExrCompression::None:
+                header.compression() = Imf::NO_COMPRESSION;
+                break;
+            case ExrCompression::Rle:
+                header.compression() = Imf::RLE_COMPRESSION;
+                break;
+            case ExrCompression::Zips:
+                header.compression() = Imf::ZIPS_COMPRESSION;
+                break;
+            case ExrCompression::Zip:
+                header.compression() = Imf::ZIP_COMPRESSION;
+                break;
+            case ExrCompression::Piz:
+                header.compression() = Imf::PIZ_COMPRESSION;
+                break;
+        }
         Imf::FrameBuffer fb;
         const auto names = channelNames(img.channels());
         const std::size_t xs = sizeof(float) * static_cast<std::size_t>(img.channels());

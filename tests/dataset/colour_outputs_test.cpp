@@ -128,8 +128,8 @@ TEST(ColourOutputs, TheNoiseSeedGivesAnotherRealisationOfTheSameNoise) {
     ASSERT_GT(n, 1000);
     // Two independent draws of read noise 0.02 (plus shot noise): their
     // difference has a deviation of at least 0.02 x sqrt(2).
-    EXPECT_GT(std::sqrt(sumDiff2 / n), 0.02 * std::sqrt(2.0) * 0.9);
-    EXPECT_NEAR(sumA / n, sumB / n, 0.003);
+    EXPECT_GT(std::sqrt(sumDiff2 / static_cast<double>(n)), 0.02 * std::sqrt(2.0) * 0.9);
+    EXPECT_NEAR(sumA / static_cast<double>(n), sumB / static_cast<double>(n), 0.003);
 }
 
 TEST(ColourOutputs, NeedOpenGlAndAPhotographicMode) {

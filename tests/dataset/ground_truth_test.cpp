@@ -367,6 +367,25 @@ TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
     const image::PngImage mask = image::readPng(dir / "fly_0001.mask.png");
     const image::PngImage rgb = image::readPng(dir / "fly_0001.png");
     EXPECT_GE(test::maskAgreesWithLitPixels(rgb, mask), 0.97);
+    // The field-of-view mask is the scope camera's: a mode that does not go
+    // through the camera (brdf) shows the wall to the corners, and its mask
+    // is every pixel that sees the wall.
+    r = test::runCli("render -o '" + (dir / "brdf.png").string() +
+                     "' --mode brdf --frames 1 --size 96x72 --outputs rgb,depth,mask");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    {
+        const image::PngImage m = image::readPng(dir / "brdf.mask.png");
+        const image::ImageF d = image::readExr(dir / "brdf.depth.exr");
+        int seen = 0, corners = 0;
+        for (int y = 0; y < 72; ++y)
+            for (int x = 0; x < 96; ++x) {
+                EXPECT_EQ(m.pixels.at(x, y) == 255, d.at(x, y) > 0) << x << "," << y;
+                seen += d.at(x, y) > 0;
+                corners += (x < 8 || x >= 88) && (y < 8 || y >= 64) && m.pixels.at(x, y) == 255;
+            }
+        EXPECT_GT(seen, 96 * 72 / 2);
+        EXPECT_GT(corners, 0);  // the photographic frames' circle masks every corner
+    }
 
     // Resume: a frame missing one output is rendered again, the others kept;
     // its flow (from the frame before, computed again) is the same.
@@ -392,6 +411,63 @@ TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
     test::expectOneErrorLine(r, "centerline tree");
     EXPECT_FALSE(fs::exists(dir / "tube.png"));
     EXPECT_FALSE(fs::exists(dir / "tube.frames.json"));
+}
+
+TEST(GroundTruthCli, TheExrCompressionChangesTheBytesNotTheValuesAndIsStated) {
+    test::TempDir dir;
+    const std::string base = " --frames 2 --size 80x64 --outputs depth,normals,uv,flow";
+    auto render = [&](const std::string& name, const std::string& extra) {
+        const test::RunResult r = test::runCli("render -o '" + (dir / name).string() + "'" + base + extra);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+    };
+    render("zip.png", "");
+    render("none.png", " --exr-compression none");
+    render("piz.png", " --exr-compression piz");
+    for (const char* suffix : {"_0001.depth.exr", "_0001.normals.exr", "_0001.uv.exr", "_0001.flow.exr"}) {
+        const image::ImageF zip = image::readExr(dir / (std::string("zip") + suffix));
+        for (const char* other : {"none", "piz"}) {
+            const image::ImageF o = image::readExr(dir / (std::string(other) + suffix));
+            EXPECT_TRUE(o == zip) << other << suffix;  // lossless: the same floats
+        }
+        // Uncompressed is larger: the options reached the writer.
+        EXPECT_GT(fs::file_size(dir / (std::string("none") + suffix)),
+                  fs::file_size(dir / (std::string("zip") + suffix)))
+            << suffix;
+    }
+    // The manifest says which: in each output's encoding, and in the settings
+    // when it is not the default.
+    const nlohmann::json zipJ = nlohmann::json::parse(test::readBytes(dir / "zip.frames.json"));
+    const nlohmann::json noneJ = nlohmann::json::parse(test::readBytes(dir / "none.frames.json"));
+    EXPECT_NE(zipJ["outputs"]["depth"]["encoding"].get<std::string>().find("zip compression (lossless)"),
+              std::string::npos);
+    EXPECT_NE(noneJ["outputs"]["normals"]["encoding"].get<std::string>().find("none compression (lossless)"),
+              std::string::npos);
+    // A name OpenEXR has but that would lose ground truth, or none at all:
+    // one line, nothing written.
+    for (const char* bad : {"b44", "dwaa", "ZIP"}) {
+        const test::RunResult r =
+            test::runCli("render -o '" + (dir / "bad.png").string() + "'" + base + " --exr-compression " + bad);
+        test::expectOneErrorLine(r, "--exr-compression", bad);
+        EXPECT_FALSE(fs::exists(dir / "bad_0000.depth.exr"));
+        EXPECT_FALSE(fs::exists(dir / "bad.frames.json"));
+    }
+    // A plan keeps it: its frames are written with it, and its manifest says so.
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube"})";
+    const fs::path plan = dir / "plan";
+    test::RunResult r =
+        test::runCli("dataset plan '" + (dir / "tube.json").string() +
+                     "' --frames 2 --size 64x48 --outputs rgb,depth --exr-compression none -o '" + plan.string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(test::readBytes(plan / "plan.json"))["args"]["exr_compression"], "none");
+    r = test::runCli("dataset run '" + plan.string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const fs::path depth = plan / "frames" / "frame_0001.depth.exr";
+    ASSERT_TRUE(fs::exists(depth));
+    EXPECT_GE(fs::file_size(depth), 64u * 48u * sizeof(float));
+    test::expectOneErrorLine(test::runCli("dataset plan '" + (dir / "tube.json").string() +
+                                          "' --frames 2 --exr-compression lzw -o '" + (dir / "plan2").string() + "'"),
+                             "--exr-compression", "lzw");
+    EXPECT_FALSE(fs::exists(dir / "plan2" / "plan.json"));
 }
 
 }  // namespace

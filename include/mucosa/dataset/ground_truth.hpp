@@ -24,6 +24,7 @@
 #include <mucosa/dataset/lens.hpp>
 #include <mucosa/dataset/raycast.hpp>
 #include <mucosa/fit/frames.hpp>
+#include <mucosa/image/exr.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/mesh.hpp>
@@ -45,6 +46,8 @@ struct Outputs {
     // Drawn by the renderer with the colour frame's exposure:
     bool linear = false;     // the camera's linear signal (before the tone curve): float32 EXR
     bool highlight = false;  // the specular-highlight pixels: 8-bit PNG
+    // How the float EXRs are compressed (lossless; image::ExrCompression).
+    image::ExrCompression exrCompression = image::ExrCompression::Zip;
     bool any() const noexcept { return depth || normals || mask || uv || face || flow || branch; }  // any ground truth
 };
 // The highlight mask: a pixel is a specular highlight where the specular
