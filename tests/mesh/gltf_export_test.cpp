@@ -14,6 +14,8 @@
 #include <mucosa/mesh/gltf.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/primitives.hpp>
+#include <mucosa/mesh/repair.hpp>
+#include <mucosa/mesh/uv.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/scene/gltf_export.hpp>
@@ -599,6 +601,44 @@ TEST(GltfReexport, SampleModelKeepsItsNormalMapAndTangents) {
         EXPECT_EQ(b, std::string(before.imageData[i].begin(), before.imageData[i].end()));
     }
     for (const json& p : g.json["meshes"][0]["primitives"]) EXPECT_TRUE(p["attributes"].contains("TANGENT"));
+}
+
+TEST(GltfLook, TriangleMaterialsFollowRepairsAndUvSplits) {
+    // Degenerate triangles dropped: the others keep their materials.
+    Mesh m = grid(2);  // 8 triangles
+    m.materials = {0, 1, 2, 3, 4, 5, 6, 7};
+    m.indices[3 * 2 + 1] = m.indices[3 * 2];  // triangle 2 degenerate
+    EXPECT_EQ(mesh::removeDegenerateTriangles(m), 1u);
+    EXPECT_EQ(m.materials, (std::vector<std::uint32_t>{0, 1, 3, 4, 5, 6, 7}));
+    // Welding merges vertices, never triangles.
+    Mesh w = grid(2);
+    w.materials = {7, 6, 5, 4, 3, 2, 1, 0};
+    mesh::weld(w, 0.5f);
+    EXPECT_EQ(w.materials, (std::vector<std::uint32_t>{7, 6, 5, 4, 3, 2, 1, 0}));
+    // Centerline UVs split vertices at the seam; each triangle keeps its material.
+    Mesh tube = mesh::makeTube(5, 40, 24, 20);
+    for (std::size_t t = 0; t < tube.triangleCount(); ++t) tube.materials.push_back(t % 3 == 0 ? 1u : 0u);
+    std::vector<Vec3> centroids;
+    for (std::size_t t = 0; t < tube.triangleCount(); ++t) {
+        Vec3 c{0, 0, 0};
+        for (int k = 0; k < 3; ++k)
+            for (int d = 0; d < 3; ++d) c[d] += tube.positions[tube.indices[3 * t + k]][d] / 3;
+        centroids.push_back(c);
+    }
+    const std::vector<std::uint32_t> before = tube.materials;
+    mesh::computeCenterlineUvs(tube);
+    ASSERT_EQ(tube.materials, before);
+    for (std::size_t t = 0; t < tube.triangleCount(); ++t) {
+        Vec3 c{0, 0, 0};
+        for (int k = 0; k < 3; ++k)
+            for (int d = 0; d < 3; ++d) c[d] += tube.positions[tube.indices[3 * t + k]][d] / 3;
+        ASSERT_NEAR(c[0], centroids[t][0], 1e-4) << t;  // the same triangle at the same index
+        ASSERT_NEAR(c[1], centroids[t][1], 1e-4) << t;
+    }
+    // A mismatch is refused, not written.
+    Mesh bad = grid(1);
+    bad.materials = {0};
+    EXPECT_THROW(mesh::validateIndices(bad), InputError);
 }
 
 TEST(GltfLook, PruningDropsUnreachableTexturesAndRenumbers) {
