@@ -88,6 +88,7 @@ void printInfo(const Global& g, const std::string& file, const std::string& unit
 struct MaterialPlan {
     bool gltfOut = false, gltfIn = false;
     std::string material;  // auto, keep, mucosa or plain
+    scene::Scene look;     // Mucosa's material: --look's scene, or the default one
 };
 
 MaterialPlan planMaterial(const MeshArgs& a) {
@@ -118,6 +119,9 @@ MaterialPlan planMaterial(const MeshArgs& a) {
     if (p.material == "keep" && !p.gltfIn)
         throw InputError("--material keep", a.positional.empty() ? "" : a.positional[0],
                          "only a glTF input's materials are kept (use auto, mucosa or plain)");
+    // Read now, so a bad scene fails before the mesh work.
+    p.look = a.look.empty() ? scene::defaultScene() : scene::loadScene(a.look);
+    for (const std::string& w : p.look.warnings) warn(w);
     return p;
 }
 
@@ -181,19 +185,17 @@ std::optional<mesh::GltfLook> outputLook(const MeshArgs& a, const MaterialPlan& 
         if (!m.hasUvs())
             throw InputError("--material mucosa", a.positional[0],
                              "the mesh has no texture coordinates for Mucosa's textures (add --uv centerline)");
-        const scene::Scene s = a.look.empty() ? scene::defaultScene() : scene::loadScene(a.look);
-        for (const std::string& w : s.warnings) warn(w);
         scene::SceneAssets assets;
-        scene::loadTextures(s, assets, g.threads);
+        scene::loadTextures(p.look, assets, g.threads);
         info(g, fmt::format("material: Mucosa's ({}){}", a.look.empty() ? "the default look" : a.look,
                             doubleSided ? ", double-sided" : ""));
-        return scene::gltfLook(s, assets, doubleSided);
+        return scene::gltfLook(p.look, assets, doubleSided);
     }
     if (m.hasUvs())
         warn(
             "the plain material reads no texture: TEXCOORD_0 is written for your own (validators note it as "
             "unused); --material mucosa textures it");
-    return scene::plainGltfLook(shading::ParamSet(), doubleSided);
+    return scene::plainGltfLook(p.look.params, doubleSided);
 }
 
 void convert(const MeshArgs& a, const Global& g) {
@@ -280,8 +282,9 @@ void addMeshCommand(CLI::App& app, Global& g) {
         "Examples:\n"
         "  mucosa mesh info airway.obj\n"
         "  mucosa mesh airway.obj -o airway.glb --flip --uv centerline\n"
-        "Reads what Assimp reads (OBJ, PLY, STL, glTF, FBX, ...); writes .glb/.gltf (POSITION, NORMAL, TEXCOORD_0,\n"
-        "TANGENT), .ply or .obj, in millimetres.");
+        "Reads what Assimp reads (OBJ, PLY, STL, glTF, FBX, ...); writes .glb/.gltf (metres; a glTF input keeps its\n"
+        "materials and textures, others get Mucosa's wet look when they have UVs: docs/engines.md), .ply or .obj\n"
+        "(millimetres).");
     c->add_option("input", a->positional, "Input mesh")->expected(0, 1);
     c->add_option("-o,--output", a->output, "Output mesh (.glb, .gltf, .ply, .obj)");
     c->add_option("--uv", a->uv,

@@ -11,6 +11,8 @@
 #include <mucosa/core/file.hpp>
 #include <mucosa/mesh/gltf.hpp>
 
+#include "core/json_parse.hpp"
+
 namespace mucosa::mesh {
 
 namespace {
@@ -94,7 +96,7 @@ public:
                     haveBin_ = true;
                 }
                 first = false;
-                at += 8 + len;
+                at += 8 + ((len + 3) & ~std::size_t(3));  // chunks are 4-byte aligned
             }
             if (first) fail("file", "a GLB without a JSON chunk");
             parse(text);
@@ -147,13 +149,7 @@ public:
     }
 
 private:
-    void parse(const std::string& text) {
-        try {
-            doc_ = json::parse(text);
-        } catch (const json::parse_error& e) {
-            fail("JSON", e.what());
-        }
-    }
+    void parse(const std::string& text) { doc_ = mucosa::detail::parseJsonFile(text, name_); }
 
     const std::vector<std::uint8_t>& buffer(std::size_t b) {
         auto it = buffers_.find(b);
@@ -230,6 +226,24 @@ void forEachImageRef(json& texture, F&& f) {
             if (ext.is_object() && ext.contains("source")) f(ext["source"]);
 }
 
+// The walks below recurse into the kept JSON: a hostile file's nesting is
+// bounded first (iteratively), so they cannot exhaust the stack.
+constexpr int kMaxDepth = 64;
+
+int depthOf(const json& root) {
+    int deepest = 0;
+    std::vector<std::pair<const json*, int>> stack{{&root, 1}};
+    while (!stack.empty()) {
+        const auto [j, d] = stack.back();
+        stack.pop_back();
+        deepest = std::max(deepest, d);
+        if (d > kMaxDepth) return d;
+        if (j->is_structured())
+            for (auto it = j->begin(); it != j->end(); ++it) stack.push_back({&*it, d + 1});
+    }
+    return deepest;
+}
+
 }  // namespace
 
 void collectExtensions(const json& j, std::vector<std::string>& names) {
@@ -252,6 +266,8 @@ GltfLook readGltfLook(const std::filesystem::path& path) {
     look.textures = src.array("textures");
     look.samplers = src.array("samplers");
     const json& images = src.array("images");
+    for (const char* key : {"materials", "textures", "samplers", "images"})
+        if (depthOf(src.array(key)) > kMaxDepth) src.fail(key, fmt::format("nested deeper than {} levels", kMaxDepth));
     // Every reference checked here, so the writer never writes a dangling one.
     for (std::size_t m = 0; m < look.materials.size(); ++m) {
         if (!look.materials[m].is_object()) src.fail(fmt::format("materials[{}]", m), "is not an object");
