@@ -53,6 +53,8 @@ void addPhantomCommand(CLI::App& app, Global& g) {
             throw InputError("--material", "", fmt::format("'{}' is not one of mucosa, plain", a->material));
         if (!a->look.empty() && a->material != "mucosa")
             throw InputError("--look", "", "--look gives Mucosa's material; it contradicts --material plain");
+        if (!a->look.empty() && !gltf)
+            throw InputError("--look", a->output, "materials are written to .glb and .gltf only");
         // The look's scene is read before the long part, so a bad one fails at once.
         const scene::Scene lookScene = a->look.empty() ? scene::defaultScene() : scene::loadScene(a->look);
         requireWritable(a->output);

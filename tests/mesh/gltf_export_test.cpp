@@ -335,6 +335,12 @@ TEST(GltfExport, BadInputsGiveOneErrorLineAndWriteNothing) {
     const auto m4 = runCli("mesh " + q(in) + " -o " + q(out) + " --look " + q(dir / "broken.json"));
     EXPECT_NE(m4.exitCode, 0);
     expectOneErrorLine(m4.err, "broken look");
+    // phantom: a look is a glTF material; an OBJ has none to carry it.
+    std::ofstream(dir / "look.json") << R"({"mesh": "tube"})";
+    const auto p1 = runCli("phantom -o " + q(dir / "p.obj") + " --look " + q(dir / "look.json"));
+    EXPECT_NE(p1.exitCode, 0);
+    expectOneErrorLine(p1.err, "look .glb");
+    EXPECT_FALSE(std::filesystem::exists(dir / "p.obj"));
     EXPECT_FALSE(std::filesystem::exists(out));
 }
 
