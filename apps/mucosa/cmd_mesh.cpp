@@ -3,16 +3,19 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/mesh/analysis.hpp>
+#include <mucosa/mesh/gltf.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/repair.hpp>
 #include <mucosa/mesh/tangents.hpp>
 #include <mucosa/mesh/uv.hpp>
+#include <mucosa/scene/gltf_export.hpp>
 
 #include "commands.hpp"
 
@@ -23,6 +26,7 @@ namespace {
 struct MeshArgs {
     std::vector<std::string> positional;
     std::string output, uv = "keep", unit = "auto", infoFile, infoUnit = "auto";
+    std::string material = "auto", look;  // --material, --look SCENE
     bool flip = false, weld = false, recomputeNormals = false, noTangents = false;
     float weldTolerance = 0;
 };
@@ -80,13 +84,127 @@ void printInfo(const Global& g, const std::string& file, const std::string& unit
     if (!g.quiet) std::fputs(s.c_str(), stdout);
 }
 
+// What material a glTF output gets (--material, --look).
+struct MaterialPlan {
+    bool gltfOut = false, gltfIn = false;
+    std::string material;  // auto, keep, mucosa or plain
+    scene::Scene look;     // Mucosa's material: --look's scene, or the default one
+};
+
+MaterialPlan planMaterial(const MeshArgs& a) {
+    MaterialPlan p;
+    const mesh::FileFormat out = mesh::outputFormat(a.output);
+    p.gltfOut = out == mesh::FileFormat::Glb || out == mesh::FileFormat::Gltf;
+    if (a.positional.size() == 1) {
+        const mesh::FileFormat in = [&] {
+            try {
+                return mesh::outputFormat(a.positional[0]);
+            } catch (const InputError&) {
+                return mesh::FileFormat::Ply;  // any other: not glTF
+            }
+        }();
+        p.gltfIn = in == mesh::FileFormat::Glb || in == mesh::FileFormat::Gltf;
+    }
+    p.material = a.material;
+    if (!a.look.empty()) {
+        if (a.material != "auto" && a.material != "mucosa")
+            throw InputError("--look", "",
+                             fmt::format("--look gives Mucosa's material; it contradicts --material {}", a.material));
+        p.material = "mucosa";
+    }
+    if (p.material != "auto" && p.material != "keep" && p.material != "mucosa" && p.material != "plain")
+        throw InputError("--material", "", fmt::format("'{}' is not one of auto, keep, mucosa, plain", p.material));
+    if (p.material != "auto" && !p.gltfOut)
+        throw InputError("--material", a.output, "materials are written to .glb and .gltf only");
+    if (p.material == "keep" && !p.gltfIn)
+        throw InputError("--material keep", a.positional.empty() ? "" : a.positional[0],
+                         "only a glTF input's materials are kept (use auto, mucosa or plain)");
+    // Read now, so a bad scene fails before the mesh work.
+    p.look = a.look.empty() ? scene::defaultScene() : scene::loadScene(a.look);
+    for (const std::string& w : p.look.warnings) warn(w);
+    return p;
+}
+
+// --material keep (and auto) with a glTF input and output: the file's own
+// materials, textures, images and samplers (read from its JSON, not through
+// Assimp), each triangle keeping its material. auto keeps only a file that
+// has materials.
+std::optional<mesh::GltfLook> keptLook(const MeshArgs& a, const MaterialPlan& p, const mesh::LoadInfo& li,
+                                       mesh::Mesh& m) {
+    if ((p.material != "keep" && p.material != "auto") || !p.gltfIn || !p.gltfOut) {
+        m.materials.clear();
+        return std::nullopt;
+    }
+    mesh::GltfLook look = mesh::readGltfLook(a.positional[0]);
+    if (p.material == "auto" && look.materials.empty()) {
+        m.materials.clear();
+        return std::nullopt;
+    }
+    if (look.materials.size() != li.fileMaterials)
+        throw InputError("materials", a.positional[0],
+                         fmt::format("the importer found {} materials, the file has {}: cannot tell which part has "
+                                     "which (re-export with --material mucosa or plain)",
+                                     li.fileMaterials, look.materials.size()));
+    if (a.uv == "centerline") {
+        for (std::uint32_t t : m.materials)
+            if (t != mesh::kNoMaterial && mesh::readsTexture(look.materials[t]))
+                throw InputError("--uv centerline", a.positional[0],
+                                 fmt::format("material {} is textured through the file's UVs, which centerline UVs "
+                                             "would replace (keep the UVs, or use --material mucosa or plain)",
+                                             t));
+    }
+    return look;
+}
+
+// The look written: the kept one pruned to the materials still in use,
+// Mucosa's (--material mucosa, --look; auto when the mesh has UVs), or the
+// plain one (auto without UVs).
+std::optional<mesh::GltfLook> outputLook(const MeshArgs& a, const MaterialPlan& p, const Global& g, mesh::Mesh& m,
+                                         std::optional<mesh::GltfLook>& kept) {
+    if (!p.gltfOut) return std::nullopt;
+    if (kept) {
+        std::vector<bool> used(kept->materials.size(), false);
+        for (std::uint32_t t : m.materials)
+            if (t != mesh::kNoMaterial) used[t] = true;
+        const std::vector<std::uint32_t> remap = mesh::pruneGltfLook(*kept, used);
+        for (std::uint32_t& t : m.materials)
+            if (t != mesh::kNoMaterial) t = remap[t];
+        info(g, fmt::format("kept the file's look: {}, {}, {}", count(kept->materials.size(), "material"),
+                            count(kept->textures.size(), "texture"), count(kept->images.size(), "image")));
+        bool textured = false;
+        for (const nlohmann::json& mat : kept->materials) textured = textured || mesh::readsTexture(mat);
+        if (m.hasUvs() && !textured)
+            warn(
+                "the file's materials read no texture: TEXCOORD_0 is written for your own (validators note it as "
+                "unused); --material mucosa textures it");
+        return std::move(kept);
+    }
+    m.materials.clear();
+    const bool doubleSided = scene::gltfDoubleSided(m);
+    if (p.material == "mucosa" || (p.material == "auto" && m.hasUvs())) {
+        if (!m.hasUvs())
+            throw InputError("--material mucosa", a.positional[0],
+                             "the mesh has no texture coordinates for Mucosa's textures (add --uv centerline)");
+        scene::SceneAssets assets;
+        scene::loadTextures(p.look, assets, g.threads);
+        info(g, fmt::format("material: Mucosa's ({}){}", a.look.empty() ? "the default look" : a.look,
+                            doubleSided ? ", double-sided" : ""));
+        return scene::gltfLook(p.look, assets, doubleSided);
+    }
+    if (m.hasUvs())
+        warn(
+            "the plain material reads no texture: TEXCOORD_0 is written for your own (validators note it as "
+            "unused); --material mucosa textures it");
+    return scene::plainGltfLook(p.look.params, doubleSided);
+}
+
 void convert(const MeshArgs& a, const Global& g) {
     if (a.positional.size() != 1)
         throw InputError("arguments", "", "give one input mesh: mucosa mesh IN -o OUT (or mucosa mesh info FILE)");
     if (a.output.empty()) throw InputError("output", "", "give -o OUT (.glb, .gltf, .ply or .obj)");
     if (a.uv != "keep" && a.uv != "centerline")
         throw InputError("--uv", "", fmt::format("'{}' is not one of keep, centerline", a.uv));
-    mesh::outputFormat(a.output);  // refuse a bad extension before any work
+    const MaterialPlan plan = planMaterial(a);  // refuses a bad extension or material choice before any work
     requireWritable(a.output);
     const auto t0 = std::chrono::steady_clock::now();
     // Progress on stderr only for inputs big enough to take a while.
@@ -104,6 +222,7 @@ void convert(const MeshArgs& a, const Global& g) {
     mesh::Mesh m = mesh::load(a.positional[0], lo, &li);
     verbose = verbose || m.triangleCount() > 1000000;
     for (const std::string& w : li.warnings) warn(w);
+    std::optional<mesh::GltfLook> kept = keptLook(a, plan, li, m);
     info(g,
          fmt::format("read {}: {}, {}, x{} to mm ({})", a.positional[0], count(m.vertexCount(), "vertex", "vertices"),
                      count(m.triangleCount(), "triangle"), li.scaleToMillimetres, li.unitReason));
@@ -147,7 +266,10 @@ void convert(const MeshArgs& a, const Global& g) {
     }
     if (a.noTangents) m.tangents.clear();
     progress("writing " + a.output);
-    mesh::save(m, a.output);
+    mesh::SaveOptions so;
+    const std::optional<mesh::GltfLook> look = outputLook(a, plan, g, m, kept);
+    so.look = look ? &*look : nullptr;
+    mesh::save(m, a.output, so);
     info(g, fmt::format("wrote {} ({}, {})", a.output, count(m.vertexCount(), "vertex", "vertices"),
                         count(m.triangleCount(), "triangle")));
 }
@@ -160,8 +282,9 @@ void addMeshCommand(CLI::App& app, Global& g) {
         "Examples:\n"
         "  mucosa mesh info airway.obj\n"
         "  mucosa mesh airway.obj -o airway.glb --flip --uv centerline\n"
-        "Reads what Assimp reads (OBJ, PLY, STL, glTF, FBX, ...); writes .glb/.gltf (POSITION, NORMAL, TEXCOORD_0,\n"
-        "TANGENT), .ply or .obj, in millimetres.");
+        "Reads what Assimp reads (OBJ, PLY, STL, glTF, FBX, ...); writes .glb/.gltf (metres; a glTF input keeps its\n"
+        "materials and textures, others get Mucosa's wet look when they have UVs: docs/engines.md), .ply or .obj\n"
+        "(millimetres).");
     c->add_option("input", a->positional, "Input mesh")->expected(0, 1);
     c->add_option("-o,--output", a->output, "Output mesh (.glb, .gltf, .ply, .obj)");
     c->add_option("--uv", a->uv,
@@ -171,6 +294,14 @@ void addMeshCommand(CLI::App& app, Global& g) {
     c->add_option("--weld-tolerance", a->weldTolerance, "Distance (mm) under which --weld merges vertices [0: exact]");
     c->add_flag("--recompute-normals", a->recomputeNormals, "Replace the normals with angle-weighted smooth normals");
     c->add_flag("--no-tangents", a->noTangents, "Do not write tangents");
+    c->add_option("--material", a->material,
+                  "glTF output's material: keep (a glTF input's own materials, textures and extensions), mucosa "
+                  "(Mucosa's wet look: subject texture, reflectance map on a clearcoat; needs UVs), plain (one "
+                  "untextured tissue colour), auto (keep for a glTF input with materials, else mucosa with UVs, "
+                  "plain without) [auto]");
+    c->add_option("--look", a->look,
+                  "Mucosa's material from this scene file (its material, diffuse and reflectance_map); implies "
+                  "--material mucosa");
     c->add_option("--unit", a->unit, "Unit of the input: auto, mm, cm, m, in [auto]");
     c->require_subcommand(0, 1);
 

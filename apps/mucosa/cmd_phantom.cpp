@@ -1,6 +1,7 @@
 // mucosa phantom: the built-in airway phantom (mesh + centerline JSON).
 #include <chrono>
 #include <cstdio>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -9,6 +10,7 @@
 #include <mucosa/mesh/analysis.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/phantom.hpp>
+#include <mucosa/scene/gltf_export.hpp>
 
 #include "commands.hpp"
 
@@ -17,7 +19,7 @@ namespace mucosa::cli {
 namespace {
 
 struct PhantomArgs {
-    std::string output = "airway.glb", centerline;
+    std::string output = "airway.glb", centerline, material = "mucosa", look;
     mesh::PhantomParams p;
     bool noRings = false;
 };
@@ -40,8 +42,21 @@ void addPhantomCommand(CLI::App& app, Global& g) {
                   fmt::format("Grid cells per millimetre of the implicit surface (0.25..16) [{}]", d.resolution));
     c->add_option("--centerline", a->centerline, "Centerline JSON path [OUT with .centerline.json]");
     c->add_flag("--no-rings", a->noRings, "Smooth walls without cartilage ring ridges");
+    c->add_option("--material", a->material,
+                  "glTF output's material: mucosa (the wet look: subject texture, reflectance map on a clearcoat, "
+                  "docs/engines.md) or plain (one untextured tissue colour) [mucosa]");
+    c->add_option("--look", a->look, "Mucosa's material from this scene file (material, diffuse, reflectance_map)");
     c->callback([a, &g] {
-        mesh::outputFormat(a->output);
+        const mesh::FileFormat format = mesh::outputFormat(a->output);
+        const bool gltf = format == mesh::FileFormat::Glb || format == mesh::FileFormat::Gltf;
+        if (a->material != "mucosa" && a->material != "plain")
+            throw InputError("--material", "", fmt::format("'{}' is not one of mucosa, plain", a->material));
+        if (!a->look.empty() && a->material != "mucosa")
+            throw InputError("--look", "", "--look gives Mucosa's material; it contradicts --material plain");
+        if (!a->look.empty() && !gltf)
+            throw InputError("--look", a->output, "materials are written to .glb and .gltf only");
+        // The look's scene is read before the long part, so a bad one fails at once.
+        const scene::Scene lookScene = a->look.empty() ? scene::defaultScene() : scene::loadScene(a->look);
         requireWritable(a->output);
         std::filesystem::path cl = a->centerline;
         if (cl.empty()) cl = std::filesystem::path(a->output).replace_extension(".centerline.json");
@@ -56,6 +71,23 @@ void addPhantomCommand(CLI::App& app, Global& g) {
         const mesh::Phantom ph = mesh::makePhantom(a->p, g.threads, progress);
         mesh::SaveOptions so;
         so.name = "airway phantom";
+        std::optional<mesh::GltfLook> look;
+        if (gltf) {
+            // Watertight with normals facing the lumen: seen from inside, double-sided.
+            const bool doubleSided = scene::gltfDoubleSided(ph.mesh);
+            if (a->material == "mucosa") {
+                progress(1.0, "textures");
+                scene::SceneAssets assets;
+                scene::loadTextures(lookScene, assets, g.threads);
+                look = scene::gltfLook(lookScene, assets, doubleSided);
+            } else {
+                look = scene::plainGltfLook(lookScene.params, doubleSided);
+                warn(
+                    "the plain material reads no texture: TEXCOORD_0 is written for your own (validators note it "
+                    "as unused)");
+            }
+            so.look = &*look;
+        }
         mesh::save(ph.mesh, a->output, so);
         mesh::writeCenterlineJson(ph.centerline, cl);
         const mesh::MeshReport r = mesh::analyze(ph.mesh);

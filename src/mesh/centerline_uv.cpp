@@ -525,6 +525,7 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
 
     CenterlineUvReport rep;
     Mesh out = assignUvs(topology, rings, branches, rep.seamVertices);
+    out.materials = std::move(mesh.materials);  // assignUvs keeps the triangles' order
     rep.tileLength = static_cast<float>(L);
     rep.pieces = pieces.top.size();
     rep.centerline = centerlineOf(rings, branches);

@@ -53,6 +53,10 @@ void validateIndices(const Mesh& mesh, const std::string& name) {
     attr(mesh.normals.size(), "normals");
     attr(mesh.uvs.size(), "texture coordinates");
     attr(mesh.tangents.size(), "tangents");
+    if (!mesh.materials.empty() && mesh.materials.size() != mesh.triangleCount())
+        throw InputError(
+            "materials", name,
+            fmt::format("{} per-triangle materials for {} triangles", mesh.materials.size(), mesh.triangleCount()));
     const auto it = std::find_if(mesh.indices.begin(), mesh.indices.end(), [n](std::uint32_t i) { return i >= n; });
     if (it != mesh.indices.end())
         throw InputError(

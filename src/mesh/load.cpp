@@ -17,6 +17,7 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/core/memory.hpp>
+#include <mucosa/mesh/gltf.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/repair.hpp>
 
@@ -70,6 +71,7 @@ struct Imported {
     std::string format;
     std::size_t subMeshes = 0, droppedPrimitives = 0;
     bool allNormals = false, allUvs = false, allTangents = false, allColors = false;
+    std::uint64_t materialCount = 0;  // Assimp's materials (aiScene::mNumMaterials)
     std::vector<std::string> warnings;
 };
 
@@ -134,6 +136,7 @@ std::string encode(const Imported& r) {
     w.u64(r.subMeshes);
     w.u64(r.droppedPrimitives);
     w.u64((r.allNormals ? 1 : 0) | (r.allUvs ? 2 : 0) | (r.allTangents ? 4 : 0) | (r.allColors ? 8 : 0));
+    w.u64(r.materialCount);
     w.u64(r.warnings.size());
     for (const std::string& s : r.warnings) w.str(s);
     w.array(r.mesh.positions);
@@ -142,6 +145,7 @@ std::string encode(const Imported& r) {
     w.array(r.mesh.tangents);
     w.array(r.mesh.colors);
     w.array(r.mesh.indices);
+    w.array(r.mesh.materials);
     return w.take();
 }
 
@@ -153,6 +157,7 @@ Imported decode(const std::string& bytes, const std::string& file) {
     out.droppedPrimitives = r.u64();
     const std::uint64_t flags = r.u64();
     out.allNormals = flags & 1, out.allUvs = flags & 2, out.allTangents = flags & 4, out.allColors = flags & 8;
+    out.materialCount = r.u64();
     const std::uint64_t warnings = r.u64();
     for (std::uint64_t i = 0; i < warnings && i < 1000; ++i) out.warnings.push_back(r.str());
     r.array(out.mesh.positions);
@@ -161,6 +166,7 @@ Imported decode(const std::string& bytes, const std::string& file) {
     r.array(out.mesh.tangents);
     r.array(out.mesh.colors);
     r.array(out.mesh.indices);
+    r.array(out.mesh.materials);
     if (!r.done()) throw InputError("mesh", file, "the importer's result is malformed");
     // The child's output is checked like any input: lengths agree, indices in range.
     validateIndices(out.mesh, file);
@@ -226,6 +232,7 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
     out.allUvs = allUvs;
     out.allTangents = allTangents;
     out.allColors = allColors;
+    out.materialCount = scene->mNumMaterials;
     if (out.subMeshes > 1) {
         std::size_t anyUv = 0;
         for (unsigned m = 0; m < scene->mNumMeshes; ++m) anyUv += scene->mMeshes[m]->HasTextureCoords(0) ? 1 : 0;
@@ -240,6 +247,7 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
     Mesh& mesh = out.mesh;
     mesh.positions.reserve(vertices);
     mesh.indices.reserve(3 * triangles);
+    mesh.materials.reserve(triangles);
     if (allNormals) mesh.normals.reserve(vertices);
     if (allUvs) mesh.uvs.reserve(vertices);
     if (allTangents) mesh.tangents.reserve(vertices);
@@ -275,6 +283,7 @@ Imported importWithAssimp(const std::filesystem::path& path, const std::string& 
                                      fmt::format("face {} has index {} out of range", f, face.mIndices[k]));
                 mesh.indices.push_back(base + face.mIndices[k]);
             }
+            mesh.materials.push_back(am->mMaterialIndex);
         }
     }
     if (mesh.indices.empty()) throw InputError("mesh", name, "the file contains no triangles");
@@ -347,9 +356,21 @@ Mesh load(const std::filesystem::path& path, const LoadOptions& options, LoadInf
     info.warnings = std::move(imported.warnings);
     if (mesh.indices.empty()) throw InputError("mesh", name, "the file contains no triangles");
 
+    // Materials: kept for glTF only, where they index the file's own
+    // materials. Assimp's glTF 2.0 importer (5.2) creates the file's
+    // materials in order and appends one default material, which primitives
+    // without a material get: that last index becomes kNoMaterial.
+    const bool gltf = ext == ".gltf" || ext == ".glb";
+    if (gltf && imported.materialCount > 0) {
+        info.fileMaterials = static_cast<std::size_t>(imported.materialCount - 1);
+        for (std::uint32_t& m : mesh.materials)
+            if (m >= info.fileMaterials) m = kNoMaterial;
+    } else {
+        mesh.materials.clear();
+    }
+
     // Units.
     double scale = 1.0;
-    const bool gltf = ext == ".gltf" || ext == ".glb";
     if (options.unit != Unit::Auto) {
         scale = millimetresPer(options.unit);
         info.unitReason = "as requested";

@@ -94,6 +94,7 @@ std::size_t weld(Mesh& mesh, float tolerance) {
     out.indices.resize(mesh.indices.size());
     for (std::size_t i = 0; i < mesh.indices.size(); ++i) out.indices[i] = remap[mesh.indices[i]];
     if (removed == 0 && mesh.hasTangents()) out.tangents = std::move(mesh.tangents);  // nothing merged
+    out.materials = std::move(mesh.materials);                                        // triangles stay in order
     mesh = std::move(out);
     return removed;
 }
@@ -113,9 +114,11 @@ std::size_t removeDegenerateTriangles(Mesh& mesh) {
         mesh.indices[3 * kept] = a;
         mesh.indices[3 * kept + 1] = b;
         mesh.indices[3 * kept + 2] = c;
+        if (!mesh.materials.empty()) mesh.materials[kept] = mesh.materials[t];
         ++kept;
     }
     mesh.indices.resize(3 * kept);
+    if (!mesh.materials.empty()) mesh.materials.resize(kept);
     return m - kept;
 }
 

@@ -6,6 +6,7 @@ target_sources(mucosa_core PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/analysis.cpp
   ${CMAKE_CURRENT_LIST_DIR}/centerline.cpp
   ${CMAKE_CURRENT_LIST_DIR}/centerline_uv.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/gltf_look.cpp
   ${CMAKE_CURRENT_LIST_DIR}/gltf_write.cpp
   ${CMAKE_CURRENT_LIST_DIR}/import_checks.cpp
   ${CMAKE_CURRENT_LIST_DIR}/io.cpp

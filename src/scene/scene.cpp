@@ -749,6 +749,38 @@ FlightPath meshFileCenterline(const Scene& scene, const mesh::Mesh& shape, std::
 
 }  // namespace
 
+void loadTextures(const Scene& scene, SceneAssets& a, int threads, bool reflectanceMap) {
+    if (scene.diffuse) {
+        requireFile(scene, "diffuse", *scene.diffuse);
+        a.diffuse = image::to8(image::readPng(*scene.diffuse));
+    } else if (scene.generatedDiffuse) {
+        a.diffuse = reflectance::tissueTexture(scene.appearance.tissue, kTissueTextureSize);
+        if (scene.variation != 0) {
+            const reflectance::Appearance& v = scene.appearance;
+            a.notes.push_back(fmt::format(
+                "variation {}: tissue hue {:.0f} deg (tone {:.2f}), vessels x{:.2f} at {:.2f} mm, mucus {:.2f}, "
+                "exposure {:+.2f} EV",
+                scene.variation, v.tissue.hue, v.tone, v.tissue.vesselDensity, v.tissue.vesselDepth, v.mucus,
+                v.exposureEv));
+        }
+    }
+    if (scene.reflectanceMap) {
+        requireFile(scene, "reflectance_map", *scene.reflectanceMap);
+        a.reflectanceMap = image::to8(image::readPng(*scene.reflectanceMap));
+        if (a.reflectanceMap.channels() < 3)
+            throw InputError("reflectance_map", scene.reflectanceMap->string(), "must be an RGB image");
+        a.notes.push_back("reflectance map: " + scene.reflectanceMap->string());
+    } else if (reflectanceMap) {
+        const image::ImageF h = reflectance::heightField(scene.mapParams, threads);
+        a.reflectanceMap = reflectance::encodeNormals8(
+            h, scene.mapParams.strength,
+            scene.mapParams.noise.tileable ? reflectance::Edges::Wrap : reflectance::Edges::Clamp, threads);
+        a.notes.push_back(fmt::format("reflectance map generated: '{}' preset, frequency {}, {}x{}",
+                                      scene.mapParams.preset.empty() ? "custom" : scene.mapParams.preset,
+                                      scene.mapParams.noise.frequency, scene.mapParams.size, scene.mapParams.size));
+    }
+}
+
 SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
     SceneAssets a;
     const std::string file = scene.file.string();
@@ -803,35 +835,7 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
         setPath(a, longestPath(mesh::readCenterlineJson(scene.path.centerlineFile), scene.path.branch,
                                scene.path.centerlineFile.string()));
     }
-    if (scene.diffuse) {
-        requireFile(scene, "diffuse", *scene.diffuse);
-        a.diffuse = image::to8(image::readPng(*scene.diffuse));
-    } else if (scene.generatedDiffuse) {
-        a.diffuse = reflectance::tissueTexture(scene.appearance.tissue, kTissueTextureSize);
-        if (scene.variation != 0) {
-            const reflectance::Appearance& v = scene.appearance;
-            a.notes.push_back(fmt::format(
-                "variation {}: tissue hue {:.0f} deg (tone {:.2f}), vessels x{:.2f} at {:.2f} mm, mucus {:.2f}, "
-                "exposure {:+.2f} EV",
-                scene.variation, v.tissue.hue, v.tone, v.tissue.vesselDensity, v.tissue.vesselDepth, v.mucus,
-                v.exposureEv));
-        }
-    }
-    if (scene.reflectanceMap) {
-        requireFile(scene, "reflectance_map", *scene.reflectanceMap);
-        a.reflectanceMap = image::to8(image::readPng(*scene.reflectanceMap));
-        if (a.reflectanceMap.channels() < 3)
-            throw InputError("reflectance_map", scene.reflectanceMap->string(), "must be an RGB image");
-        a.notes.push_back("reflectance map: " + scene.reflectanceMap->string());
-    } else if (reflectanceMap) {
-        const image::ImageF h = reflectance::heightField(scene.mapParams, threads);
-        a.reflectanceMap = reflectance::encodeNormals8(
-            h, scene.mapParams.strength,
-            scene.mapParams.noise.tileable ? reflectance::Edges::Wrap : reflectance::Edges::Clamp, threads);
-        a.notes.push_back(fmt::format("reflectance map generated: '{}' preset, frequency {}, {}x{}",
-                                      scene.mapParams.preset.empty() ? "custom" : scene.mapParams.preset,
-                                      scene.mapParams.noise.frequency, scene.mapParams.size, scene.mapParams.size));
-    }
+    loadTextures(scene, a, threads, reflectanceMap);
     a.highlight = shading::highlightSphereMap(shading::kHighlightTextureSize, scene.params[shading::Param::Shininess]);
     return a;
 }

@@ -3,6 +3,7 @@
 find_package(glm CONFIG REQUIRED)
 target_sources(mucosa_core PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/brdf.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/gltf_material.cpp
   ${CMAKE_CURRENT_LIST_DIR}/params.cpp
   ${CMAKE_CURRENT_LIST_DIR}/reference.cpp)
 # glm is header-only and never in a public header: build-time only.

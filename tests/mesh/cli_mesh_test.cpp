@@ -6,6 +6,7 @@
 #include <mucosa/mesh/analysis.hpp>
 #include <mucosa/mesh/io.hpp>
 
+#include "gltf_validator.hpp"
 #include "mesh_test_util.hpp"
 
 namespace mucosa::test {
@@ -41,6 +42,7 @@ TEST(MeshCli, ConvertsFlipsAndWritesTangents) {
     const Mesh m = mesh::load(dir / "o.glb");
     EXPECT_TRUE(m.hasTangents());
     EXPECT_EQ(mesh::analyze(m).badTangents, 0u);
+    expectValidGltf(dir / "o.glb");
 }
 
 TEST(MeshCli, InfoCountsNonFiniteValuesAndUnitOverride) {

@@ -10,6 +10,7 @@
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/phantom.hpp>
 
+#include "gltf_validator.hpp"
 #include "mesh_test_util.hpp"
 
 namespace mucosa::test {
@@ -479,6 +480,19 @@ TEST(PhantomCli, WritesMeshAndCenterlineOrOneErrorLine) {
     EXPECT_EQ(c.branches.size(), 3u);
     const Mesh m = mesh::load(dir / "a.glb");
     EXPECT_TRUE(mesh::analyze(m).watertight());
+    expectValidGltf(dir / "a.glb");
+    // .gltf, and the plain material: valid too (the plain one's UVs, which no
+    // material reads, are the one info a user asks for: --material plain).
+    const auto gltf = runCli("-q phantom -o '" + (dir / "g.gltf").string() + "' --generations 1 --resolution 1");
+    ASSERT_EQ(gltf.exitCode, 0) << gltf.err;
+    expectValidGltf(dir / "g.gltf");
+    const auto plain =
+        runCli("-q phantom -o '" + (dir / "p.glb").string() + "' --generations 1 --resolution 1 --material plain");
+    ASSERT_EQ(plain.exitCode, 0) << plain.err;
+    const nlohmann::json report = validateGltf(dir / "p.glb");
+    EXPECT_EQ(report["errors"], 0);
+    EXPECT_EQ(report["warnings"], 0);
+    EXPECT_EQ(report["infos"], 1) << report.dump();
 
     const auto bad = runCli("phantom -o '" + (dir / "b.glb").string() + "' --generations 42");
     EXPECT_NE(bad.exitCode, 0);

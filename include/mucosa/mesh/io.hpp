@@ -49,6 +49,10 @@ struct LoadInfo {
     std::string upAxis;      // "+Y (glTF)" or "as stored in the file"
     bool fileHadNormals = false, fileHadUvs = false, fileHadTangents = false;
     bool fileHadColors = false;  // vertex colours (the first set: glTF COLOR_0, PLY red/green/blue, OBJ v x y z r g b)
+    // glTF: the file's materials as the importer counted them; Mesh::materials
+    // then holds each triangle's index into them (kNoMaterial: none). Other
+    // formats: 0, and Mesh::materials is empty.
+    std::size_t fileMaterials = 0;
     std::size_t repairedNormals = 0;  // zero/non-finite normals recomputed
     std::vector<std::string> warnings;
 };
@@ -70,14 +74,26 @@ enum class FileFormat { Glb, Gltf, Ply, Obj };
 // From the extension (.glb, .gltf, .ply, .obj); InputError otherwise.
 FileFormat outputFormat(const std::filesystem::path& path);
 
+struct GltfLook;
+
 struct SaveOptions {
     std::string name = "mucosa";  // node/mesh name in glTF, comment in PLY/OBJ
+    // glTF: the materials, textures, samplers and images to write
+    // (<mucosa/mesh/gltf.hpp>); Mesh::materials indexes look->materials (empty:
+    // every triangle has material 0). One primitive per material, sharing the
+    // vertex arrays; a primitive's TANGENT only where its material reads a
+    // normal texture (normalTexture, clearcoatNormalTexture, anisotropyTexture:
+    // nothing the Khronos validator calls unused). Images: bufferViews of the
+    // binary chunk in .glb, data URIs in .gltf. null: one untextured
+    // material, every attribute written. PLY and OBJ ignore it.
+    const GltfLook* look = nullptr;
 };
 
 // Writes atomically (a temporary next to `path`, renamed when complete).
 // glTF: positions in metres (the format's unit), v flipped to glTF's top-left
 // origin, POSITION min/max, unit NORMAL, TANGENT xyz unit with w = +-1;
-// .gltf embeds its buffer as a base64 data URI (one file, one atomic rename).
+// .gltf embeds its buffer (and images) as base64 data URIs (one file, one
+// atomic rename).
 // PLY (binary little-endian) and OBJ: millimetres, OpenGL UVs.
 void save(const Mesh& mesh, const std::filesystem::path& path, const SaveOptions& options = {});
 void writeGltf(const Mesh& mesh, const std::filesystem::path& path, bool binary, const SaveOptions& options = {});

@@ -29,6 +29,11 @@ struct Mesh {
     std::vector<Vec4> tangents;          // per vertex, xyz unit, w = +-1; empty if absent
     std::vector<Vec3> colors;            // per vertex linear RGB tint multiplying the albedo; empty if absent
     std::vector<std::uint32_t> indices;  // 3 per triangle
+    // Per triangle: the index of its material in the file it came from
+    // (glTF's materials, mesh::GltfLook; kNoMaterial in <mucosa/mesh/gltf.hpp>
+    // for none); empty = one material for the whole mesh. Every step that
+    // drops or rebuilds triangles keeps it in step (validateIndices checks).
+    std::vector<std::uint32_t> materials;
 
     std::size_t vertexCount() const noexcept { return positions.size(); }
     std::size_t triangleCount() const noexcept { return indices.size() / 3; }
@@ -36,6 +41,7 @@ struct Mesh {
     bool hasUvs() const noexcept { return !uvs.empty() && uvs.size() == positions.size(); }
     bool hasTangents() const noexcept { return !tangents.empty() && tangents.size() == positions.size(); }
     bool hasColors() const noexcept { return !colors.empty() && colors.size() == positions.size(); }
+    bool hasMaterials() const noexcept { return !materials.empty() && materials.size() == triangleCount(); }
 };
 
 }  // namespace mucosa::mesh

@@ -163,6 +163,11 @@ struct SceneAssets {
 // one); the renderer then keeps its flat default map.
 SceneAssets loadAssets(const Scene& scene, int threads = 0, bool reflectanceMap = true);
 
+// Only the textures of loadAssets: the diffuse texture (the file, or the
+// generated one) and the reflectance map (the file, or generated unless
+// `reflectanceMap` is false), into assets.diffuse / reflectanceMap, with notes.
+void loadTextures(const Scene& scene, SceneAssets& assets, int threads = 0, bool reflectanceMap = true);
+
 // A fly-through along a centerline tree, as a scene of a mesh file flies
 // along its computed one: into `branch` (-1: the longest path from the
 // root), leaf stubs (shorter than their radius: level-set rings at a cap or
