@@ -160,7 +160,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
             throw InputError("frame", f.image.string(),
                              fmt::format("sees the back of the surface at {:.0f} % of its pixels: the camera is "
                                          "outside-in or the normals point the wrong way (try `mucosa mesh --flip`)",
-                                         100.0 * st.backFacing / st.hits));
+                                         100.0 * static_cast<double>(st.backFacing) / static_cast<double>(st.hits)));
         if (!isHeld) samples.insert(samples.end(), s.begin(), s.end());
     }
     // The atlas spans the UV rectangle of the mesh (texture coordinates outside
