@@ -302,32 +302,29 @@ float fresnelSchlick90(float cosine, float f0, float f90) {
     return f0 + (f90 - f0) * (q2 * q2 * q);
 }
 
-// The coat's alpha: roughness^2, bounded below for the point lamp; with
-// specular anti-aliasing, the map's slope variance sigma2 of the pixel's
-// footprint widens it (GGX alpha^2 ~ Beckmann m^2 = 2 sigma2: alpha'^2 =
-// alpha^2 + 2 sigma2, at most 1).
-float clearcoatAlpha(float roughness, float sigma2) {
+// GGX alpha = roughness^2, the roughness bounded below for the point lamp.
+float ggxAlpha(float roughness) {
     float r = max(roughness, kMinGgxRoughness);
-    return sqrt(min(r * r * r * r + 2.0f * sigma2, 1.0f));
+    return r * r;
 }
 
 // glTF's clear-coated dielectric (metallic 0) lit by the lamp: unit vectors
 // Ng (the geometry's normal: the base), Nc (the coat's normal: the map's),
 // L (to the lamp) and V (to the eye), the lamp's irradiance E, the ambient
-// irradiance Ea (diffuse only, like an engine's ambient light) and the coat's
-// alpha (clearcoatAlpha).
+// irradiance Ea (diffuse only, like an engine's ambient light).
 //   base = E (N.L) [albedo (1 - F_b(V.H)) + pi F_b(V.H) D_b V_b] + albedo Ea
 //     (glTF 2.0 Appendix B fresnel_mix: F0_b = ((n - 1) / (n + 1))^2 x
 //     specular, F90_b = specular; KHR_materials_ior, KHR_materials_specular)
 //   coat = pi D_c V_c E (Nc.L)
 //   result = base (1 - w F_c(Nc.V)) + w F_c(Nc.V) coat
 // (KHR_materials_clearcoat's fresnel_coat: the coat's Fresnel at Nc.V, F0 0.04.)
-vec3 clearcoatShading(vec3 albedo, vec3 Ng, vec3 Nc, vec3 L, vec3 V, float E, float Ea, float coatAlpha, Material m) {
+vec3 clearcoatShading(vec3 albedo, vec3 Ng, vec3 Nc, vec3 L, vec3 V, float E, float Ea, Material m) {
     vec3 H = normalize(L + V);
     float cosNL = max(dot(Ng, L), 0.0f);
     float cosNV = max(dot(Ng, V), 0.0f);
     float cosVH = max(dot(V, H), 0.0f);
-    float baseAlpha = max(m.baseRoughness, kMinGgxRoughness) * max(m.baseRoughness, kMinGgxRoughness);
+    float baseAlpha = ggxAlpha(m.baseRoughness);
+    float coatAlpha = ggxAlpha(m.clearcoatRoughness);
     float f90 = m.sheenStrength;
     float Fb = fresnelSchlick90(cosVH, min(m.mucusF0, 1.0f) * f90, f90);
     float specB = kPi * Fb * ggxDistribution(dot(Ng, H), baseAlpha) * smithVisibility(cosNL, cosNV, baseAlpha);
@@ -510,7 +507,9 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
     if (mode == kModeClearcoat) {
         // Per pixel in world space, like an engine: the lamp at the light's
         // position, the geometric normal for the base, the map's normal in
-        // the tangent frame for the coat.
+        // the tangent frame for the coat. With specular anti-aliasing the map
+        // comes from its mips, as an engine samples a mipmapped normal
+        // texture; glTF has no lobe widening, so its slope variance is unused.
         vec3 Ng = normalize(v.N);
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
         vec3 Nc = normalize(Nm.x * v.T + Nm.y * v.B + Nm.z * v.N);
@@ -519,8 +518,7 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         vec3 L = toLight / dl;
         vec3 V = normalize(f.eye - v.P);
         float E = lampIrradiance(dl, -dot(L, f.lampAxis), m);
-        float alphaC = clearcoatAlpha(m.clearcoatRoughness, mapSampleVariance(mapSample, m, f));
-        return clearcoatShading(albedo, Ng, Nc, L, V, E, ambientE, alphaC, m);
+        return clearcoatShading(albedo, Ng, Nc, L, V, E, ambientE, m);
     }
     if (mode == kModeDiffuse) {
         return albedo * (ambientE + v.diffuseLight);

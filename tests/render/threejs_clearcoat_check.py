@@ -2,9 +2,10 @@
 MeshPhysicalMaterial through GLTFLoader) in headless Debian Chromium (WebGL on
 SwiftShader) renders the phantom with its KHR_materials_clearcoat material
 from the camera of a Mucosa `clearcoat` frame, lit by a point light at the
-camera; the two frames must agree: mean absolute error <= 3/255 and SSIM >=
-0.95 over the pixels both render (docs/rendering.md, "The clearcoat mode
-against three.js", lists what is matched).
+camera; the two frames must agree within the tolerances below (MAX_MAE,
+MIN_SSIM, MAX_GLINT_MAE), as three.js ships and again without its
+screen-space geometric roughness (docs/rendering.md, "The clearcoat mode:
+glTF's clear coat", lists what is matched).
 
 Usage: threejs_clearcoat_check.py MUCOSA_CLI WORK_DIR [PICTURE.png]
 Fails (never skips) when chromium or tools/node/node_modules/three is missing.
@@ -13,6 +14,7 @@ Loopback only: the page, three's modules and the .glb are served on
 """
 import base64
 import http.server
+import io
 import json
 import math
 import os
@@ -32,9 +34,14 @@ SOURCE = os.path.dirname(os.path.dirname(HERE))
 THREE = os.path.join(SOURCE, "tools", "node", "node_modules", "three")
 CHROMIUM = "/usr/bin/chromium"
 
-# The comparison's tolerances (the issue's): over the pixels both render.
-MAX_MAE = 3.0  # mean absolute error, 0..255, all channels
-MIN_SSIM = 0.95  # Wang et al. 2004 on the luma
+# The comparison's tolerances, over the pixels both render (measured: MAE
+# 0.32, SSIM 0.998, glints 19 / 4 with / without three's geometric roughness;
+# the issue asked for <= 3/255 and >= 0.95, which the mirrored coat normal of
+# three's tangent bug still passed on MAE: 2.0, SSIM 0.91).
+MAX_MAE = 1.0  # mean absolute error, 0..255, all channels
+MIN_SSIM = 0.99  # Wang et al. 2004 on the luma
+MAX_GLINT_MAE = 30.0  # MAE over the pixels where either frame has a glint (min channel > 200)
+MIN_GLINTS = 30  # the coat must show: at least this many glint pixels in Mucosa's frame
 
 W, H = 640, 480
 FOV_X_DEG = 90.0  # Mucosa's fov_deg is across the larger side
@@ -102,6 +109,12 @@ def ggx_roughness_from_phong(n):
     return math.sqrt(math.sqrt(2.0 / (4.0 * n + 2.0)))
 
 
+def flat_normal_png():
+    buf = io.BytesIO()
+    Image.new("RGB", (1, 1), (128, 128, 255)).save(buf, "PNG")
+    return buf.getvalue()
+
+
 def clearcoat_glb(phantom_glb, map_png, out):
     """The phantom's .glb (metres, UVs, tangents, COLOR_0) with the clearcoat
     mode's material in glTF terms: the base (baseColorFactor = base_color,
@@ -110,14 +123,15 @@ def clearcoat_glb(phantom_glb, map_png, out):
     roughness, the reflectance map as clearcoatNormalTexture, scale =
     bump_scale, tiled by map_tiling through KHR_texture_transform)."""
     doc, binary = read_glb(phantom_glb)
-    png = open(map_png, "rb").read()
-    binary += b"\0" * (-len(binary) % 4)
-    doc["bufferViews"].append({"buffer": 0, "byteOffset": len(binary), "byteLength": len(png)})
-    binary += png
+    doc["images"] = []
+    for name, png in (("reflectance map", open(map_png, "rb").read()), ("flat normal", flat_normal_png())):
+        binary += b"\0" * (-len(binary) % 4)
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": len(binary), "byteLength": len(png)})
+        binary += png
+        doc["images"].append({"bufferView": len(doc["bufferViews"]) - 1, "mimeType": "image/png", "name": name})
     doc["buffers"][0]["byteLength"] = len(binary) + (-len(binary) % 4)
-    doc["images"] = [{"bufferView": len(doc["bufferViews"]) - 1, "mimeType": "image/png", "name": "reflectance map"}]
     doc["samplers"] = [{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}]
-    doc["textures"] = [{"source": 0, "sampler": 0}]
+    doc["textures"] = [{"source": 0, "sampler": 0}, {"source": 1, "sampler": 0}]
     t = MATERIAL["map_tiling"]
     # Mucosa samples the map at t (u, v), OpenGL's v up; glTF's v' = 1 - v and
     # its image origin is the top-left: the same texel at t v' + (1 - t).
@@ -130,6 +144,15 @@ def clearcoat_glb(phantom_glb, map_png, out):
             "metallicFactor": 0.0,
             "roughnessFactor": ggx_roughness_from_phong(m["sheen_shininess"]),
         },
+        # A flat base normal texture (scale 0: exactly the geometry's normal).
+        # three.js r187 reads a mesh's TANGENT only when the material has a
+        # base normal map (WebGLPrograms: vertexTangents = tangent &&
+        # (normalMap || anisotropy)); with a clearcoat normal map alone it
+        # builds the coat's frame from screen-space derivatives of glTF's
+        # (downward) v, mirroring the map's y, and GLTFLoader does not
+        # correct it because the mesh has tangents. With this texture three
+        # uses the .glb's tangents, as the specification asks.
+        "normalTexture": {"index": 1, "scale": 0.0},
         "extensions": {
             "KHR_materials_clearcoat": {
                 "clearcoatFactor": m["clearcoat"],
@@ -170,7 +193,7 @@ def mucosa_frame(cli, work, glb, map_png):
     return out
 
 
-def three_frame(work, glb):
+def three_frame(work, glb, geometry_roughness=True):
     """Renders the .glb in headless Chromium; returns the PNG path and three's report."""
     exposure = 2.0 ** EV
     # three's physical point light: irradiance I / max(d^2, 0.01) (decay 2;
@@ -188,6 +211,7 @@ def three_frame(work, glb):
         "fovYDeg": fov_y, "near": NEAR_MM, "far": FAR_MM, "eye": EYE_MM, "lookAt": LOOK_AT_MM, "up": UP,
         "pointIntensity": math.pi * LIGHT["intensity"] * exposure,
         "ambientIntensity": math.pi * ambient_e * exposure,
+        "noGeometryRoughness": not geometry_roughness,
     }
     page = open(os.path.join(HERE, "threejs_clearcoat.html"), "rb").read()
     done = threading.Event()
@@ -251,7 +275,7 @@ def three_frame(work, glb):
     prefix = "data:image/png;base64,"
     if not data.startswith(prefix):
         fail("the canvas did not come back as a PNG")
-    out = os.path.join(work, "three.png")
+    out = os.path.join(work, "three.png" if geometry_roughness else "three_no_geometry_roughness.png")
     open(out, "wb").write(base64.b64decode(data[len(prefix):]))
     return out, info
 
@@ -291,37 +315,40 @@ def main():
     clearcoat_glb(phantom, map_png, glb)
 
     ours = mucosa_frame(cli, work, glb, map_png)
-    theirs, info = three_frame(work, glb)
-    print("three.js:", json.dumps(info))
-    if info.get("material") != "MeshPhysicalMaterial" or not info.get("clearcoatNormalMap"):
-        fail(f"GLTFLoader did not make a clear-coated MeshPhysicalMaterial: {info}")
-
     a = np.asarray(Image.open(ours).convert("RGB"), dtype=np.float64)
-    b = np.asarray(Image.open(theirs).convert("RGB"), dtype=np.float64)
-    if a.shape != b.shape:
-        fail(f"sizes differ: {a.shape} vs {b.shape}")
-    both = (a.max(axis=2) > 0) & (b.max(axis=2) > 0)
-    either = (a.max(axis=2) > 0) | (b.max(axis=2) > 0)
-    coverage = both.sum() / both.size
-    mae = np.abs(a - b)[both].mean()
-    inner = binary_erosion(both, iterations=5)  # SSIM windows inside the rendered area
-    ssim = ssim_map(luma(a), luma(b))[inner].mean()
-    spec = (a.min(axis=2) > 200) | (b.min(axis=2) > 200)
-    print(f"pixels both render: {100 * coverage:.1f} % (either: {100 * either.sum() / either.size:.1f} %)")
-    print(f"mean absolute error {mae:.3f}/255 (<= {MAX_MAE}), SSIM {ssim:.4f} (>= {MIN_SSIM}); "
-          f"99th percentile of |diff| {np.percentile(np.abs(a - b)[both], 99):.1f}; "
-          f"highlight pixels (min channel > 200): Mucosa {int((a.min(axis=2) > 200).sum())}, "
-          f"three.js {int((b.min(axis=2) > 200).sum())}, MAE there {np.abs(a - b)[spec].mean():.2f}")
-    if picture:
-        diff = np.clip(np.abs(a - b).max(axis=2) * 8, 0, 255)
-        side = np.concatenate([a, np.full((H, 8, 3), 255.0), b, np.full((H, 8, 3), 255.0),
-                               np.repeat(diff[..., None], 3, axis=2)], axis=1)
-        Image.fromarray(side.astype(np.uint8)).save(picture)
-        print(f"wrote {picture} (Mucosa clearcoat | three.js | |difference| x 8)")
-    ok = coverage > 0.5 and mae <= MAX_MAE and ssim >= MIN_SSIM
-    if not ok:
-        fail(f"Mucosa's clearcoat frame and three.js's disagree (coverage {coverage:.3f}, MAE {mae:.3f}, "
-             f"SSIM {ssim:.4f}); frames in {work}")
+    failures = []
+    for geometry_roughness in (True, False):
+        theirs, info = three_frame(work, glb, geometry_roughness)
+        print("three.js:", json.dumps(info))
+        if info.get("material") != "MeshPhysicalMaterial" or not info.get("clearcoatNormalMap"):
+            fail(f"GLTFLoader did not make a clear-coated MeshPhysicalMaterial: {info}")
+        b = np.asarray(Image.open(theirs).convert("RGB"), dtype=np.float64)
+        if a.shape != b.shape:
+            fail(f"sizes differ: {a.shape} vs {b.shape}")
+        both = (a.max(axis=2) > 0) & (b.max(axis=2) > 0)
+        coverage = both.sum() / both.size
+        diff = np.abs(a - b)
+        mae = diff[both].mean()
+        inner = binary_erosion(both, iterations=5)  # SSIM windows inside the rendered area
+        ssim = ssim_map(luma(a), luma(b))[inner].mean()
+        ga, gb = a.min(axis=2) > 200, b.min(axis=2) > 200
+        glint_mae = diff[ga | gb].mean() if (ga | gb).any() else 0.0
+        name = "three.js" if geometry_roughness else "three.js without its geometric roughness"
+        print(f"{name}: pixels both render {100 * coverage:.1f} %, mean absolute error {mae:.3f}/255 "
+              f"(<= {MAX_MAE}), SSIM {ssim:.4f} (>= {MIN_SSIM}), 99th percentile of |diff| "
+              f"{np.percentile(diff[both], 99):.0f}/255; glint pixels (min channel > 200) Mucosa {int(ga.sum())}, "
+              f"three.js {int(gb.sum())}, MAE over them {glint_mae:.1f}/255 (<= {MAX_GLINT_MAE})")
+        if coverage < 0.5 or mae > MAX_MAE or ssim < MIN_SSIM or glint_mae > MAX_GLINT_MAE or ga.sum() < MIN_GLINTS:
+            failures.append(f"{name}: coverage {coverage:.3f}, MAE {mae:.3f}, SSIM {ssim:.4f}, "
+                            f"glint MAE {glint_mae:.1f}, {int(ga.sum())} glint pixels")
+        if picture and geometry_roughness:
+            d8 = np.clip(diff.max(axis=2) * 8, 0, 255)
+            gap = np.full((H, 8, 3), 255.0)
+            side = np.concatenate([a, gap, b, gap, np.repeat(d8[..., None], 3, axis=2)], axis=1)
+            Image.fromarray(side.astype(np.uint8)).save(picture)
+            print(f"wrote {picture} (Mucosa clearcoat | three.js | |difference| x 8)")
+    if failures:
+        fail("Mucosa's clearcoat frame and three.js's disagree: " + "; ".join(failures) + f" (frames in {work})")
     print("PASS")
 
 
