@@ -34,11 +34,15 @@ SOURCE = os.path.dirname(os.path.dirname(HERE))
 THREE = os.path.join(SOURCE, "tools", "node", "node_modules", "three")
 CHROMIUM = "/usr/bin/chromium"
 
-# The comparison's tolerances, over the pixels both render (measured: MAE
-# 0.32, SSIM 0.998, glints 19 / 4 with / without three's geometric roughness;
-# the issue asked for <= 3/255 and >= 0.95, which the mirrored coat normal of
-# three's tangent bug still passed on MAE: 2.0, SSIM 0.91).
-MAX_MAE = 1.0  # mean absolute error, 0..255, all channels
+# The comparison's tolerances, over the pixels both render. Measured: MAE
+# 0.32/255, bias +0.27, SSIM 0.998, glints 19.5 (as three ships; 0.34, +0.31,
+# 0.998 and 3.8 without its geometric roughness). The issue suggested <= 3/255
+# and >= 0.95: too loose to catch what these catch (docs/rendering.md): the
+# coat's Fresnel on the geometry's normal (MAE 1.03, SSIM 0.968), the coat
+# without its pi (glints 49.6), the base's diffuse without (1 - F) (MAE 0.89,
+# bias +0.86), three's mirrored coat normal (MAE 2.0, SSIM 0.91).
+MAX_MAE = 0.6  # mean absolute error, 0..255, all channels
+MAX_BIAS = 0.5  # |mean signed difference|, 0..255
 MIN_SSIM = 0.99  # Wang et al. 2004 on the luma
 MAX_GLINT_MAE = 30.0  # MAE over the pixels where either frame has a glint (min channel > 200)
 MIN_GLINTS = 30  # the coat must show: at least this many glint pixels in Mucosa's frame
@@ -329,17 +333,18 @@ def main():
         coverage = both.sum() / both.size
         diff = np.abs(a - b)
         mae = diff[both].mean()
+        bias = (a - b)[both].mean()
         inner = binary_erosion(both, iterations=5)  # SSIM windows inside the rendered area
         ssim = ssim_map(luma(a), luma(b))[inner].mean()
         ga, gb = a.min(axis=2) > 200, b.min(axis=2) > 200
         glint_mae = diff[ga | gb].mean() if (ga | gb).any() else 0.0
         name = "three.js" if geometry_roughness else "three.js without its geometric roughness"
         print(f"{name}: pixels both render {100 * coverage:.1f} %, mean absolute error {mae:.3f}/255 "
-              f"(<= {MAX_MAE}), SSIM {ssim:.4f} (>= {MIN_SSIM}), 99th percentile of |diff| "
+              f"(<= {MAX_MAE}), bias {bias:+.3f} (|.| <= {MAX_BIAS}), SSIM {ssim:.4f} (>= {MIN_SSIM}), 99th percentile of |diff| "
               f"{np.percentile(diff[both], 99):.0f}/255; glint pixels (min channel > 200) Mucosa {int(ga.sum())}, "
               f"three.js {int(gb.sum())}, MAE over them {glint_mae:.1f}/255 (<= {MAX_GLINT_MAE})")
-        if coverage < 0.5 or mae > MAX_MAE or ssim < MIN_SSIM or glint_mae > MAX_GLINT_MAE or ga.sum() < MIN_GLINTS:
-            failures.append(f"{name}: coverage {coverage:.3f}, MAE {mae:.3f}, SSIM {ssim:.4f}, "
+        if coverage < 0.5 or mae > MAX_MAE or abs(bias) > MAX_BIAS or ssim < MIN_SSIM or glint_mae > MAX_GLINT_MAE or ga.sum() < MIN_GLINTS:
+            failures.append(f"{name}: coverage {coverage:.3f}, MAE {mae:.3f}, bias {bias:+.3f}, SSIM {ssim:.4f}, "
                             f"glint MAE {glint_mae:.1f}, {int(ga.sum())} glint pixels")
         if picture and geometry_roughness:
             d8 = np.clip(diff.max(axis=2) * 8, 0, 255)
