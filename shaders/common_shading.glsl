@@ -22,7 +22,8 @@ const int kModeBrdf = 8;           // patient-specific: texture x rho(gamma) del
 const int kModeBrdfNoise = 9;      // kModeBrdf plus the method's noise-based specular (Category 4)
 const int kModeProcedural = 10;    // the method with run-time noise (procedural_noise.glsl), no map
 const int kModeProceduralNormals = 11;  // debug: kModeProcedural's perturbed normal in world space, 0.5 N + 0.5
-const int kModeCount = 12;
+const int kModeClearcoat = 12;     // glTF's clear coat (KHR_materials_clearcoat) over the glTF base, per pixel
+const int kModeCount = 13;
 
 // What each mode reads, asked by the fragment shader and by the C++ reference
 // alike. shading::ModeInfo (src/shading/params.cpp) is the same table for the
@@ -38,7 +39,7 @@ MUCOSA_CONSTEXPR bool modeReadsDiffuse(int mode) {
 }
 // The reflectance map (the method's specular, and its normals view).
 MUCOSA_CONSTEXPR bool modeReadsReflectanceMap(int mode) {
-    return mode == kModeNoise || mode == kModeNormals || mode == kModeBrdfNoise;
+    return mode == kModeNoise || mode == kModeNormals || mode == kModeBrdfNoise || mode == kModeClearcoat;
 }
 // The sphere-mapped highlight texture (baseline 2).
 MUCOSA_CONSTEXPR bool modeReadsHighlight(int mode) {
@@ -50,7 +51,7 @@ MUCOSA_CONSTEXPR bool modeReadsHighlight(int mode) {
 // camera's output).
 MUCOSA_CONSTEXPR bool modeIsPhotographic(int mode) {
     return mode == kModeNoise || mode == kModeVertexPhong || mode == kModeMultitexture || mode == kModeDiffuse ||
-           mode == kModeProcedural;
+           mode == kModeProcedural || mode == kModeClearcoat;
 }
 // The largest finite half float: the camera's HDR target (RGBA16F) holds no more.
 const float kHalfMax = 65504.0f;
@@ -91,6 +92,9 @@ struct Material {
     float sheenStrength;     // k_sheen: the mucus film's broad lobe
     float sheenShininess;    // its Phong exponent
     float mucusF0;           // Fresnel reflectance of the film at normal incidence
+    float clearcoat;           // clearcoat mode: the coat's weight (glTF clearcoatFactor)
+    float clearcoatRoughness;  // its GGX roughness (alpha = roughness^2)
+    float baseRoughness;       // the glTF base's specular roughness (from sheenShininess, shading::glsl::packMaterial)
 };
 
 // Per-frame values (camera and light positions in world space, mm).
@@ -260,6 +264,78 @@ vec3 mucusAlbedo(vec3 albedo, Material m) {
     return mix(albedo, m.mucusColor, m.mucusOpacity);
 }
 
+// glTF's clear coat (KHR_materials_clearcoat over the core metallic-roughness
+// BRDF of glTF 2.0, Appendix B; docs/theory.md, "Clear coat"). Radiance in
+// Mucosa's units (pi x BRDF x E cos: a Lambertian albedo a gives a E).
+const float kPi = 3.14159265f;
+// The coat's Fresnel reflectance at normal incidence: the extension fixes its
+// IOR at 1.5, so F0 = ((1.5 - 1) / (1.5 + 1))^2.
+const float kClearcoatF0 = 0.04f;
+// A point lamp needs a minimum roughness to show a highlight at all (GGX
+// tends to a delta as alpha -> 0); Filament's and three.js's bound.
+const float kMinGgxRoughness = 0.045f;
+
+// GGX (Trowbridge-Reitz) normal distribution D(N.H), alpha = roughness^2.
+float ggxDistribution(float cosNH, float alpha) {
+    float a2 = alpha * alpha;
+    float c = max(cosNH, 0.0f);
+    float t = c * c * (a2 - 1.0f) + 1.0f;
+    return a2 / (kPi * t * t);
+}
+
+// The height-correlated Smith visibility V = G / (4 |N.L| |N.V|) of glTF 2.0,
+// Appendix B (Heitz 2014), for cosines clamped to [0, 1].
+float smithVisibility(float cosNL, float cosNV, float alpha) {
+    float a2 = alpha * alpha;
+    float l = max(cosNL, 0.0f);
+    float v = max(cosNV, 0.0f);
+    float gv = l * sqrt(v * v * (1.0f - a2) + a2);
+    float gl = v * sqrt(l * l * (1.0f - a2) + a2);
+    return gv + gl > 0.0f ? 0.5f / (gv + gl) : 0.0f;
+}
+
+// Schlick's Fresnel with a reflectance f90 at grazing incidence
+// (KHR_materials_specular scales both ends).
+float fresnelSchlick90(float cosine, float f0, float f90) {
+    float q = 1.0f - clamp(cosine, 0.0f, 1.0f);
+    float q2 = q * q;
+    return f0 + (f90 - f0) * (q2 * q2 * q);
+}
+
+// GGX alpha = roughness^2, the roughness bounded below for the point lamp.
+float ggxAlpha(float roughness) {
+    float r = max(roughness, kMinGgxRoughness);
+    return r * r;
+}
+
+// glTF's clear-coated dielectric (metallic 0) lit by the lamp: unit vectors
+// Ng (the geometry's normal: the base), Nc (the coat's normal: the map's),
+// L (to the lamp) and V (to the eye), the lamp's irradiance E, the ambient
+// irradiance Ea (diffuse only, like an engine's ambient light).
+//   base = E (N.L) [albedo (1 - F_b(V.H)) + pi F_b(V.H) D_b V_b] + albedo Ea
+//     (glTF 2.0 Appendix B fresnel_mix: F0_b = ((n - 1) / (n + 1))^2 x
+//     specular, F90_b = specular; KHR_materials_ior, KHR_materials_specular)
+//   coat = pi D_c V_c E (Nc.L)
+//   result = base (1 - w F_c(Nc.V)) + w F_c(Nc.V) coat
+// (KHR_materials_clearcoat's fresnel_coat: the coat's Fresnel at Nc.V, F0 0.04.)
+vec3 clearcoatShading(vec3 albedo, vec3 Ng, vec3 Nc, vec3 L, vec3 V, float E, float Ea, Material m) {
+    vec3 H = normalize(L + V);
+    float cosNL = max(dot(Ng, L), 0.0f);
+    float cosNV = max(dot(Ng, V), 0.0f);
+    float cosVH = max(dot(V, H), 0.0f);
+    float baseAlpha = ggxAlpha(m.baseRoughness);
+    float coatAlpha = ggxAlpha(m.clearcoatRoughness);
+    float f90 = m.sheenStrength;
+    float Fb = fresnelSchlick90(cosVH, min(m.mucusF0, 1.0f) * f90, f90);
+    float specB = kPi * Fb * ggxDistribution(dot(Ng, H), baseAlpha) * smithVisibility(cosNL, cosNV, baseAlpha);
+    vec3 base = albedo * (E * cosNL * (1.0f - Fb) + Ea) + vec3(E * cosNL * specB);
+    float cosCL = max(dot(Nc, L), 0.0f);
+    float cosCV = max(dot(Nc, V), 0.0f);
+    float Fc = m.clearcoat * fresnelSchlick(cosCV, kClearcoatF0);
+    float coat = kPi * ggxDistribution(dot(Nc, H), coatAlpha) * smithVisibility(cosCL, cosCV, coatAlpha) * E * cosCL;
+    return base * (1.0f - Fc) + vec3(Fc * coat);
+}
+
 // Paper eq. 7: to tangent space with R = [T; B; N] (rows).
 vec3 toTangentSpace(vec3 v, vec3 T, vec3 B, vec3 N) {
     return vec3(dot(T, v), dot(B, v), dot(N, v));
@@ -427,6 +503,22 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
                                    m.shininess);
         }
         return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * specP + v.sheen);
+    }
+    if (mode == kModeClearcoat) {
+        // Per pixel in world space, like an engine: the lamp at the light's
+        // position, the geometric normal for the base, the map's normal in
+        // the tangent frame for the coat. With specular anti-aliasing the map
+        // comes from its mips, as an engine samples a mipmapped normal
+        // texture; glTF has no lobe widening, so its slope variance is unused.
+        vec3 Ng = normalize(v.N);
+        vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
+        vec3 Nc = normalize(Nm.x * v.T + Nm.y * v.B + Nm.z * v.N);
+        vec3 toLight = MUCOSA_LIGHT_POSITION(f) - v.P;
+        float dl = max(length(toLight), kTiny);
+        vec3 L = toLight / dl;
+        vec3 V = normalize(f.eye - v.P);
+        float E = lampIrradiance(dl, -dot(L, f.lampAxis), m);
+        return clearcoatShading(albedo, Ng, Nc, L, V, E, ambientE, m);
     }
     if (mode == kModeDiffuse) {
         return albedo * (ambientE + v.diffuseLight);

@@ -10,8 +10,8 @@
 #include <stb/stb_easy_font.h>
 
 #include <mucosa/image/png.hpp>
-#include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/mesh/primitives.hpp>
+#include <mucosa/reflectance/normal_map.hpp>
 
 namespace mucosa::render {
 
@@ -58,10 +58,11 @@ void drawText(image::Image8& img, int x, int y, const std::string& text, std::ar
 
 image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& assets, const CompareOptions& o) {
     const int tw = o.tileWidth, th = o.tileHeight;
-    const int cols = 5;
+    const int cols = 6;
     const int labelW = 190, headerH = 64, colHeadH = 30, gap = 6;
-    const shading::Mode modes[cols] = {shading::Mode::Noise, shading::Mode::Procedural, shading::Mode::VertexPhong,
-                                       shading::Mode::Multitexture, shading::Mode::Diffuse};
+    const shading::Mode modes[cols] = {shading::Mode::Noise,       shading::Mode::Procedural,
+                                       shading::Mode::VertexPhong, shading::Mode::Multitexture,
+                                       shading::Mode::Diffuse,     shading::Mode::Clearcoat};
     const int views = std::max(1, o.views);
     const int rows = views + 3;  // views, frequency row, anti-aliasing row, coarse patch
     const int width = labelW + cols * (tw + gap) + gap;
@@ -153,7 +154,7 @@ image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& 
     drawText(sheet, gap, cellY(rows, 0) + 8,
              "noise: per-pixel specular from the reflectance map | procedural: the map's noise evaluated per pixel | "
              "vertex-phong: per-vertex Phong (Gouraud) | multitexture: per-vertex light + sphere-mapped highlight "
-             "texture | diffuse: no specular",
+             "texture | diffuse: no specular | clearcoat: glTF's clear coat on the map's normals",
              grey, 1);
     return sheet;
 }

@@ -67,6 +67,9 @@ constexpr std::array kMaterial = {
     MUCOSA_UNIFORM(Material, sheenStrength),
     MUCOSA_UNIFORM(Material, sheenShininess),
     MUCOSA_UNIFORM(Material, mucusF0),
+    MUCOSA_UNIFORM(Material, clearcoat),
+    MUCOSA_UNIFORM(Material, clearcoatRoughness),
+    MUCOSA_UNIFORM(Material, baseRoughness),
 };
 constexpr std::array kCamera = {
     MUCOSA_UNIFORM(Camera, exposure),    MUCOSA_UNIFORM(Camera, vignettingPower), MUCOSA_UNIFORM(Camera, tanHalfFovX),

@@ -2,6 +2,7 @@
 // shaders/procedural_noise.glsl and shaders/common_shading.glsl compiled as
 // C++ with glm: the shading model's C++ reference IS the GLSL source. Everything lands in an anonymous namespace
 // (internal linkage), so any translation unit may include this header.
+#include <cmath>
 #include <cstdint>
 
 #include <glm/glm.hpp>
@@ -70,6 +71,12 @@ inline Material packMaterial(const ParamSet& p) {
     m.sheenShininess = p[Param::SheenShininess];
     const float n = p[Param::MucusIor];
     m.mucusF0 = ((n - 1.0f) / (n + 1.0f)) * ((n - 1.0f) / (n + 1.0f));
+    m.clearcoat = p[Param::Clearcoat];
+    m.clearcoatRoughness = p[Param::ClearcoatRoughness];
+    // The glTF base's specular is the film's sheen lobe in glTF terms (its
+    // roughness from the Phong exponent n by the lobe match Phong n ~
+    // Blinn-Phong 4n ~ GGX alpha^2 = 2 / (4n + 2); docs/rendering.md).
+    m.baseRoughness = std::sqrt(std::sqrt(2.0f / (4.0f * p[Param::SheenShininess] + 2.0f)));
     return m;
 }
 

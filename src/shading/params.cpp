@@ -42,6 +42,10 @@ constexpr std::array<ModeInfo, kModeCount> kModes = {{
     {Mode::ProceduralNormals, "procedural-normals",
      "debug: the procedural mode's perturbed normal in world space as 0.5 N + 0.5 (texture or object space)",
      U::InTextureSpace, false, false, false, true, false, false},
+    {Mode::Clearcoat, "clearcoat",
+     "glTF's clear coat (KHR_materials_clearcoat): a GGX coat on the reflectance map's normal over the glTF "
+     "metallic-roughness base on the geometric normal, per pixel",
+     U::Always, true, true, false, false, true, true},
 }};
 
 // The C++ table and the GLSL agree: the same values, in Mode order, and the
@@ -59,6 +63,7 @@ static_assert(glsl::kModeBrdf == static_cast<int>(Mode::Brdf));
 static_assert(glsl::kModeBrdfNoise == static_cast<int>(Mode::BrdfNoise));
 static_assert(glsl::kModeProcedural == static_cast<int>(Mode::Procedural));
 static_assert(glsl::kModeProceduralNormals == static_cast<int>(Mode::ProceduralNormals));
+static_assert(glsl::kModeClearcoat == static_cast<int>(Mode::Clearcoat));
 constexpr bool tablesAgree() {
     for (std::size_t i = 0; i < kModes.size(); ++i) {
         const ModeInfo& m = kModes[i];
@@ -416,6 +421,31 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      "",
      "The sensor noise's seed (a whole number): each frame's noise pattern is a function of (seed, frame index); "
      "another seed, another realisation of the same frames",
+     false},
+    // The clearcoat mode's coat (glTF's KHR_materials_clearcoat, docs/theory.md,
+    // "Clear coat"). The defaults are the noise mode's highlight in glTF terms
+    // (docs/rendering.md): the GGX lobe whose peak for a head-on light is the
+    // Phong lobe's k_s = 2 with exponent n = 120, roughness (2 / (4n + 2))^(1/4).
+    {P::Clearcoat,
+     "clearcoat",
+     "material",
+     1,
+     {0.83f, 0, 0},
+     0.0f,
+     1.0f,
+     "",
+     "Clearcoat mode: the coat's weight (glTF clearcoatFactor; 0 = no coat, the glTF base alone)",
+     false},
+    {P::ClearcoatRoughness,
+     "clearcoat_roughness",
+     "material",
+     1,
+     {0.254f, 0, 0},
+     0.0f,
+     1.0f,
+     "",
+     "Clearcoat mode: the coat's GGX roughness (glTF clearcoatRoughnessFactor, alpha = roughness^2; at least 0.045 "
+     "for the point lamp)",
      false},
 }};
 

@@ -6,10 +6,10 @@
 #include <fmt/format.h>
 
 #include <mucosa/camera/camera.hpp>
+#include <mucosa/mesh/primitives.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
 #include <mucosa/render/context.hpp>
-#include <mucosa/mesh/primitives.hpp>
 #include <mucosa/render/renderer.hpp>
 #include <mucosa/shading/reference.hpp>
 
@@ -127,7 +127,7 @@ TEST(RenderParity, TheCameraOffAndItsVariantsMatchReference) {
     const image::Image8 map = testMap(256, "bronchial");
     const image::Image8 diffuse = testDiffuse(64);
     using P = shading::Param;
-    for (Mode mode : {Mode::Noise, Mode::VertexPhong, Mode::Diffuse}) {
+    for (Mode mode : {Mode::Noise, Mode::VertexPhong, Mode::Diffuse, Mode::Clearcoat}) {
         shading::FrameSetup f = frameFor(camera::lookAt({6.0f, -14.0f, 22.0f}, {0, 0, 0}), 640, 480, mode);
         f.params.set(P::MapTiling, 1.5f);
         shading::setCameraIdentity(f.params);
@@ -251,7 +251,7 @@ TEST(RenderParity, HeadlightProgramsMatchReference) {
     const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
     const image::Image8 map = testMap(256, "serosa");
     const image::Image8 diffuse = testDiffuse(64);
-    for (const Mode mode : {Mode::Noise, Mode::BrdfNoise, Mode::Procedural, Mode::VertexPhong})
+    for (const Mode mode : {Mode::Noise, Mode::BrdfNoise, Mode::Procedural, Mode::VertexPhong, Mode::Clearcoat})
         for (shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object}) {
             if (mode != Mode::Procedural && space == shading::NoiseSpace::Object) continue;
             const camera::Pose pose = camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1});

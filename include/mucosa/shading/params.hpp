@@ -27,8 +27,9 @@ enum class Mode : int {
     BrdfNoise = 9,           // Brdf plus the method's specular (Category 4)
     Procedural = 10,         // the method with run-time noise instead of the map (no texture)
     ProceduralNormals = 11,  // debug view of Procedural's perturbed normal
+    Clearcoat = 12,          // glTF's KHR_materials_clearcoat: GGX coat (normal from the map) over the glTF base
 };
-inline constexpr int kModeCount = 12;
+inline constexpr int kModeCount = 13;
 
 // When a mode needs texture coordinates and tangents on the mesh.
 enum class UvNeed {
@@ -109,8 +110,10 @@ enum class Param : int {
     AutoPeak,
     Saturation,
     NoiseSeed,
+    Clearcoat,           // KHR_materials_clearcoat clearcoatFactor (the clearcoat mode)
+    ClearcoatRoughness,  // clearcoatRoughnessFactor
 };
-inline constexpr std::size_t kParamCount = 40;
+inline constexpr std::size_t kParamCount = 42;
 
 struct ParamInfo {
     Param id;
