@@ -138,9 +138,11 @@ void convert(const MeshArgs& a, const Global& g) {
     if (m.hasUvs() && !a.noTangents && tangentsStale) {
         progress("tangents");
         const mesh::TangentReport t = mesh::computeTangents(m, g.threads);
-        info(g, fmt::format("tangents: {}, {}, {}", count(t.mirroredVertices, "mirrored vertex", "mirrored vertices"),
-                            count(t.degenerateUvTriangles, "zero-UV-area triangle"),
-                            count(t.fallbackVertices, "fallback frame")));
+        info(g,
+             fmt::format("tangents: {}, {}, {}, {}", count(t.mirroredVertices, "mirrored vertex", "mirrored vertices"),
+                         count(t.degenerateUvTriangles, "zero-UV-area triangle"),
+                         count(t.fallbackVertices, "fallback frame"),
+                         count(t.splitVertices, "vertex split", "vertices split")));
     } else if (!m.hasUvs()) {
         m.tangents.clear();
         warn("no texture coordinates: written without tangents (try --uv centerline)");
