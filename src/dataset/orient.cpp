@@ -231,4 +231,23 @@ LumenOrientReport orientToLumen(mesh::Mesh& m, const mesh::Centerline& centerlin
     return rep;
 }
 
+BackFaceView backFacesSeen(const GroundTruth& truth, const mesh::Mesh& m, const Vec3d& eye, float litSide) {
+    BackFaceView v;
+    const std::size_t n = truth.face.size();
+    for (std::size_t p = 0; p < n; ++p) {
+        if (!truth.valid[p] || (!truth.inView.empty() && !truth.inView[p]) || truth.face[p] < 0) continue;
+        const std::size_t t = std::size_t(truth.face[p]);
+        if (t >= m.triangleCount()) continue;
+        const double b1 = truth.b1[p], b2 = truth.b2[p], b0 = 1.0 - b1 - b2;
+        Vec3d at{0, 0, 0};
+        for (int k = 0; k < 3; ++k)
+            at[std::size_t(k)] = b0 * m.positions[m.indices[3 * t]][std::size_t(k)] +
+                                 b1 * m.positions[m.indices[3 * t + 1]][std::size_t(k)] +
+                                 b2 * m.positions[m.indices[3 * t + 2]][std::size_t(k)] - eye[std::size_t(k)];
+        ++v.seen;
+        v.back += dot(faceNormal(m, t), at) * double(litSide) > 0 ? 1 : 0;
+    }
+    return v;
+}
+
 }  // namespace mucosa::dataset

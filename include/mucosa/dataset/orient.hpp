@@ -13,6 +13,7 @@
 // outer wall the camera never sees).
 #include <cstddef>
 
+#include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/dataset/raycast.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/mesh.hpp>
@@ -49,5 +50,18 @@ struct LumenOrientReport {
 // came with: a mesh turned inside out comes out the same. Throws InputError
 // for a centerline without points.
 LumenOrientReport orientToLumen(mesh::Mesh& mesh, const mesh::Centerline& centerline, int threads = 0);
+
+// What a camera sees of a surface's unlit side: of the pixels where its
+// ground truth `truth` sees a surface (valid and in view), those whose
+// triangle turns its unlit side to the camera -- its winding normal times
+// `litSide` (the scene's lit_side: +1 "front", -1 "back") points away from
+// the eye at `eye`. Those render dark (their lit side faces away), or not at
+// all where back faces are culled (a closed scene).
+struct BackFaceView {
+    std::size_t seen = 0, back = 0;
+    double backFraction() const noexcept { return seen ? double(back) / double(seen) : 0.0; }
+};
+
+BackFaceView backFacesSeen(const GroundTruth& truth, const mesh::Mesh& mesh, const fit::Vec3d& eye, float litSide);
 
 }  // namespace mucosa::dataset
