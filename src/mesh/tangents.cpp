@@ -102,56 +102,70 @@ std::size_t splitHandednessGroups(Mesh& mesh, const std::vector<int>& orient) {
 
     const bool normals = mesh.hasNormals(), uvs = mesh.hasUvs(), colors = mesh.hasColors();
     std::size_t added = 0;
-    std::vector<std::uint32_t> uf;
+    std::vector<std::uint32_t> uf, copyOf;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;  // (other vertex, corner in the fan)
+    std::vector<char> attached;
     for (std::size_t i = 0; i < used.size(); ++i) {
         const std::uint32_t v = used[i];
         const std::uint32_t* fan = corners.data() + start[i];
         const std::uint32_t k = start[i + 1] - start[i];
-        // The two other vertices of corner c's triangle.
-        auto others = [&](std::uint32_t c) {
-            const std::size_t t = c / 3, j = c % 3;
-            return std::pair{mesh.indices[3 * t + (j + 1) % 3], mesh.indices[3 * t + (j + 2) % 3]};
-        };
-        auto shareEdge = [&](std::uint32_t a, std::uint32_t b) {
-            const auto [a1, a2] = others(a);
-            const auto [b1, b2] = others(b);
-            return a1 == b1 || a1 == b2 || a2 == b1 || a2 == b2;
-        };
+        // Fans joined across shared edges: each corner's two edges at v, by
+        // the vertex at their other end, sorted; corners of one orientation
+        // meeting on an edge unite (O(k log k), whatever the valence).
+        edges.clear();
+        for (std::uint32_t a = 0; a < k; ++a) {
+            const std::size_t t = fan[a] / 3, j = fan[a] % 3;
+            edges.emplace_back(mesh.indices[3 * t + (j + 1) % 3], a);
+            edges.emplace_back(mesh.indices[3 * t + (j + 2) % 3], a);
+        }
+        std::sort(edges.begin(), edges.end());
         uf.resize(k);
         std::iota(uf.begin(), uf.end(), 0u);
-        for (std::uint32_t a = 0; a < k; ++a)
-            for (std::uint32_t b = a + 1; b < k; ++b) {
-                const int oa = orient[fan[a] / 3], ob = orient[fan[b] / 3];
-                if (oa != 0 && oa == ob && shareEdge(fan[a], fan[b])) {
-                    const std::uint32_t ra = findRoot(uf, a), rb = findRoot(uf, b);
+        attached.assign(k, 0);
+        for (std::size_t e = 0; e < edges.size();) {
+            std::size_t f = e;
+            while (f < edges.size() && edges[f].first == edges[e].first) ++f;
+            std::uint32_t firstOriented = UINT32_MAX, firstOf[2] = {UINT32_MAX, UINT32_MAX};  // -1, +1
+            for (std::size_t x = e; x < f; ++x) {
+                const std::uint32_t a = edges[x].second;
+                const int o = orient[fan[a] / 3];
+                if (o == 0) continue;
+                if (firstOriented == UINT32_MAX) firstOriented = a;
+                std::uint32_t& first = firstOf[o > 0 ? 1 : 0];
+                if (first == UINT32_MAX) {
+                    first = a;
+                } else {
+                    const std::uint32_t ra = findRoot(uf, a), rb = findRoot(uf, first);
                     if (ra != rb) uf[std::max(ra, rb)] = std::min(ra, rb);
                 }
             }
-        // Zero-UV-area triangles: with the first oriented neighbour.
-        for (std::uint32_t a = 0; a < k; ++a)
-            if (orient[fan[a] / 3] == 0)
-                for (std::uint32_t b = 0; b < k; ++b)
-                    if (orient[fan[b] / 3] != 0 && shareEdge(fan[a], fan[b])) {
-                        uf[findRoot(uf, a)] = findRoot(uf, b);
-                        break;
+            // Zero-UV-area triangles: with the first oriented neighbour met.
+            if (firstOriented != UINT32_MAX)
+                for (std::size_t x = e; x < f; ++x) {
+                    const std::uint32_t a = edges[x].second;
+                    if (orient[fan[a] / 3] == 0 && !attached[a]) {
+                        const std::uint32_t ra = findRoot(uf, a), rb = findRoot(uf, firstOriented);
+                        if (ra != rb) uf[std::max(ra, rb)] = std::min(ra, rb);
+                        attached[a] = 1;
                     }
+                }
+            e = f;
+        }
         // The group of the first corner keeps v; each other group gets a copy.
         const std::uint32_t keep = findRoot(uf, 0);
-        std::vector<std::pair<std::uint32_t, std::uint32_t>> copies;  // group root -> new vertex
+        copyOf.assign(k, UINT32_MAX);  // group root -> its new vertex
         for (std::uint32_t a = 0; a < k; ++a) {
             const std::uint32_t g = findRoot(uf, a);
             if (g == keep) continue;
-            auto it = std::find_if(copies.begin(), copies.end(), [g](const auto& p) { return p.first == g; });
-            if (it == copies.end()) {
-                copies.emplace_back(g, static_cast<std::uint32_t>(mesh.positions.size()));
-                it = copies.end() - 1;
+            if (copyOf[g] == UINT32_MAX) {
+                copyOf[g] = static_cast<std::uint32_t>(mesh.positions.size());
                 mesh.positions.push_back(mesh.positions[v]);
                 if (normals) mesh.normals.push_back(mesh.normals[v]);
                 if (uvs) mesh.uvs.push_back(mesh.uvs[v]);
                 if (colors) mesh.colors.push_back(mesh.colors[v]);
                 ++added;
             }
-            mesh.indices[fan[a]] = it->second;
+            mesh.indices[fan[a]] = copyOf[g];
         }
     }
     return added;
