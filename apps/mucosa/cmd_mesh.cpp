@@ -142,6 +142,11 @@ void convert(const MeshArgs& a, const Global& g) {
         shape.positions = m.positions;
         shape.indices = m.indices;
         const mesh::CenterlineUvReport c = mesh::computeCenterlineUvs(shape);
+        std::size_t points = 0;
+        for (const mesh::CenterlineBranch& b : c.centerline.branches) points += b.points.size();
+        if (points == 0)
+            throw InputError("--orient lumen", a.positional[0],
+                             "the mesh gives no centerline to look from (no tube in it); turn it with --flip instead");
         const dataset::LumenOrientReport r = dataset::orientToLumen(m, c.centerline, g.threads);
         info(g, fmt::format("oriented to the lumen: {} of {} turned ({}), {}; first hits of rays from the "
                             "centerline on the front: {:.1f} % (before: {:.1f} %)",

@@ -1,11 +1,11 @@
 #include <mucosa/dataset/orient.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <numbers>
 #include <numeric>
-#include <unordered_map>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -125,13 +125,18 @@ std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t x) {
 // manifold edge). Positions are welded exactly (split UV seams join).
 std::vector<std::uint32_t> patchesOf(const mesh::Mesh& m) {
     const std::size_t nt = m.triangleCount();
-    std::unordered_map<std::string, std::uint32_t> ids;
-    ids.reserve(m.vertexCount());
-    std::vector<std::uint32_t> id(m.vertexCount());
+    // Exact welding by sorting the positions' bit patterns.
+    std::vector<std::pair<std::array<std::uint32_t, 3>, std::uint32_t>> keyed(m.vertexCount());
     for (std::size_t v = 0; v < m.vertexCount(); ++v) {
-        std::string key(sizeof(mesh::Vec3), '\0');
-        std::memcpy(key.data(), m.positions[v].data(), sizeof(mesh::Vec3));
-        id[v] = ids.try_emplace(key, static_cast<std::uint32_t>(ids.size())).first->second;
+        std::memcpy(keyed[v].first.data(), m.positions[v].data(), sizeof(mesh::Vec3));
+        keyed[v].second = static_cast<std::uint32_t>(v);
+    }
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::uint32_t> id(m.vertexCount());
+    std::uint32_t next = 0;
+    for (std::size_t i = 0; i < keyed.size(); ++i) {
+        if (i > 0 && keyed[i].first != keyed[i - 1].first) ++next;
+        id[keyed[i].second] = next;
     }
     struct Use {
         std::uint64_t edge;  // (low id, high id)

@@ -485,7 +485,10 @@ Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& bra
         if (br[0] == br[1] || br[0] == br[2]) B = br[0];
         // Each corner's cross-section of the triangle's branch (the walk
         // starts at the corner's own ring, or the nearest ring of that branch).
-        const Branch& branch = branches[std::size_t(B)];
+        // (No ring at all -- a mesh smaller than a slice -- leaves every
+        // corner at (0, 0) in an empty branch.)
+        static const Branch kNoBranch{};
+        const Branch& branch = branches.empty() ? kNoBranch : branches[std::size_t(B)];
         AxisFrame frame[3];
         bool has[3];
         for (int k = 0; k < 3; ++k) {
@@ -534,14 +537,14 @@ Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& bra
             return (uv[1][0] - uv[0][0]) * (uv[2][1] - uv[0][1]) - (uv[2][0] - uv[0][0]) * (uv[1][1] - uv[0][1]);
         };
         if (!place) {
-            branchFacing[std::size_t(B)] += facing;
+            if (!branches.empty()) branchFacing[std::size_t(B)] += facing;
             return;
         }
         // A triangle that faces the other way than most of its branch (the
         // inner wall of a thick shell, a closed end, a carina's crest) would
         // fold over: it takes the other sense, a chart of its own, and its
         // vertices are split from its neighbours' along the border.
-        int sense = branchFacing[std::size_t(B)] < 0 ? 1 : 0;
+        int sense = !branches.empty() && branchFacing[std::size_t(B)] < 0 ? 1 : 0;
         if (uvFor(sense) < 0) {
             if (uvFor(1 - sense) > 0)
                 sense = 1 - sense;

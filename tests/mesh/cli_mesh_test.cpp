@@ -65,6 +65,17 @@ TEST(MeshCli, OrientLumenGivesTheSameMeshFromEitherSide) {
     for (std::size_t v = 0; v < ma.normals.size(); ++v)  // renormalised on the way through the files
         for (int k = 0; k < 3; ++k)
             ASSERT_NEAR(ma.normals[v][std::size_t(k)], mb.normals[v][std::size_t(k)], 1e-6f) << v;
+    // A mesh too small to have a ring: centerline UVs all at (0, 0), and
+    // nothing to orient by (one error line).
+    std::ofstream(dir / "quad.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
+    const auto quadUv =
+        runCli("mesh '" + (dir / "quad.obj").string() + "' -o '" + (dir / "q.ply").string() + "' --uv centerline");
+    EXPECT_EQ(quadUv.exitCode, 0) << quadUv.err;
+    const auto quadOrient =
+        runCli("mesh '" + (dir / "quad.obj").string() + "' -o '" + (dir / "c.ply").string() + "' --orient lumen");
+    EXPECT_NE(quadOrient.exitCode, 0);
+    expectOneErrorLine(quadOrient.err, "quad --orient lumen");
+    EXPECT_NE(quadOrient.err.find("no centerline"), std::string::npos) << quadOrient.err;
     // Bad values and the contradiction: one error line each.
     for (const char* args : {"--orient inward", "--orient lumen --flip"}) {
         const auto r = runCli("mesh '" + ct + "' -o '" + (dir / "c.ply").string() + "' " + args);
