@@ -455,6 +455,17 @@ float mapSampleVariance(vec4 mapSample, Material m, Frame f) {
     return mapSlopeVariance(mapSample.w) * m.bumpScale * m.bumpScale;
 }
 
+// Specular light (the lobe, the sheen) reaches only a pixel whose smooth,
+// geometric surface faces the lamp: N.L > 0, the normal component of the
+// interpolated tangent-space light vector (lit_side's N). The vertex stage
+// fades it out towards the terminator (lampReach), but interpolated across a
+// triangle that straddles it the faded term reaches past it, the fitted
+// modes' k_s has no fall-off at all, and a perturbed normal (the map's, the
+// noise's) can face the lamp where the surface does not.
+float specularGate(Varyings v) {
+    return MUCOSA_LIGHT_T(v).z > 0.0f ? 1.0f : 0.0f;
+}
+
 // Fragment stage, after the caller sampled the textures: albedoTex at v.uv,
 // mapSample at reflectanceMapCoord(v.uv) (rgb = 0.5 N + 0.5, a = slope
 // deviation, see kMapSigmaMax), highlight at v.sphereUv, and footprint =
@@ -473,7 +484,7 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
         float spec = methodSpecular(Nm, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt),
                                     mapSampleVariance(mapSample, m, f), m.shininess);
-        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * spec + v.sheen);
+        return albedo * (ambientE + v.diffuseLight) + vec3((v.specular * spec + v.sheen) * specularGate(v));
     }
     if (mode == kModeProcedural || mode == kModeProceduralNormals) {
         // The noise gradient as a surface gradient (Mikkelsen 2010): the
@@ -502,7 +513,7 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             specP = methodSpecular(Np, normalize(MUCOSA_LIGHT_POSITION(f) - v.P), normalize(f.eye - v.P), sigma2,
                                    m.shininess);
         }
-        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * specP + v.sheen);
+        return albedo * (ambientE + v.diffuseLight) + vec3((v.specular * specP + v.sheen) * specularGate(v));
     }
     if (mode == kModeClearcoat) {
         // Per pixel in world space, like an engine: the lamp at the light's
@@ -530,13 +541,13 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         vec3 Nb = decodeReflectanceNormal(mapRgb, m.bumpScale);
         float specB = methodSpecular(Nb, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt),
                                      mapSampleVariance(mapSample, m, f), m.shininess);
-        return albedoTex * v.diffuseLight + vec3(v.specular * specB);
+        return albedoTex * v.diffuseLight + vec3(v.specular * specB * specularGate(v));
     }
     if (mode == kModeVertexPhong) {
-        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular);
+        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * specularGate(v));
     }
     if (mode == kModeMultitexture) {
-        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * highlight);
+        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * highlight * specularGate(v));
     }
     if (mode == kModeNormals) {
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);

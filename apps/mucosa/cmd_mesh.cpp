@@ -9,6 +9,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
+#include <mucosa/dataset/orient.hpp>
 #include <mucosa/mesh/analysis.hpp>
 #include <mucosa/mesh/gltf.hpp>
 #include <mucosa/mesh/io.hpp>
@@ -25,7 +26,7 @@ namespace {
 
 struct MeshArgs {
     std::vector<std::string> positional;
-    std::string output, uv = "keep", unit = "auto", infoFile, infoUnit = "auto";
+    std::string output, uv = "keep", unit = "auto", infoFile, infoUnit = "auto", orient = "keep";
     std::string material = "auto", look;  // --material, --look SCENE
     bool flip = false, weld = false, recomputeNormals = false, noTangents = false;
     float weldTolerance = 0;
@@ -204,6 +205,12 @@ void convert(const MeshArgs& a, const Global& g) {
     if (a.output.empty()) throw InputError("output", "", "give -o OUT (.glb, .gltf, .ply or .obj)");
     if (a.uv != "keep" && a.uv != "centerline")
         throw InputError("--uv", "", fmt::format("'{}' is not one of keep, centerline", a.uv));
+    if (a.orient != "keep" && a.orient != "lumen")
+        throw InputError("--orient", "", fmt::format("'{}' is not one of keep, lumen", a.orient));
+    if (a.flip && a.orient == "lumen")
+        throw InputError(
+            "--flip", "",
+            "give --flip or --orient lumen, not both (--orient lumen decides which way the surface faces)");
     const MaterialPlan plan = planMaterial(a);  // refuses a bad extension or material choice before any work
     requireWritable(a.output);
     const auto t0 = std::chrono::steady_clock::now();
@@ -246,6 +253,30 @@ void convert(const MeshArgs& a, const Global& g) {
         mesh::flipOrientation(m);
         info(g, "flipped: normals and winding now face the other side");
     }
+    if (a.orient == "lumen") {
+        // The centerline the shape gives (the level-set one the centerline
+        // UVs follow: it does not depend on the winding), then the rays.
+        progress("orienting to the lumen");
+        mesh::Mesh shape;
+        shape.positions = m.positions;
+        shape.indices = m.indices;
+        const mesh::CenterlineUvReport c = mesh::computeCenterlineUvs(shape);
+        std::size_t points = 0;
+        for (const mesh::CenterlineBranch& b : c.centerline.branches) points += b.points.size();
+        if (points == 0)
+            throw InputError("--orient lumen", a.positional[0],
+                             "the mesh gives no centerline to look from (no tube in it); turn it with --flip instead");
+        const dataset::LumenOrientReport r = dataset::orientToLumen(m, c.centerline, g.threads);
+        info(g, fmt::format("oriented to the lumen: {} of {} turned ({}), {}; first hits of rays from the "
+                            "centerline on the front: {:.1f} % (before: {:.1f} %)",
+                            r.turnedPatches, count(r.patches, "patch", "patches"), count(r.turnedTriangles, "triangle"),
+                            count(r.normalsTurned, "normal turned", "normals turned"), 100 * r.after.frontFraction(),
+                            100 * r.before.frontFraction()));
+        if (r.unseenPatches)
+            warn(fmt::format("--orient lumen: {} no ray from the centerline meets left as they were",
+                             count(r.unseenPatches, "patch", "patches")));
+        tangentsStale = true;
+    }
     if (a.uv == "centerline") {
         progress("centerline UVs");
         const mesh::CenterlineUvReport r = mesh::computeCenterlineUvs(m);
@@ -257,9 +288,11 @@ void convert(const MeshArgs& a, const Global& g) {
     if (m.hasUvs() && !a.noTangents && tangentsStale) {
         progress("tangents");
         const mesh::TangentReport t = mesh::computeTangents(m, g.threads);
-        info(g, fmt::format("tangents: {}, {}, {}", count(t.mirroredVertices, "mirrored vertex", "mirrored vertices"),
-                            count(t.degenerateUvTriangles, "zero-UV-area triangle"),
-                            count(t.fallbackVertices, "fallback frame")));
+        info(g,
+             fmt::format("tangents: {}, {}, {}, {}", count(t.mirroredVertices, "mirrored vertex", "mirrored vertices"),
+                         count(t.degenerateUvTriangles, "zero-UV-area triangle"),
+                         count(t.fallbackVertices, "fallback frame"),
+                         count(t.splitVertices, "vertex split", "vertices split")));
     } else if (!m.hasUvs()) {
         m.tangents.clear();
         warn("no texture coordinates: written without tangents (try --uv centerline)");
@@ -281,7 +314,7 @@ void addMeshCommand(CLI::App& app, Global& g) {
     c->footer(
         "Examples:\n"
         "  mucosa mesh info airway.obj\n"
-        "  mucosa mesh airway.obj -o airway.glb --flip --uv centerline\n"
+        "  mucosa mesh airway.obj -o airway.glb --orient lumen --uv centerline\n"
         "Reads what Assimp reads (OBJ, PLY, STL, glTF, FBX, ...); writes .glb/.gltf (metres; a glTF input keeps its\n"
         "materials and textures, others get Mucosa's wet look when they have UVs: docs/engines.md), .ply or .obj\n"
         "(millimetres).");
@@ -289,7 +322,10 @@ void addMeshCommand(CLI::App& app, Global& g) {
     c->add_option("-o,--output", a->output, "Output mesh (.glb, .gltf, .ply, .obj)");
     c->add_option("--uv", a->uv,
                   "keep: the file's UVs; centerline: tube parameterisation around/along the lumen [keep]");
-    c->add_flag("--flip", a->flip, "Turn the surface inside out (normals into the lumen for a camera inside)");
+    c->add_flag("--flip", a->flip, "Turn the surface inside out (winding, normals and tangent handedness)");
+    c->add_option("--orient", a->orient,
+                  "keep: the file's winding; lumen: winding and normals into the lumen, decided by what rays from "
+                  "the mesh's centerline see first [keep]");
     c->add_flag("--weld", a->weld, "Merge duplicate vertices, drop degenerate triangles");
     c->add_option("--weld-tolerance", a->weldTolerance, "Distance (mm) under which --weld merges vertices [0: exact]");
     c->add_flag("--recompute-normals", a->recomputeNormals, "Replace the normals with angle-weighted smooth normals");

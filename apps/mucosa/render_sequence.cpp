@@ -20,6 +20,7 @@
 #include <mucosa/core/version.hpp>
 #include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/dataset/lens.hpp>
+#include <mucosa/dataset/orient.hpp>
 #include <mucosa/dataset/raycast.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
@@ -183,6 +184,32 @@ Prepared prepare(const RenderArgs& a) {
     return p;
 }
 
+// One line on stderr when most of what the first frame's camera sees turns
+// its unlit side to it (a mesh whose normals face out of the lumen, or the
+// wrong lit_side): measured on the ray-cast ground truth of a 64-pixel-wide
+// pinhole with the scene's field of view at that pose.
+void warnIfBackFacesFace(const scene::Scene& scene, const scene::SceneAssets& assets, const camera::Pose& pose,
+                         int threads) {
+    constexpr int kWidth = 64;
+    const int height = std::max(1, static_cast<int>(std::lround(double(kWidth) * scene.height / scene.width)));
+    const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, kWidth, height);
+    const dataset::GroundTruth truth =
+        dataset::groundTruth(assets.mesh, K, dataset::cameraToWorldOf(pose), scene.lens.nearMm, threads);
+    const dataset::BackFaceView v = dataset::backFacesSeen(
+        truth, assets.mesh, {pose.position[0], pose.position[1], pose.position[2]}, scene.normalSign);
+    if (v.seen == 0 || 2 * v.back <= v.seen) return;
+    const bool culled = scene.closed.value_or(scene.mesh.kind == scene::MeshKind::Phantom);
+    const char* side = scene.normalSign > 0 ? "front" : "back";
+    warn(fmt::format(
+        "the camera sees mostly back faces: {:.0f} % of the surface in the first frame turns its unlit side "
+        "to it (lit_side \"{}\"; ray cast at {}x{}), so the walls {}; light the other side "
+        "(\"lit_side\": \"{}\") or turn the mesh's normals into the lumen (mucosa mesh IN -o OUT "
+        "--orient lumen)",
+        100 * v.backFraction(), side, kWidth, height,
+        culled ? "are culled (a closed scene)" : "render unlit (ambient light only)",
+        scene.normalSign > 0 ? "back" : "front"));
+}
+
 }  // namespace
 
 std::filesystem::path sequenceFrameName(const std::filesystem::path& output, int frames, int index) {
@@ -285,6 +312,7 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
                                 session->renderer().cubeFaceSize()));
         }
     }
+    warnIfBackFacesFace(scene, assets, poses[static_cast<std::size_t>(segments.front().begin)], g.threads);
     const shading::Textures refTextures = scene::referenceTextures(scene, assets);
     const bool tty = isatty(2) && !g.quiet;
     const auto t0 = std::chrono::steady_clock::now();

@@ -79,7 +79,25 @@ MeshReport analyze(const Mesh& mesh) {
 
     // Area, signed volume (divergence theorem: V = 1/6 sum P0 . (P1 x P2)),
     // degenerate triangles, and normals against the winding.
+    // Normals against the winding of all the triangles at their position
+    // with that normal: UV seams and tangent splits copy vertices (a copy
+    // used by one sliver does not speak for the surface there), creases split
+    // them with other normals (each side speaks for itself).
     std::vector<Vec3d> windingNormal(r.hasNormals ? mesh.vertexCount() : 0, Vec3d{0, 0, 0});
+    std::vector<std::uint32_t> normalGroup(r.hasNormals ? mesh.vertexCount() : 0);
+    if (r.hasNormals) {
+        std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> byPosition;  // position id -> vertices
+        for (std::uint32_t v = 0; v < mesh.vertexCount(); ++v) {
+            normalGroup[v] = v;
+            auto& list = byPosition[ids[v]];
+            for (std::uint32_t w : list)
+                if (mesh.normals[w] == mesh.normals[v]) {
+                    normalGroup[v] = w;
+                    break;
+                }
+            if (normalGroup[v] == v) list.push_back(v);
+        }
+    }
     for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
         const std::uint32_t a = mesh.indices[t], b = mesh.indices[t + 1], c = mesh.indices[t + 2];
         const Vec3d p0 = toD(mesh.positions[a]), p1 = toD(mesh.positions[b]), p2 = toD(mesh.positions[c]);
@@ -92,7 +110,7 @@ MeshReport analyze(const Mesh& mesh) {
             r.signedVolume += dot(p0, cross(p1, p2)) / 6.0;
         }
         if (r.hasNormals && std::isfinite(area2))
-            for (std::uint32_t v : {a, b, c}) windingNormal[v] += n;
+            for (std::uint32_t v : {a, b, c}) windingNormal[normalGroup[v]] += n;
     }
     // An open surface (a CT airway with cut ends) encloses nothing: close
     // each boundary loop with a fan to its centroid, so that the sign says
@@ -131,7 +149,7 @@ MeshReport analyze(const Mesh& mesh) {
             const Vec3& N = mesh.normals[v];
             const float len = length(N);
             if (!std::isfinite(len) || std::abs(len - 1.0f) > 1e-3f) ++r.badNormals;
-            if (used[v] && dot(toD(N), windingNormal[v]) < 0) ++r.normalsAgainstWinding;
+            if (used[v] && dot(toD(N), windingNormal[normalGroup[v]]) < 0) ++r.normalsAgainstWinding;
         }
     }
     if (r.hasTangents && r.hasNormals) {

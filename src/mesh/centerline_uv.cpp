@@ -28,8 +28,13 @@ using namespace detail;
 namespace {
 
 constexpr double kTwoPi = 2 * std::numbers::pi;
-// Ring centroids are averaged over +-kSmoothNodes rings along a branch.
-constexpr int kSmoothNodes = 6;
+// Ring centroids are averaged over +-kSmoothNodes rings along a branch with
+// tent weights (kSmoothNodes + 1 - |k|): as much smoothing, and as much pull
+// towards the middle at a branch's ends, as a flat window of +-kFlatNodes.
+// The centerline reported (flight paths) keeps the flat window: it pulls the
+// rings of a short branch (a closed end) to one point away from the wall.
+constexpr int kSmoothNodes = 9;
+constexpr int kFlatNodes = 6;
 
 std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
@@ -41,10 +46,12 @@ struct Node {
     std::uint32_t piece = 0;
     int parent = -1;  // node in a lower slice
     int branch = -1;
+    int indexInBranch = 0;  // its place in Branch::nodes
     std::vector<int> children;
     Vec3d sum{0, 0, 0};
     std::size_t count = 0;
     Vec3d c{}, t{}, n{}, b{};  // centroid and frame
+    Vec3d path{};              // centroid smoothed with the flat window (Centerline output)
     double s = 0;              // arc length at the centroid (mm)
     double v = 0;              // texture v at the centroid
 };
@@ -54,8 +61,7 @@ struct Branch {
     int parent = -1;
     double radius = 0;
     int wraps = 1;
-    double vRate = 0;   // texture v per mm along the branch
-    double facing = 0;  // > 0: the surface faces away from the centerline; < 0: towards it
+    double vRate = 0;  // texture v per mm along the branch
 };
 
 // The mesh's connectivity on welded positions.
@@ -306,6 +312,7 @@ std::vector<Branch> chainBranches(Rings& r) {
             branches.push_back({});
             branches.back().parent = par ? par->branch : -1;
         }
+        n.indexInBranch = static_cast<int>(branches[std::size_t(n.branch)].nodes.size());
         branches[std::size_t(n.branch)].nodes.push_back(i);
     }
     return branches;
@@ -320,14 +327,29 @@ void smoothAndFrame(std::vector<Node>& nodes, const std::vector<Branch>& branche
         for (std::size_t i = 0; i < br.nodes.size(); ++i) {
             Vec3d acc{0, 0, 0};
             double wsum = 0;
+            // Weights falling off with the distance along the branch (a tent):
+            // near a short branch's ends the window is cut on one side, and
+            // flat weights then gave neighbouring rings the same mean (no
+            // length between them along the axis).
             for (int k = -kSmoothNodes; k <= kSmoothNodes; ++k) {
                 const auto j = static_cast<std::ptrdiff_t>(i) + k;
                 if (j < 0 || j >= static_cast<std::ptrdiff_t>(br.nodes.size())) continue;
                 const Node& m = nodes[std::size_t(br.nodes[std::size_t(j)])];
-                acc += m.c * double(m.count);
-                wsum += double(m.count);
+                const double weight = double(m.count) * double(kSmoothNodes + 1 - std::abs(k));
+                acc += m.c * weight;
+                wsum += weight;
             }
             smooth[i] = acc * (1.0 / wsum);
+            Vec3d flat{0, 0, 0};
+            double flatSum = 0;
+            for (int k = -kFlatNodes; k <= kFlatNodes; ++k) {
+                const auto j = static_cast<std::ptrdiff_t>(i) + k;
+                if (j < 0 || j >= static_cast<std::ptrdiff_t>(br.nodes.size())) continue;
+                const Node& m = nodes[std::size_t(br.nodes[std::size_t(j)])];
+                flat += m.c * double(m.count);
+                flatSum += double(m.count);
+            }
+            nodes[std::size_t(br.nodes[i])].path = flat * (1.0 / flatSum);
         }
         for (std::size_t i = 0; i < br.nodes.size(); ++i) nodes[std::size_t(br.nodes[i])].c = smooth[i];
     }
@@ -381,39 +403,53 @@ double tileBranches(const Topology& t, Rings& r, std::vector<Branch>& branches, 
     return L;
 }
 
-// Which way each branch's surface faces: outward (away from its centerline)
-// or inward (a lumen seen from inside, or the inner wall of a thick tube).
-// The angle runs the other way on inward-facing branches, so (u, v) keep the
-// triangles' counter-clockwise orientation everywhere (no mirrored texture,
-// tangent w = +1).
-void measureFacing(const Topology& t, const Rings& r, std::vector<Branch>& branches) {
-    const Mesh& mesh = t.mesh;
-    for (std::size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
-        const std::uint32_t c0 = t.ids[mesh.indices[3 * tri]], c1 = t.ids[mesh.indices[3 * tri + 1]],
-                            c2 = t.ids[mesh.indices[3 * tri + 2]];
-        const int nd = r.nodeOf[c0];
-        if (nd < 0) continue;
-        const Node& n = r.nodes[std::size_t(nd)];
-        const Vec3d centre = (t.P(c0) + t.P(c1) + t.P(c2)) * (1.0 / 3.0);
-        const Vec3d radial = centre - n.c - n.t * dot(centre - n.c, n.t);
-        branches[std::size_t(n.branch)].facing +=
-            dot(cross(t.P(c1) - t.P(c0), t.P(c2) - t.P(c0)), normalizeOr(radial, Vec3d{0, 0, 0}));
+// The branch's axis at the cross-section through p: each ring's centroid
+// and frame define a plane across the tube; between two consecutive rings p
+// lies on the plane interpolated linearly between theirs (signed distances
+// d0 >= 0 > d1, lambda = d0 / (d0 - d1)), so the centre, frame and v vary
+// continuously over the surface instead of jumping from one ring to the
+// next (the jumps folded thin triangles). Before the branch's first ring or
+// past its last, that ring's frame. The walk starts at `start`.
+struct AxisFrame {
+    Vec3d c, t, n, b;
+    double v;
+};
+
+AxisFrame axisFrameAt(const std::vector<Node>& nodes, const Branch& br, const Vec3d& p, const Node& start) {
+    const int count = static_cast<int>(br.nodes.size());
+    auto at = [&](int i) -> const Node& { return nodes[std::size_t(br.nodes[std::size_t(i)])]; };
+    auto d = [&](int i) { return dot(p - at(i).c, at(i).t); };
+    int j = start.indexInBranch;
+    for (int guard = 0; guard < 4 * count; ++guard) {
+        if (j > 0 && d(j) < 0)
+            --j;
+        else if (j + 1 < count && d(j + 1) >= 0)
+            ++j;
+        else
+            break;
     }
+    const Node& a = at(j);
+    if (j + 1 >= count || d(j) < 0) return {a.c, a.t, a.n, a.b, a.v};
+    const Node& b = at(j + 1);
+    const double d0 = d(j), d1 = d(j + 1);
+    const double lambda = d0 - d1 > 0 ? std::clamp(d0 / (d0 - d1), 0.0, 1.0) : 0.0;
+    AxisFrame f;
+    f.c = a.c + (b.c - a.c) * lambda;
+    f.t = normalizeOr(a.t + (b.t - a.t) * lambda, a.t);
+    const Vec3d n0 = a.n + (b.n - a.n) * lambda;
+    f.n = normalizeOr(n0 - f.t * dot(f.t, n0), a.n);
+    f.b = cross(f.t, f.n);
+    f.v = a.v + (b.v - a.v) * lambda;
+    return f;
 }
 
-// The mesh with (u, v): u = wraps * angle / 2 pi around a ring's frame, v
-// along at the branch's rate. A vertex is split where triangles need it with
-// another (branch, seam lift): one new vertex per (vertex, branch, lifted).
+// The mesh with (u, v): u = wraps * angle / 2 pi around the branch's axis
+// (axisFrameAt), v along it at the branch's rate. Each triangle belongs to
+// one chart: its branch and the sense of its angle. A vertex is split where
+// triangles need it in another chart or on the other side of the wrap-around
+// seam: one vertex per (vertex, branch, sense, lifted).
 Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& branches, std::size_t& seamVertices) {
     const Mesh& mesh = t.mesh;
-    auto uvAt = [&](const Vec3d& p, const Node& n) {
-        const Branch& br = branches[std::size_t(n.branch)];
-        const Vec3d d = p - n.c;
-        const double sense = br.facing < 0 ? -1.0 : 1.0;
-        double theta = std::atan2(sense * dot(d, n.b), dot(d, n.n));
-        if (theta < 0) theta += kTwoPi;
-        return std::array<double, 2>{br.wraps * theta / kTwoPi, n.v + dot(d, n.t) * br.vRate};
-    };
     auto nearestNodeOfBranch = [&](int branch, const Vec3d& p) -> const Node& {
         const Branch& br = branches[std::size_t(branch)];
         int best = br.nodes.front();
@@ -432,7 +468,10 @@ Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& bra
     seamVertices = 0;
     const bool normals = mesh.hasNormals(), colors = mesh.hasColors();
     std::vector<char> firstUse(nv, 0);
-    for (std::size_t tri = 0; tri < mesh.triangleCount(); ++tri) {
+    // Two passes over the triangles: the first sums each branch's facing, the
+    // second places the corners.
+    std::vector<double> branchFacing(branches.size(), 0.0);
+    auto visit = [&](std::size_t tri, bool place) {
         std::uint32_t vi[3];
         int br[3];
         for (int k = 0; k < 3; ++k) {
@@ -444,26 +483,77 @@ Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& bra
         int B = std::min({br[0], br[1], br[2]});
         if (br[1] == br[2]) B = br[1];
         if (br[0] == br[1] || br[0] == br[2]) B = br[0];
-        std::array<double, 2> uv[3];
+        // Each corner's cross-section of the triangle's branch (the walk
+        // starts at the corner's own ring, or the nearest ring of that branch).
+        // (No ring at all -- a mesh smaller than a slice -- leaves every
+        // corner at (0, 0) in an empty branch.)
+        static const Branch kNoBranch{};
+        const Branch& branch = branches.empty() ? kNoBranch : branches[std::size_t(B)];
+        AxisFrame frame[3];
+        bool has[3];
         for (int k = 0; k < 3; ++k) {
-            const Vec3d p = toD(mesh.positions[vi[k]]);
             const int nd = r.nodeOf[t.ids[vi[k]]];
-            if (nd < 0)
-                uv[k] = {0, 0};
-            else if (br[k] == B)
-                uv[k] = uvAt(p, r.nodes[std::size_t(nd)]);
-            else
-                uv[k] = uvAt(p, nearestNodeOfBranch(B, p));
+            has[k] = nd >= 0;
+            if (!has[k]) continue;
+            const Vec3d p = toD(mesh.positions[vi[k]]);
+            frame[k] =
+                axisFrameAt(r.nodes, branch, p, br[k] == B ? r.nodes[std::size_t(nd)] : nearestNodeOfBranch(B, p));
         }
-        // Wrap-around seam: lift the low side by one period of the branch.
-        const double period = branches.empty() ? 1.0 : branches[std::size_t(B)].wraps;
-        const double umax = std::max({uv[0][0], uv[1][0], uv[2][0]}), umin = std::min({uv[0][0], uv[1][0], uv[2][0]});
-        int lifted[3] = {0, 0, 0};
-        if (umax - umin > 0.5 * period)
-            for (int k = 0; k < 3; ++k)
-                if (uv[k][0] < 0.5 * period) uv[k][0] += period, lifted[k] = 1;
+        // Which way this triangle faces its branch's axis: outward (away
+        // from it) or inward (a lumen seen from inside). The angle runs the
+        // other way on a branch that faces inward, so (u, v) follow the
+        // triangles' counter-clockwise winding.
+        const Vec3d P0 = toD(mesh.positions[vi[0]]), P1 = toD(mesh.positions[vi[1]]), P2 = toD(mesh.positions[vi[2]]);
+        const Vec3d centre = (P0 + P1 + P2) * (1.0 / 3.0);
+        double facing = 0;
+        for (int k = 0; k < 3; ++k)
+            if (has[k]) {
+                const Vec3d radial = centre - frame[k].c - frame[k].t * dot(centre - frame[k].c, frame[k].t);
+                facing += dot(cross(P1 - P0, P2 - P0), normalizeOr(radial, Vec3d{0, 0, 0}));
+            }
+        // (u, v) of the corners for one sense of the angle, the low side of a
+        // triangle across the wrap-around seam lifted by one period.
+        const double period = branch.wraps;
+        std::array<double, 2> uv[3];
+        int lifted[3];
+        auto uvFor = [&](int sense) {
+            for (int k = 0; k < 3; ++k) {
+                lifted[k] = 0;
+                if (!has[k]) {
+                    uv[k] = {0, 0};
+                    continue;
+                }
+                const AxisFrame& f = frame[k];
+                const Vec3d dd = toD(mesh.positions[vi[k]]) - f.c;
+                double theta = std::atan2((sense ? -1.0 : 1.0) * dot(dd, f.b), dot(dd, f.n));
+                if (theta < 0) theta += kTwoPi;
+                uv[k] = {branch.wraps * theta / kTwoPi, f.v + dot(dd, f.t) * branch.vRate};
+            }
+            const double umax = std::max({uv[0][0], uv[1][0], uv[2][0]}),
+                         umin = std::min({uv[0][0], uv[1][0], uv[2][0]});
+            if (umax - umin > 0.5 * period)
+                for (int k = 0; k < 3; ++k)
+                    if (uv[k][0] < 0.5 * period) uv[k][0] += period, lifted[k] = 1;
+            return (uv[1][0] - uv[0][0]) * (uv[2][1] - uv[0][1]) - (uv[2][0] - uv[0][0]) * (uv[1][1] - uv[0][1]);
+        };
+        if (!place) {
+            if (!branches.empty()) branchFacing[std::size_t(B)] += facing;
+            return;
+        }
+        // A triangle that faces the other way than most of its branch (the
+        // inner wall of a thick shell, a closed end, a carina's crest) would
+        // fold over: it takes the other sense, a chart of its own, and its
+        // vertices are split from its neighbours' along the border.
+        int sense = !branches.empty() && branchFacing[std::size_t(B)] < 0 ? 1 : 0;
+        if (uvFor(sense) < 0) {
+            if (uvFor(1 - sense) > 0)
+                sense = 1 - sense;
+            else
+                uvFor(sense);
+        }
         for (int k = 0; k < 3; ++k) {
-            const std::uint64_t key = (std::uint64_t(vi[k]) << 32) | (std::uint64_t(B) << 1) | std::uint64_t(lifted[k]);
+            const std::uint64_t key = (std::uint64_t(vi[k]) << 32) | (std::uint64_t(B) << 2) |
+                                      (std::uint64_t(sense) << 1) | std::uint64_t(lifted[k]);
             auto [it, inserted] = variant.try_emplace(key, static_cast<std::uint32_t>(out.positions.size()));
             if (inserted) {
                 out.positions.push_back(mesh.positions[vi[k]]);
@@ -475,7 +565,9 @@ Mesh assignUvs(const Topology& t, const Rings& r, const std::vector<Branch>& bra
             }
             out.indices[3 * tri + k] = it->second;
         }
-    }
+    };
+    for (std::size_t tri = 0; tri < mesh.triangleCount(); ++tri) visit(tri, false);
+    for (std::size_t tri = 0; tri < mesh.triangleCount(); ++tri) visit(tri, true);
     return out;
 }
 
@@ -489,7 +581,7 @@ Centerline centerlineOf(const Rings& r, const std::vector<Branch>& branches) {
         cb.name = fmt::format("branch {}", b);
         cb.parent = br.parent;
         for (int i : br.nodes) {
-            cb.points.push_back(toF(r.nodes[std::size_t(i)].c));
+            cb.points.push_back(toF(r.nodes[std::size_t(i)].path));
             cb.radii.push_back(static_cast<float>(br.radius));
         }
         cb.generation = br.parent >= 0 ? c.branches[std::size_t(br.parent)].generation + 1 : 0;
@@ -521,7 +613,6 @@ CenterlineUvReport computeCenterlineUvs(Mesh& mesh, const CenterlineUvOptions& o
     std::vector<Branch> branches = chainBranches(rings);
     smoothAndFrame(rings.nodes, branches, up);
     const double L = tileBranches(topology, rings, branches, opt.tileLength);
-    measureFacing(topology, rings, branches);
 
     CenterlineUvReport rep;
     Mesh out = assignUvs(topology, rings, branches, rep.seamVertices);

@@ -45,6 +45,48 @@ TEST(MeshCli, ConvertsFlipsAndWritesTangents) {
     expectValidGltf(dir / "o.glb");
 }
 
+// The README's example: --orient lumen gives the same mesh whichever way the
+// input faced (the CT airway as it comes, and --flip'ed), with the lumen's
+// wall facing the lumen (this file already does: nothing turns).
+TEST(MeshCli, OrientLumenGivesTheSameMeshFromEitherSide) {
+    TempDir dir;
+    const std::string ct = testdata("airway/vh_m_airway_lumen.obj").string();
+    const auto flip = runCli("mesh '" + ct + "' -o '" + (dir / "flipped.ply").string() + "' --flip --no-tangents");
+    ASSERT_EQ(flip.exitCode, 0) << flip.err;
+    const auto a = runCli("mesh '" + ct + "' -o '" + (dir / "a.ply").string() + "' --orient lumen --uv centerline");
+    ASSERT_EQ(a.exitCode, 0) << a.err;
+    EXPECT_NE(a.out.find("oriented to the lumen: 0 of 2 patches turned"), std::string::npos) << a.out;
+    const auto b = runCli("mesh '" + (dir / "flipped.ply").string() + "' -o '" + (dir / "b.ply").string() +
+                          "' --orient lumen --uv centerline");
+    ASSERT_EQ(b.exitCode, 0) << b.err;
+    EXPECT_NE(b.out.find("oriented to the lumen: 2 of 2 patches turned (20696 triangles)"), std::string::npos) << b.out;
+    const Mesh ma = mesh::load(dir / "a.ply"), mb = mesh::load(dir / "b.ply");
+    EXPECT_EQ(ma.indices, mb.indices);
+    EXPECT_EQ(ma.uvs, mb.uvs);
+    ASSERT_EQ(ma.normals.size(), mb.normals.size());
+    for (std::size_t v = 0; v < ma.normals.size(); ++v)  // renormalised on the way through the files
+        for (int k = 0; k < 3; ++k)
+            ASSERT_NEAR(ma.normals[v][std::size_t(k)], mb.normals[v][std::size_t(k)], 1e-6f) << v;
+    // A mesh too small to have a ring: centerline UVs all at (0, 0), and
+    // nothing to orient by (one error line).
+    std::ofstream(dir / "quad.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
+    const auto quadUv =
+        runCli("mesh '" + (dir / "quad.obj").string() + "' -o '" + (dir / "q.ply").string() + "' --uv centerline");
+    EXPECT_EQ(quadUv.exitCode, 0) << quadUv.err;
+    const auto quadOrient =
+        runCli("mesh '" + (dir / "quad.obj").string() + "' -o '" + (dir / "c.ply").string() + "' --orient lumen");
+    EXPECT_NE(quadOrient.exitCode, 0);
+    expectOneErrorLine(quadOrient.err, "quad --orient lumen");
+    EXPECT_NE(quadOrient.err.find("no centerline"), std::string::npos) << quadOrient.err;
+    // Bad values and the contradiction: one error line each.
+    for (const char* args : {"--orient inward", "--orient lumen --flip"}) {
+        const auto r = runCli("mesh '" + ct + "' -o '" + (dir / "c.ply").string() + "' " + args);
+        EXPECT_NE(r.exitCode, 0) << args;
+        expectOneErrorLine(r.err, args);
+        EXPECT_FALSE(std::filesystem::exists(dir / "c.ply")) << args;
+    }
+}
+
 TEST(MeshCli, InfoCountsNonFiniteValuesAndUnitOverride) {
     TempDir dir;
     std::ofstream(dir / "nan.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv inf 2 0\nf 1 2 3\nf 2 4 3\n";

@@ -346,7 +346,9 @@ TEST(Phantom, CenterlineUvsStayNearSquare) {
     EXPECT_LT(s.anisotropyP50, 1.2);
     EXPECT_LT(s.anisotropyP95, 4.0);
     EXPECT_EQ(s.zeroUvAreaTriangles, 0u);
-    EXPECT_LT(double(s.flippedTriangles), 0.03 * double(defaultPhantom().mesh.triangleCount()));
+    // Folded over: 1 (a sliver facing against its own vertex normals); 9 432
+    // before the interpolated axis frames and the (branch, sense) charts.
+    EXPECT_LT(double(s.flippedTriangles), 0.001 * double(defaultPhantom().mesh.triangleCount()));
     // Triangles spanning more than a quarter turn of u: only at the poles of
     // the closed caps (99 of 567 936 at the defaults), never at the seam.
     const Mesh& m = defaultPhantom().mesh;
@@ -361,7 +363,7 @@ TEST(Phantom, CenterlineUvsStayNearSquare) {
     std::printf("phantom: %zu triangles span > 1/4 turn of u; %zu of %zu tangent frames mirrored\n", wide, mirrored,
                 m.vertexCount());
     EXPECT_LT(double(wide), 5e-4 * double(m.triangleCount()));
-    EXPECT_LT(double(mirrored), 0.03 * double(m.vertexCount())) << "UVs follow the winding: frames are right-handed";
+    EXPECT_LT(double(mirrored), 0.001 * double(m.vertexCount())) << "UVs follow the winding: frames are right-handed";
 }
 
 TEST(Phantom, CenterlineJsonRoundTrips) {

@@ -124,6 +124,9 @@ TEST(CenterlineUv, WorksOnTheCtAirway) {
     EXPECT_EQ(r.badTangents, 0u);
     EXPECT_EQ(r.nonFiniteValues, 0u);
     EXPECT_EQ(s.zeroUvAreaTriangles, 0u);
+    // No fold (2 324 when the whole branch took one sense: the inner wall of
+    // this thick shell faces its axis, the outer wall away from it).
+    EXPECT_LT(double(s.flippedTriangles), 0.001 * double(r.triangles));
     EXPECT_LT(s.anisotropyP50, 1.3);
     EXPECT_EQ(r.nonManifoldEdges, 0u);
     EXPECT_EQ(r.boundaryEdges, 112u) << "UV seams add vertices, not boundaries";

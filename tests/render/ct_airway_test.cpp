@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <sstream>
 
 #include <fmt/format.h>
 
@@ -99,6 +100,51 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
     EXPECT_NE(r.err.find("error: mesh in "), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("--noise-space object"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "bad.png"));
+}
+
+// The --flip trap: turned inside out, the CT airway's wall faces away from a
+// camera inside it, which then sees the walls' unlit side. `mucosa render`
+// says so in one line (naming lit_side and --orient lumen), and is silent when
+// the lit side faces the camera: the file as it comes, the flipped one lit
+// from the back, and the flipped one after `mucosa mesh --orient lumen`.
+TEST(CtAirway, RenderWarnsOnceWhenTheCameraSeesBackFaces) {
+    test::TempDir dir;
+    const auto ct = test::testdata("airway/vh_m_airway_lumen.obj");
+    const mesh::Mesh m = mesh::load(ct);
+    const mesh::Vec3 eye = slabCentroid(m, 630, 640), target = slabCentroid(m, 570, 580);
+    auto sceneFor = [&](const std::filesystem::path& mesh, const char* litSide) {
+        return fmt::format(
+            R"({{"mesh": "{}", "lit_side": "{}", "mode": "procedural", "noise_space": "object",
+                "resolution": [160, 120], "camera": {{"fov_deg": 100, "near_mm": 0.5, "far_mm": 200,
+                "pose": {{"position": [{}, {}, {}], "look_at": [{}, {}, {}], "up": [0, 0, 1]}}}}}})",
+            mesh.string(), litSide, eye[0], eye[1], eye[2], target[0], target[1], target[2]);
+    };
+    auto r = test::runCli(fmt::format("mesh '{}' --flip -o '{}'", ct.string(), (dir / "flipped.glb").string()));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = test::runCli(fmt::format("mesh '{}' --orient lumen -o '{}'", (dir / "flipped.glb").string(),
+                                 (dir / "oriented.glb").string()));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto warnings = [&](const std::filesystem::path& mesh, const char* litSide) {
+        std::ofstream(dir / "s.json") << sceneFor(mesh, litSide);
+        const auto out =
+            test::runCli(fmt::format("render '{}' -o '{}'", (dir / "s.json").string(), (dir / "s.png").string()));
+        EXPECT_EQ(out.exitCode, 0) << out.err;
+        std::vector<std::string> lines;
+        std::istringstream in(out.err);
+        for (std::string l; std::getline(in, l);)
+            if (l.find("back faces") != std::string::npos) lines.push_back(l);
+        return lines;
+    };
+    const std::vector<std::string> flipped = warnings(dir / "flipped.glb", "front");
+    ASSERT_EQ(flipped.size(), 1u);
+    std::printf("%s\n", flipped[0].c_str());
+    EXPECT_EQ(flipped[0].rfind("warning: ", 0), 0u);
+    EXPECT_NE(flipped[0].find("lit_side"), std::string::npos);
+    EXPECT_NE(flipped[0].find("--orient lumen"), std::string::npos);
+    EXPECT_NE(flipped[0].find("100 %"), std::string::npos) << "all of this view is the wall's back";
+    EXPECT_TRUE(warnings(ct, "front").empty());
+    EXPECT_TRUE(warnings(dir / "flipped.glb", "back").empty());
+    EXPECT_TRUE(warnings(dir / "oriented.glb", "front").empty());
 }
 
 }  // namespace
