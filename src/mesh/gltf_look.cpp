@@ -261,13 +261,14 @@ void collectExtensions(const json& j, std::vector<std::string>& names) {
 
 GltfLook readGltfLook(const std::filesystem::path& path) {
     Source src(path);
+    // Bounded before anything is copied: copying a json recurses too.
+    for (const char* key : {"materials", "textures", "samplers", "images"})
+        if (depthOf(src.array(key)) > kMaxDepth) src.fail(key, fmt::format("nested deeper than {} levels", kMaxDepth));
     GltfLook look;
     look.materials = src.array("materials");
     look.textures = src.array("textures");
     look.samplers = src.array("samplers");
     const json& images = src.array("images");
-    for (const char* key : {"materials", "textures", "samplers", "images"})
-        if (depthOf(src.array(key)) > kMaxDepth) src.fail(key, fmt::format("nested deeper than {} levels", kMaxDepth));
     // Every reference checked here, so the writer never writes a dangling one.
     for (std::size_t m = 0; m < look.materials.size(); ++m) {
         if (!look.materials[m].is_object()) src.fail(fmt::format("materials[{}]", m), "is not an object");
