@@ -242,6 +242,44 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
         }
         out.H.template triangularView<Eigen::StrictlyUpper>() = out.H.transpose();
     };
+    // Each texel's albedo given the shared parameters is a weighted linear
+    // least-squares problem of its own: after a step, it is solved again in
+    // closed form at the new shared parameters (one reweighting step, with the
+    // Cauchy weights of the stepped point: for a loss concave in e^2 this
+    // never raises the cost, and without the loss it is the exact minimum).
+    // This is the embedded point iteration of bundle adjustment (Triggs et al.
+    // 2000, sec. 4.4; variable projection in effect): the albedos follow the
+    // shared parameters at once instead of lagging behind them under the
+    // damping, which on a fall-off whose cubic terms trade off against each
+    // other left plain LM crawling along the valley (a 10 % higher cost than
+    // Ceres' after its iteration cap).
+    auto refitAlbedo = [&](const std::array<double, 6>& p, std::vector<std::array<double, 3>>& a, std::size_t stride) {
+        const DeltaMap dm = deltaMap(form, p.data() + 3);
+        arena.execute([&] {
+            tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t ch) {
+                for (std::size_t t = ch * kChunk; t < std::min(T, (ch + 1) * kChunk); ++t) {
+                    if (t % stride != 0 || begin[t] == begin[t + 1]) continue;
+                    double mm = 0, mi[3] = {0, 0, 0};
+                    for (std::size_t j = begin[t]; j < begin[t + 1]; ++j) {
+                        const double m = shading(ss[j], p, dm, nullptr);
+                        double w = 1.0;
+                        if (o.robust) {
+                            double e2 = 0;
+                            for (int k = 0; k < 3; ++k) {
+                                const double e = a[t][static_cast<std::size_t>(k)] * m - ss[j].I[k];
+                                e2 += e * e;
+                            }
+                            w = 1.0 / (1.0 + e2 / c2);
+                        }
+                        mm += w * m * m;
+                        for (int k = 0; k < 3; ++k) mi[k] += w * m * ss[j].I[k];
+                    }
+                    if (mm > 1e-300)
+                        for (int k = 0; k < 3; ++k) a[t][static_cast<std::size_t>(k)] = mi[k] / mm;
+                }
+            });
+        });
+    };
     // Levenberg-Marquardt from (cd, albedo) on the texels of one stride, until
     // the relative cost gain falls below `tolerance` or the step stalls.
     Linearisation cur, cand;
@@ -309,6 +347,7 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
                 if (c.haa <= 0) continue;
                 for (int k = 0; k < 3; ++k) aNew[t][k] -= (c.ba[k] + c.hta[k].dot(dt)) / (c.haa * (1.0 + lambda));
             }
+            refitAlbedo(cdNew, aNew, stride);
             linearise(cdNew, aNew, stride, cand);
             if (cand.cost < cur.cost) {
                 const double gain = (cur.cost - cand.cost) / std::max(cur.cost, 1e-300);
@@ -365,7 +404,12 @@ int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::si
     so.linear_solver_type = ceres::DENSE_SCHUR;
     so.linear_solver_ordering.reset(ordering);
     so.num_threads = resolveThreads(o.threads);
-    so.max_num_iterations = 100;
+    so.max_num_iterations = 500;
+    // Inner iterations: after each step the albedo blocks are re-optimised
+    // on their own (Ceres' simplified variable projection), as the
+    // specialised solver does; without them Ceres crawled along the
+    // fall-off's valley (a cost 25 % above the minimum after 1000 steps).
+    so.use_inner_iterations = true;
     so.function_tolerance = 1e-9;
     so.parameter_tolerance = 1e-9;
     so.logging_type = ceres::SILENT;
@@ -379,8 +423,16 @@ int solveWithCeres(const std::vector<Sample>& samples, const std::vector<std::si
 
 // A free cubic's rise on [0, 1] below this is rounding, not data.
 constexpr double kRiseTolerance = 1e-9;
-// ... and above this (in delta, which is 1 at r = 0) it is worth a warning.
+// ... and worth a warning when it shows: by more than this in delta (which
+// is 1 at r = 0), or by more than kRiseWarningShare of the light where it
+// started rising when that light is not darkness (far tissue 10 % brighter
+// than nearer tissue is plainly visible, 0.10 to 0.12 as much as 0.5 to 0.6).
 constexpr double kRiseWarning = 0.02;
+constexpr double kRiseWarningShare = 0.10, kRiseWarningLit = 0.05;
+
+bool riseShows(const DeltaRise& r) {
+    return r.amount > kRiseWarning || (r.deltaFrom > kRiseWarningLit && r.amount > kRiseWarningShare * r.deltaFrom);
+}
 
 // The largest rise of delta over [0, 1]: max over r0 < r1 of delta(r1) -
 // delta(r0), on a fine grid, with where it starts and ends.
@@ -655,7 +707,7 @@ shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptio
     out.rms = n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
     if (diag) {
         diag->falloff = check;
-        if (check.constrained && check.rise.amount > kRiseWarning)
+        if (check.constrained && riseShows(check.rise))
             diag->warnings.push_back(fmt::format(
                 "the fitted fall-off delta(r) rose with distance, from {:.3f} at r = {:.2f} (z = {:.1f} mm) to {:.3f} "
                 "at r = {:.2f} (z = {:.1f} mm), where {:.1f} % of the samples lie; a lamp's light cannot grow with "
