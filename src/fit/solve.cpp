@@ -107,11 +107,6 @@ private:
 // task; tasks cover fixed texel ranges and their partial 6 x 6 sums are added
 // in order, so the result does not depend on the thread count. It reaches the
 // same minimum as Ceres' DENSE_SCHUR (tested) in a small fraction of the time.
-double robustCost(double e2, const FitOptions& o) {
-    const double c2 = o.cauchyScale * o.cauchyScale;
-    return o.robust ? c2 * std::log1p(e2 / c2) : e2;
-}
-
 struct SolveSample {
     float gamma, r;
     float I[3];
@@ -505,8 +500,8 @@ shading::BrdfParams solveBrdf(const std::vector<Sample>& samples, const FitOptio
     const int G = std::max(8, o.fitGrid);
     const float du = std::max(1e-6f, umax - umin), dv = std::max(1e-6f, vmax - vmin);
     auto cellOf = [&](const Sample& s) {
-        const int x = std::clamp(static_cast<int>((s.u - umin) / du * G), 0, G - 1);
-        const int y = std::clamp(static_cast<int>((s.v - vmin) / dv * G), 0, G - 1);
+        const int x = std::clamp(static_cast<int>((s.u - umin) / du * static_cast<float>(G)), 0, G - 1);
+        const int y = std::clamp(static_cast<int>((s.v - vmin) / dv * static_cast<float>(G)), 0, G - 1);
         return y * G + x;
     };
     std::vector<std::uint32_t> firstFrame(static_cast<std::size_t>(G) * G, UINT32_MAX);
