@@ -23,7 +23,8 @@ const int kModeBrdfNoise = 9;      // kModeBrdf plus the method's noise-based sp
 const int kModeProcedural = 10;    // the method with run-time noise (procedural_noise.glsl), no map
 const int kModeProceduralNormals = 11;  // debug: kModeProcedural's perturbed normal in world space, 0.5 N + 0.5
 const int kModeClearcoat = 12;     // glTF's clear coat (KHR_materials_clearcoat) over the glTF base, per pixel
-const int kModeCount = 13;
+const int kModeClearcoatProcedural = 13;  // kModeClearcoat with the coat's normal from the run-time noise
+const int kModeCount = 14;
 
 // What each mode reads, asked by the fragment shader and by the C++ reference
 // alike. shading::ModeInfo (src/shading/params.cpp) is the same table for the
@@ -51,13 +52,13 @@ MUCOSA_CONSTEXPR bool modeReadsHighlight(int mode) {
 // camera's output).
 MUCOSA_CONSTEXPR bool modeIsPhotographic(int mode) {
     return mode == kModeNoise || mode == kModeVertexPhong || mode == kModeMultitexture || mode == kModeDiffuse ||
-           mode == kModeProcedural || mode == kModeClearcoat;
+           mode == kModeProcedural || mode == kModeClearcoat || mode == kModeClearcoatProcedural;
 }
 // The largest finite half float: the camera's HDR target (RGBA16F) holds no more.
 const float kHalfMax = 65504.0f;
 // Noise evaluated per pixel (procedural_noise.glsl) instead of the map.
 MUCOSA_CONSTEXPR bool modeIsProcedural(int mode) {
-    return mode == kModeProcedural || mode == kModeProceduralNormals;
+    return mode == kModeProcedural || mode == kModeProceduralNormals || mode == kModeClearcoatProcedural;
 }
 
 // Below this, a decoded map normal's z is clamped: a map texel with blue <= 0.5
@@ -336,6 +337,18 @@ vec3 clearcoatShading(vec3 albedo, vec3 Ng, vec3 Nc, vec3 L, vec3 V, float E, fl
     return base * (1.0f - Fc) + vec3(Fc * coat);
 }
 
+// The clearcoat modes' fragment: per pixel in world space, like an engine:
+// the lamp at the light's position, the geometric normal for the base, the
+// coat's normal Nc (the map's or the noise's, in world space) for the coat.
+vec3 clearcoatFragment(vec3 albedo, vec3 Nc, Varyings v, float ambientE, Material m, Frame f) {
+    vec3 toLight = MUCOSA_LIGHT_POSITION(f) - v.P;
+    float dl = max(length(toLight), kTiny);
+    vec3 L = toLight / dl;
+    vec3 V = normalize(f.eye - v.P);
+    float E = lampIrradiance(dl, -dot(L, f.lampAxis), m);
+    return clearcoatShading(albedo, normalize(v.N), Nc, L, V, E, ambientE, m);
+}
+
 // Paper eq. 7: to tangent space with R = [T; B; N] (rows).
 vec3 toTangentSpace(vec3 v, vec3 T, vec3 B, vec3 N) {
     return vec3(dot(T, v), dot(B, v), dot(N, v));
@@ -486,7 +499,7 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
                                     mapSampleVariance(mapSample, m, f), m.shininess);
         return albedo * (ambientE + v.diffuseLight) + vec3((v.specular * spec + v.sheen) * specularGate(v));
     }
-    if (mode == kModeProcedural || mode == kModeProceduralNormals) {
+    if (mode == kModeProcedural || mode == kModeProceduralNormals || mode == kModeClearcoatProcedural) {
         // The noise gradient as a surface gradient (Mikkelsen 2010): the
         // normal tilts against it, scaled by strength x bump scale.
         vec3 q = proceduralCoord(v, m, pr);
@@ -502,6 +515,8 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             vec3 Nt = normalize(vec3(-(slope * s.h.y), slope * s.h.z, 1.0f));
             if (mode == kModeProceduralNormals)
                 return normalize(Nt.x * v.T + Nt.y * v.B + Nt.z * v.N) * 0.5f + vec3(0.5f);
+            if (mode == kModeClearcoatProcedural)
+                return clearcoatFragment(albedo, normalize(Nt.x * v.T + Nt.y * v.B + Nt.z * v.N), v, ambientE, m, f);
             specP = methodSpecular(Nt, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt), sigma2, m.shininess);
         } else {
             // Solid noise h(P) = strength scale H(P / scale): grad h =
@@ -510,26 +525,19 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             vec3 g = vec3(s.h.y, s.h.z, s.h.w) * slope;
             vec3 Np = normalize(N - (g - N * dot(N, g)));
             if (mode == kModeProceduralNormals) return Np * 0.5f + vec3(0.5f);
+            if (mode == kModeClearcoatProcedural) return clearcoatFragment(albedo, Np, v, ambientE, m, f);
             specP = methodSpecular(Np, normalize(MUCOSA_LIGHT_POSITION(f) - v.P), normalize(f.eye - v.P), sigma2,
                                    m.shininess);
         }
         return albedo * (ambientE + v.diffuseLight) + vec3((v.specular * specP + v.sheen) * specularGate(v));
     }
     if (mode == kModeClearcoat) {
-        // Per pixel in world space, like an engine: the lamp at the light's
-        // position, the geometric normal for the base, the map's normal in
-        // the tangent frame for the coat. With specular anti-aliasing the map
-        // comes from its mips, as an engine samples a mipmapped normal
-        // texture; glTF has no lobe widening, so its slope variance is unused.
-        vec3 Ng = normalize(v.N);
+        // The map's normal in the tangent frame is the coat's. With specular
+        // anti-aliasing the map comes from its mips, as an engine samples a
+        // mipmapped normal texture; glTF has no lobe widening, so the mips'
+        // slope variance is unused.
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
-        vec3 Nc = normalize(Nm.x * v.T + Nm.y * v.B + Nm.z * v.N);
-        vec3 toLight = MUCOSA_LIGHT_POSITION(f) - v.P;
-        float dl = max(length(toLight), kTiny);
-        vec3 L = toLight / dl;
-        vec3 V = normalize(f.eye - v.P);
-        float E = lampIrradiance(dl, -dot(L, f.lampAxis), m);
-        return clearcoatShading(albedo, Ng, Nc, L, V, E, ambientE, m);
+        return clearcoatFragment(albedo, normalize(Nm.x * v.T + Nm.y * v.B + Nm.z * v.N), v, ambientE, m, f);
     }
     if (mode == kModeDiffuse) {
         return albedo * (ambientE + v.diffuseLight);

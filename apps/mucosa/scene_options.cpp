@@ -17,7 +17,7 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
     c->add_option("--mode", o.mode, "Shading mode: " + shading::modeList() + " [noise] (described by mucosa params)");
     if (withSize) c->add_option("--size", o.size, "Frame size WxH [640x480, or the scene's resolution]");
     c->add_option("--noise-space", o.noiseSpace,
-                  "Procedural mode: evaluate the map's noise in texture space (uv) or as solid noise on the surface "
+                  "Procedural modes: evaluate the map's noise in texture space (uv) or as solid noise on the surface "
                   "(object: needs no UVs or tangents) [uv, or the scene's noise_space]");
     c->add_option("--specular-aa", o.specularAA,
                   "Specular anti-aliasing: on (Toksvig on the map's mips; octave fade procedurally) or off (the "

@@ -58,11 +58,15 @@ void drawText(image::Image8& img, int x, int y, const std::string& text, std::ar
 
 image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& assets, const CompareOptions& o) {
     const int tw = o.tileWidth, th = o.tileHeight;
-    const int cols = 6;
+    const int cols = 7;
     const int labelW = 190, headerH = 64, colHeadH = 30, gap = 6;
-    const shading::Mode modes[cols] = {shading::Mode::Noise,       shading::Mode::Procedural,
-                                       shading::Mode::VertexPhong, shading::Mode::Multitexture,
-                                       shading::Mode::Diffuse,     shading::Mode::Clearcoat};
+    const shading::Mode modes[cols] = {shading::Mode::Noise,
+                                       shading::Mode::Procedural,
+                                       shading::Mode::VertexPhong,
+                                       shading::Mode::Multitexture,
+                                       shading::Mode::Diffuse,
+                                       shading::Mode::Clearcoat,
+                                       shading::Mode::ClearcoatProcedural};
     const int views = std::max(1, o.views);
     const int rows = views + 3;  // views, frequency row, anti-aliasing row, coarse patch
     const int width = labelW + cols * (tw + gap) + gap;
@@ -154,7 +158,8 @@ image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& 
     drawText(sheet, gap, cellY(rows, 0) + 8,
              "noise: per-pixel specular from the reflectance map | procedural: the map's noise evaluated per pixel | "
              "vertex-phong: per-vertex Phong (Gouraud) | multitexture: per-vertex light + sphere-mapped highlight "
-             "texture | diffuse: no specular | clearcoat: glTF's clear coat on the map's normals",
+             "texture | diffuse: no specular | clearcoat: glTF's clear coat on the map's normals | "
+             "clearcoat-procedural: the coat on the procedural noise's normals",
              grey, 1);
     return sheet;
 }

@@ -380,9 +380,10 @@ struct Renderer::Impl {
     // The map modes that light per pixel, compiled also for a light at the
     // eye (MUCOSA_HEADLIGHT, common_shading.glsl).
     std::array<Program, shading::kModeCount> headlight;
-    // The procedural mode, specialised per (octaves, space, tileable,
-    // turbulence, headlight): compiled on first use (procedural_noise.glsl).
-    std::map<std::array<int, 5>, Program> procedural;
+    // The procedural and clearcoat-procedural modes, specialised per (mode,
+    // octaves, space, tileable, turbulence, headlight): compiled on first use
+    // (procedural_noise.glsl).
+    std::map<std::array<int, 6>, Program> procedural;
     float highlightShininess = -1.0f;  // shininess the generated highlight texture was made for
     // The camera: the post pass, its HDR target, and auto-exposure's state
     // along the current camera path (frame 0 starts it afresh).
@@ -523,12 +524,16 @@ void Renderer::clearTexture(TextureSlot slot) {
 Program& Renderer::Impl::programFor(const shading::FrameSetup& frame, const shading::ModeInfo& info) {
     const int mode = static_cast<int>(frame.mode);
     const bool headlight = frame.light == frame.eye && info.headlight;
-    // The procedural mode, specialised for speed (its debug view,
+    // The procedural modes, specialised for speed (the debug view,
     // procedural-normals, uses the general program).
-    if (frame.mode == shading::Mode::Procedural) {
+    if (frame.mode == shading::Mode::Procedural || frame.mode == shading::Mode::ClearcoatProcedural) {
         const noise::FractalParams& n = frame.procedural.noise;
-        const std::array<int, 5> key = {n.octaves, frame.procedural.space == shading::NoiseSpace::Object ? 1 : 0,
-                                        n.tileable ? 1 : 0, n.turbulence ? 1 : 0, headlight ? 1 : 0};
+        const std::array<int, 6> key = {mode,
+                                        n.octaves,
+                                        frame.procedural.space == shading::NoiseSpace::Object ? 1 : 0,
+                                        n.tileable ? 1 : 0,
+                                        n.turbulence ? 1 : 0,
+                                        headlight ? 1 : 0};
         auto it = procedural.find(key);
         if (it == procedural.end())
             it = procedural
@@ -536,7 +541,7 @@ Program& Renderer::Impl::programFor(const shading::FrameSetup& frame, const shad
                                                           "#define MUCOSA_PROCEDURAL_SPACE {}\n"
                                                           "#define MUCOSA_PROCEDURAL_TILEABLE {}\n"
                                                           "#define MUCOSA_PROCEDURAL_TURBULENCE {}\n{}",
-                                                          key[0], key[1], key[2], key[3],
+                                                          key[1], key[2], key[3], key[4],
                                                           headlight ? "#define MUCOSA_HEADLIGHT 1\n" : "")))
                      .first;
         return it->second;

@@ -747,6 +747,21 @@ FlightPath meshFileCenterline(const Scene& scene, const mesh::Mesh& shape, std::
     return p;
 }
 
+// The mode that draws what `mode` draws from run-time noise, which in object
+// space needs no texture coordinates.
+std::string_view procedurallyAs(shading::Mode mode) {
+    switch (mode) {
+        case shading::Mode::Normals:
+        case shading::Mode::ProceduralNormals:
+            return "procedural-normals";
+        case shading::Mode::Clearcoat:
+        case shading::Mode::ClearcoatProcedural:
+            return "clearcoat-procedural";
+        default:
+            return "procedural";
+    }
+}
+
 }  // namespace
 
 void loadTextures(const Scene& scene, SceneAssets& a, int threads, bool reflectanceMap) {
@@ -810,16 +825,14 @@ SceneAssets loadAssets(const Scene& scene, int threads, bool reflectanceMap) {
             f.mode = scene.mode;
             f.procedural.space = scene.noiseSpace;
             if (shading::modeNeedsUvs(f))
-                throw InputError(
-                    "mesh", scene.mesh.file.string(),
-                    fmt::format("has no texture coordinates, which mode '{}' needs (render it with "
-                                "--mode {} --noise-space object, or add UVs with mucosa mesh "
-                                "--uv centerline)",
-                                shading::modeName(scene.mode),
-                                scene.mode == shading::Mode::Normals ? "procedural-normals" : "procedural"));
+                throw InputError("mesh", scene.mesh.file.string(),
+                                 fmt::format("has no texture coordinates, which mode '{}' needs (render it with "
+                                             "--mode {} --noise-space object, or add UVs with mucosa mesh "
+                                             "--uv centerline)",
+                                             shading::modeName(scene.mode), procedurallyAs(scene.mode)));
             a.notes.push_back(
-                "mesh: no texture coordinates; modes that read none only (procedural and procedural-normals in "
-                "object space, vertex-phong, multitexture, diffuse, depth)");
+                "mesh: no texture coordinates; modes that read none only (procedural, procedural-normals and "
+                "clearcoat-procedural in object space, vertex-phong, multitexture, diffuse, depth)");
         } else if (!a.mesh.hasTangents()) {
             const mesh::TangentReport r = mesh::computeTangents(a.mesh, threads);
             a.notes.push_back(fmt::format("tangents computed ({} degenerate-UV triangles, {} mirrored vertices)",

@@ -46,6 +46,10 @@ constexpr std::array<ModeInfo, kModeCount> kModes = {{
      "glTF's clear coat (KHR_materials_clearcoat): a GGX coat on the reflectance map's normal over the glTF "
      "metallic-roughness base on the geometric normal, per pixel",
      U::Always, true, true, false, false, true, true},
+    {Mode::ClearcoatProcedural, "clearcoat-procedural",
+     "the clearcoat mode with the coat's normal from the run-time noise (the procedural mode's, texture or object "
+     "space), no map",
+     U::InTextureSpace, true, false, false, true, true, true},
 }};
 
 // The C++ table and the GLSL agree: the same values, in Mode order, and the
@@ -64,6 +68,7 @@ static_assert(glsl::kModeBrdfNoise == static_cast<int>(Mode::BrdfNoise));
 static_assert(glsl::kModeProcedural == static_cast<int>(Mode::Procedural));
 static_assert(glsl::kModeProceduralNormals == static_cast<int>(Mode::ProceduralNormals));
 static_assert(glsl::kModeClearcoat == static_cast<int>(Mode::Clearcoat));
+static_assert(glsl::kModeClearcoatProcedural == static_cast<int>(Mode::ClearcoatProcedural));
 constexpr bool tablesAgree() {
     for (std::size_t i = 0; i < kModes.size(); ++i) {
         const ModeInfo& m = kModes[i];
@@ -218,7 +223,7 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      0.01f,
      100000.0f,
      "mm",
-     "Procedural mode in object space: mm of surface per map width (the map's frequency counts cycles per width)",
+     "Procedural modes in object space: mm of surface per map width (the map's frequency counts cycles per width)",
      false},
     {P::LightSpread,
      "spread",
@@ -422,7 +427,7 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      "The sensor noise's seed (a whole number): each frame's noise pattern is a function of (seed, frame index); "
      "another seed, another realisation of the same frames",
      false},
-    // The clearcoat mode's coat (glTF's KHR_materials_clearcoat, docs/theory.md,
+    // The clearcoat modes' coat (glTF's KHR_materials_clearcoat, docs/theory.md,
     // "Clear coat"). The defaults are the noise mode's highlight in glTF terms
     // (docs/rendering.md): the GGX lobe whose peak for a head-on light is the
     // Phong lobe's k_s = 2 with exponent n = 120, roughness (2 / (4n + 2))^(1/4).
@@ -434,7 +439,7 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      0.0f,
      1.0f,
      "",
-     "Clearcoat mode: the coat's weight (glTF clearcoatFactor; 0 = no coat, the glTF base alone)",
+     "Clearcoat modes: the coat's weight (glTF clearcoatFactor; 0 = no coat, the glTF base alone)",
      false},
     {P::ClearcoatRoughness,
      "clearcoat_roughness",
@@ -444,7 +449,7 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      0.0f,
      1.0f,
      "",
-     "Clearcoat mode: the coat's GGX roughness (glTF clearcoatRoughnessFactor, alpha = roughness^2; at least 0.045 "
+     "Clearcoat modes: the coat's GGX roughness (glTF clearcoatRoughnessFactor, alpha = roughness^2; at least 0.045 "
      "for the point lamp)",
      false},
 }};

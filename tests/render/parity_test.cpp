@@ -127,7 +127,7 @@ TEST(RenderParity, TheCameraOffAndItsVariantsMatchReference) {
     const image::Image8 map = testMap(256, "bronchial");
     const image::Image8 diffuse = testDiffuse(64);
     using P = shading::Param;
-    for (Mode mode : {Mode::Noise, Mode::VertexPhong, Mode::Diffuse, Mode::Clearcoat}) {
+    for (Mode mode : {Mode::Noise, Mode::VertexPhong, Mode::Diffuse, Mode::Clearcoat, Mode::ClearcoatProcedural}) {
         shading::FrameSetup f = frameFor(camera::lookAt({6.0f, -14.0f, 22.0f}, {0, 0, 0}), 640, 480, mode);
         f.params.set(P::MapTiling, 1.5f);
         shading::setCameraIdentity(f.params);
@@ -183,23 +183,24 @@ TEST(RenderParity, ProceduralNoiseMatchesReferenceInBothSpacesWithAndWithoutAnti
     const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
     const image::Image8 map = testMap(64, "serosa");
     const image::Image8 diffuse = testDiffuse(64);
-    for (const char* preset : {"bronchial", "rough"})
-        for (shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object})
-            for (bool aa : {true, false}) {
-                shading::FrameSetup f =
-                    frameFor(camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1}), 640, 480, Mode::Procedural);
-                const reflectance::MapParams mp = reflectance::findPreset(preset).params;
-                f.procedural.noise = mp.noise;
-                f.procedural.noise.seed = 5;
-                f.procedural.noise.z += 41.0;  // a slice beyond the first lattice layer (uPermSlice)
-                f.procedural.strength = static_cast<float>(mp.strength);
-                f.procedural.space = space;
-                f.specularAA = aa;
-                f.params.set(shading::Param::NoiseScale, 12.0f);
-                const Parity p = renderBoth(sphere, f, map, diffuse);
-                expectParity(p, fmt::format("parity_procedural_{}_{}_aa_{}", preset,
-                                            space == shading::NoiseSpace::Uv ? "uv" : "object", aa ? "on" : "off"));
-            }
+    for (const Mode mode : {Mode::Procedural, Mode::ClearcoatProcedural})
+        for (const char* preset : {"bronchial", "rough"})
+            for (shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object})
+                for (bool aa : {true, false}) {
+                    shading::FrameSetup f =
+                        frameFor(camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1}), 640, 480, mode);
+                    const reflectance::MapParams mp = reflectance::findPreset(preset).params;
+                    f.procedural.noise = mp.noise;
+                    f.procedural.noise.seed = 5;
+                    f.procedural.noise.z += 41.0;  // a slice beyond the first lattice layer (uPermSlice)
+                    f.procedural.strength = static_cast<float>(mp.strength);
+                    f.procedural.space = space;
+                    f.specularAA = aa;
+                    f.params.set(shading::Param::NoiseScale, 12.0f);
+                    const Parity p = renderBoth(sphere, f, map, diffuse);
+                    expectParity(p, fmt::format("parity_{}_{}_{}_aa_{}", shading::modeName(mode), preset,
+                                                space == shading::NoiseSpace::Uv ? "uv" : "object", aa ? "on" : "off"));
+                }
 }
 
 TEST(RenderParity, ProceduralNormalsViewMatchesReferenceAndShowsTheBump) {
@@ -251,9 +252,11 @@ TEST(RenderParity, HeadlightProgramsMatchReference) {
     const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
     const image::Image8 map = testMap(256, "serosa");
     const image::Image8 diffuse = testDiffuse(64);
-    for (const Mode mode : {Mode::Noise, Mode::BrdfNoise, Mode::Procedural, Mode::VertexPhong, Mode::Clearcoat})
+    for (const Mode mode : {Mode::Noise, Mode::BrdfNoise, Mode::Procedural, Mode::VertexPhong, Mode::Clearcoat,
+                            Mode::ClearcoatProcedural})
         for (shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object}) {
-            if (mode != Mode::Procedural && space == shading::NoiseSpace::Object) continue;
+            const bool procedural = shading::info(mode).procedural;
+            if (!procedural && space == shading::NoiseSpace::Object) continue;
             const camera::Pose pose = camera::lookAt({0.0f, -26.0f, 12.0f}, {0, 0, 0}, {0, 0, 1});
             shading::FrameSetup f = frameFor(pose, 640, 480, mode);
             f.light = camera::lightPosition(pose, camera::TipLight{});
@@ -261,9 +264,8 @@ TEST(RenderParity, HeadlightProgramsMatchReference) {
             f.procedural.space = space;
             f.params.set(shading::Param::NoiseScale, 12.0f);
             const Parity p = renderBoth(sphere, f, map, diffuse);
-            expectParity(
-                p, fmt::format("parity_headlight_{}{}", shading::modeName(mode),
-                               mode == Mode::Procedural && space == shading::NoiseSpace::Object ? "_object" : ""));
+            expectParity(p, fmt::format("parity_headlight_{}{}", shading::modeName(mode),
+                                        procedural && space == shading::NoiseSpace::Object ? "_object" : ""));
         }
 }
 

@@ -4,7 +4,9 @@
 // in double precision, independently of shaders/common_shading.glsl.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include <mucosa/camera/camera.hpp>
@@ -201,6 +203,100 @@ TEST(Clearcoat, TheCoatFollowsTheMapAndWithoutItTheMapChangesNothing) {
     EXPECT_GT(differing(bumpy, smooth), 160 * 120 / 10);
     f.params.set(shading::Param::Clearcoat, 0.0f);
     EXPECT_EQ(differing(shading::renderReference(quad, f, withMap), shading::renderReference(quad, f, flat)), 0);
+}
+
+// clearcoat-procedural is the clearcoat mode with the coat's normal from the
+// run-time noise: without the noise it is the flat coat exactly, without the
+// coat the noise changes nothing (the base lies on the geometry's normal), and
+// in texture space it draws what the clearcoat mode draws from the map made of
+// the same noise (the procedural path follows the map's central-difference
+// response, ProceduralSetup::texels), not a mirrored or rotated copy of it.
+TEST(Clearcoat, ProceduralCoatIsTheMapsCoatFromTheSameNoise) {
+    const mesh::Mesh quad = mesh::makeQuad(40.0f, 8);
+    // Broad bumps, all below the map's Nyquist frequency, so that the map's
+    // glints and the noise's can be told apart pixel by pixel (the mutations
+    // measured: the noise's v mirrored or T and B swapped: mean 3.5-3.6/255
+    // against the map's frame, as far as the flat coat; as built: 0.39/255).
+    reflectance::MapParams p = reflectance::findPreset("serosa").params;
+    p.size = 256;
+    const image::Image8 map =
+        reflectance::encodeNormals8(reflectance::heightField(p), p.strength, reflectance::Edges::Wrap);
+    shading::FrameSetup f;
+    camera::Lens lens;
+    lens.fovDeg = 30.0f;
+    const camera::Pose pose = camera::lookAt({0.0f, -1.0f, 30.0f}, {0, 0, 0});
+    f.view = camera::viewMatrix(pose);
+    f.projection = camera::projectionMatrix(lens, 160, 120);
+    f.eye = pose.position;
+    f.light = pose.position;
+    f.width = 160;
+    f.height = 120;
+    f.specularAA = false;
+    f.procedural.noise = p.noise;
+    f.procedural.strength = static_cast<float>(p.strength);
+    f.procedural.texels = p.size;
+    f.params.set(shading::Param::NoiseScale, 12.0f);
+    shading::setCameraIdentity(f.params);
+    f.params.set(shading::Param::ExposureEv, -2.0f);
+    shading::Textures withMap, flat;
+    withMap.reflectance = {&map, shading::Filter::Linear, shading::Wrap::Repeat};
+    auto render = [&](shading::Mode mode, const shading::Textures& t, shading::NoiseSpace space) {
+        shading::FrameSetup g = f;
+        g.mode = mode;
+        g.procedural.space = space;
+        return shading::renderReference(quad, g, t);
+    };
+    struct Diff {
+        int maxDiff = 0;
+        int over = 0;     // channel values more than 4/255 apart
+        double mean = 0;  // mean absolute difference per channel
+    };
+    auto diff = [](const image::Image8& a, const image::Image8& b) {
+        Diff d;
+        for (int y = 0; y < a.height(); ++y)
+            for (int x = 0; x < a.width(); ++x)
+                for (int k = 0; k < 3; ++k) {
+                    const int e = std::abs(int(a.at(x, y, k)) - int(b.at(x, y, k)));
+                    d.maxDiff = std::max(d.maxDiff, e);
+                    d.over += e > 4;
+                    d.mean += e;
+                }
+        d.mean /= 3.0 * a.width() * a.height();
+        return d;
+    };
+    const int channels = 3 * 160 * 120;
+    const image::Image8 flatCoat = render(shading::Mode::Clearcoat, flat, shading::NoiseSpace::Uv);
+    for (const shading::NoiseSpace space : {shading::NoiseSpace::Uv, shading::NoiseSpace::Object}) {
+        const char* name = space == shading::NoiseSpace::Uv ? "uv" : "object";
+        const image::Image8 bumpy = render(shading::Mode::ClearcoatProcedural, flat, space);
+        const Diff moved = diff(bumpy, flatCoat);
+        std::printf("clearcoat-procedural (%s) vs the flat coat: %d of %d channels > 4/255 apart\n", name, moved.over,
+                    channels);
+        EXPECT_GT(moved.over, channels / 10) << name;
+        // No noise: the flat coat (object space renormalises N once more: 1/255).
+        shading::FrameSetup g = f;
+        f.procedural.strength = 0.0f;
+        EXPECT_LE(diff(render(shading::Mode::ClearcoatProcedural, flat, space), flatCoat).maxDiff, 1) << name;
+        // No coat: the noise changes nothing.
+        f = g;
+        f.params.set(shading::Param::Clearcoat, 0.0f);
+        EXPECT_EQ(
+            diff(render(shading::Mode::ClearcoatProcedural, flat, space), render(shading::Mode::Clearcoat, flat, space))
+                .maxDiff,
+            0)
+            << name;
+        f = g;
+    }
+    // Texture space: the map's coat from the same noise, glint for glint.
+    const image::Image8 fromMap = render(shading::Mode::Clearcoat, withMap, shading::NoiseSpace::Uv);
+    const Diff same = diff(render(shading::Mode::ClearcoatProcedural, flat, shading::NoiseSpace::Uv), fromMap);
+    const Diff none = diff(flatCoat, fromMap);
+    std::printf(
+        "clearcoat-procedural (uv) vs clearcoat with the map: mean %.3f/255, %d channels > 4/255 (flat coat: "
+        "mean %.3f/255, %d)\n",
+        same.mean, same.over, none.mean, none.over);
+    EXPECT_LT(same.mean, 0.25 * none.mean);
+    EXPECT_LT(same.over, none.over / 4);
 }
 
 }  // namespace

@@ -23,13 +23,14 @@ enum class Mode : int {
     Tangents = 5,
     Uv = 6,
     Depth = 7,
-    Brdf = 8,                // patient-specific texture x fitted rho, delta (Category 3)
-    BrdfNoise = 9,           // Brdf plus the method's specular (Category 4)
-    Procedural = 10,         // the method with run-time noise instead of the map (no texture)
-    ProceduralNormals = 11,  // debug view of Procedural's perturbed normal
-    Clearcoat = 12,          // glTF's KHR_materials_clearcoat: GGX coat (normal from the map) over the glTF base
+    Brdf = 8,                  // patient-specific texture x fitted rho, delta (Category 3)
+    BrdfNoise = 9,             // Brdf plus the method's specular (Category 4)
+    Procedural = 10,           // the method with run-time noise instead of the map (no texture)
+    ProceduralNormals = 11,    // debug view of Procedural's perturbed normal
+    Clearcoat = 12,            // glTF's KHR_materials_clearcoat: GGX coat (normal from the map) over the glTF base
+    ClearcoatProcedural = 13,  // Clearcoat with the coat's normal from the run-time noise (as Procedural's)
 };
-inline constexpr int kModeCount = 13;
+inline constexpr int kModeCount = 14;
 
 // When a mode needs texture coordinates and tangents on the mesh.
 enum class UvNeed {
