@@ -131,7 +131,7 @@ void checkInitialView(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& p
         if (rep.signedVolume > 0)
             throw InputError("mesh", meshFile,
                              "its normals face out of the lumen (positive signed volume): registration needs them "
-                             "facing the camera inside; flip them with `mucosa mesh IN -o OUT --flip`");
+                             "facing the camera inside; turn them with `mucosa mesh IN -o OUT --orient lumen`");
         throw InputError("initial pose", poseFile,
                          fmt::format("sees the back of the airway wall in {:.0f} % of the view: it is outside the "
                                      "airway of {}",

@@ -523,7 +523,7 @@ void Renderer::clearTexture(TextureSlot slot) {
 // specialisation compiled on first use.
 Program& Renderer::Impl::programFor(const shading::FrameSetup& frame, const shading::ModeInfo& info) {
     const int mode = static_cast<int>(frame.mode);
-    const bool headlight = frame.light == frame.eye && info.headlight;
+    const bool lampAtEye = frame.light == frame.eye && info.headlight;
     // The procedural modes, specialised for speed (the debug view,
     // procedural-normals, uses the general program).
     if (frame.mode == shading::Mode::Procedural || frame.mode == shading::Mode::ClearcoatProcedural) {
@@ -533,7 +533,7 @@ Program& Renderer::Impl::programFor(const shading::FrameSetup& frame, const shad
                                         frame.procedural.space == shading::NoiseSpace::Object ? 1 : 0,
                                         n.tileable ? 1 : 0,
                                         n.turbulence ? 1 : 0,
-                                        headlight ? 1 : 0};
+                                        lampAtEye ? 1 : 0};
         auto it = procedural.find(key);
         if (it == procedural.end())
             it = procedural
@@ -542,11 +542,11 @@ Program& Renderer::Impl::programFor(const shading::FrameSetup& frame, const shad
                                                           "#define MUCOSA_PROCEDURAL_TILEABLE {}\n"
                                                           "#define MUCOSA_PROCEDURAL_TURBULENCE {}\n{}",
                                                           key[1], key[2], key[3], key[4],
-                                                          headlight ? "#define MUCOSA_HEADLIGHT 1\n" : "")))
+                                                          lampAtEye ? "#define MUCOSA_HEADLIGHT 1\n" : "")))
                      .first;
         return it->second;
     }
-    return headlight && !info.procedural ? this->headlight[static_cast<std::size_t>(mode)]
+    return lampAtEye && !info.procedural ? this->headlight[static_cast<std::size_t>(mode)]
                                          : programs[static_cast<std::size_t>(mode)];
 }
 
@@ -765,8 +765,8 @@ void Renderer::setLensRays(const image::ImageF& rays, int faceSize) {
     if (faceSize <= 0) faceSize = lensFaceSize(rays);
     if (faceSize > 8192) throw InputError("lens", "", fmt::format("cube faces of {} pixels are too large", faceSize));
     const int w = rays.width(), h = rays.height();
-    const std::uint64_t face = static_cast<std::uint64_t>(faceSize) * static_cast<std::uint64_t>(faceSize);
-    requireMemory(saturatingMul(face, 6 * 8 + 4) + saturatingMul(static_cast<std::uint64_t>(w) * h, 16),
+    const std::uint64_t faceTexels = static_cast<std::uint64_t>(faceSize) * static_cast<std::uint64_t>(faceSize);
+    requireMemory(saturatingMul(faceTexels, 6 * 8 + 4) + saturatingMul(static_cast<std::uint64_t>(w) * h, 16),
                   "the lens's cube map");
     // The rays in eye axes (OpenCV's y and z negated), rows bottom-up as GL
     // counts them; and the faces they (or their bilinear footprint) reach.

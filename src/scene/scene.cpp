@@ -257,7 +257,7 @@ void setPath(SceneAssets& a, FlightPath&& p) {
 
 FlightPath pathTo(const mesh::Centerline& c, int branch) {
     const std::vector<float>& radii = c.branches[static_cast<std::size_t>(branch)].radii;
-    FlightPath p{mesh::pathToBranch(c, branch), radii.empty() ? 0.0f : radii.back(), {}};
+    FlightPath p{mesh::pathToBranch(c, branch), radii.empty() ? 0.0f : radii.back(), {}, {}};
     // The radii along the path, point for point as pathToBranch joins the branches.
     std::vector<int> chain;
     for (int b = branch; b >= 0; b = c.branches[static_cast<std::size_t>(b)].parent) chain.push_back(b);

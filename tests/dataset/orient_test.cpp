@@ -5,6 +5,8 @@
 // camera, and whose interpolated vertex normal faces it too. On the CT airway
 // (a thick-walled shell) and the phantom, as they come and turned inside out
 // (the same result either way).
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -15,6 +17,7 @@
 #include <mucosa/dataset/raycast.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/phantom.hpp>
+#include <mucosa/mesh/primitives.hpp>
 #include <mucosa/mesh/repair.hpp>
 #include <mucosa/mesh/uv.hpp>
 
@@ -177,6 +180,28 @@ TEST(OrientLumen, PhantomKeepsItsLumenSideAndComesBackFromInsideOut) {
                 v.hits, 100 * v.winding(), 100 * v.normal());
     EXPECT_GE(v.winding(), 0.95);
     EXPECT_GE(v.normal(), 0.95);
+}
+
+TEST(OrientLumen, EachTriangleKeepsItsMaterialWhenItIsTurned) {
+    // A tube inside out, with per-triangle materials (a glTF model's primitives):
+    // turning it re-winds triangles in place, so each keeps its material.
+    mesh::Mesh m = mesh::makeTube(5, 40, 24, 20);
+    mesh::flipOrientation(m);
+    for (std::size_t t = 0; t < m.triangleCount(); ++t) m.materials.push_back(std::uint32_t(t % 5 == 0 ? 2 : t % 2));
+    auto corners = [](const mesh::Mesh& x, std::size_t t) {
+        std::array<std::uint32_t, 3> c{x.indices[3 * t], x.indices[3 * t + 1], x.indices[3 * t + 2]};
+        std::sort(c.begin(), c.end());
+        return c;
+    };
+    const mesh::Mesh before = m;
+    const dataset::LumenOrientReport r = dataset::orientToLumen(m, shapeCenterline(m));
+    EXPECT_EQ(r.turnedTriangles, m.triangleCount());
+    ASSERT_EQ(m.materials.size(), m.triangleCount());
+    ASSERT_EQ(m.positions.size(), before.positions.size());  // no vertex was split or merged
+    for (std::size_t t = 0; t < m.triangleCount(); ++t) {
+        EXPECT_EQ(corners(m, t), corners(before, t)) << t;
+        EXPECT_EQ(m.materials[t], before.materials[t]) << t;
+    }
 }
 
 }  // namespace

@@ -107,8 +107,12 @@ TEST(ModeTable, RowsAreInModeOrderWithUniqueNamesThatParseBack) {
         EXPECT_EQ(shading::parseMode(m.name), m.id);
         EXPECT_FALSE(m.description.empty());
         // Anything that samples the map by UV needs UVs; procedural modes need them only in texture space.
-        if (m.readsMap) EXPECT_EQ(m.uvs, shading::UvNeed::Always) << m.name;
-        if (m.procedural) EXPECT_EQ(m.uvs, shading::UvNeed::InTextureSpace) << m.name;
+        if (m.readsMap) {
+            EXPECT_EQ(m.uvs, shading::UvNeed::Always) << m.name;
+        }
+        if (m.procedural) {
+            EXPECT_EQ(m.uvs, shading::UvNeed::InTextureSpace) << m.name;
+        }
     }
     EXPECT_NE(shading::modeList().find("procedural-normals"), std::string::npos);
 }
