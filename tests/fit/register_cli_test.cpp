@@ -203,7 +203,7 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     mesh::Mesh flipped = p.scene.mesh;
     mesh::flipOrientation(flipped);
     mesh::save(flipped, p.dir / "flipped.ply");
-    check(p.args("", {{"--mesh", p.dir / "flipped.ply"}}), "--flip");
+    check(p.args("", {{"--mesh", p.dir / "flipped.ply"}}), "--orient lumen");
     // A pose file that is not a pose; an unknown method; not a .json output.
     writeText(p.dir / "bad.json", R"({"position": [0, 0, 0], "look_at": [0, 0, 0], "up": [0, 1, 0]})");
     check(p.args("", {{"--init", p.dir / "bad.json"}}), "look_at");
