@@ -23,7 +23,6 @@ using json = nlohmann::json;
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr std::string_view kMapPrefix = "reflectance_map.";
 
 // Ranges: where the highlights change, inside the registries' ranges. The
