@@ -159,7 +159,8 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
         if (st.backFacing > st.hits / 2)
             throw InputError("frame", f.image.string(),
                              fmt::format("sees the back of the surface at {:.0f} % of its pixels: the camera is "
-                                         "outside-in or the surface faces away from the lumen (turn it with `mucosa mesh IN -o OUT --orient lumen`)",
+                                         "outside-in or the surface faces away from the lumen (turn it with `mucosa "
+                                         "mesh IN -o OUT --orient lumen`)",
                                          100.0 * static_cast<double>(st.backFacing) / static_cast<double>(st.hits)));
         if (!isHeld) samples.insert(samples.end(), s.begin(), s.end());
     }
