@@ -1,7 +1,6 @@
 // A glTF file's look (materials, textures, samplers, images) read straight
 // from its JSON and binary chunk, and pruned to what a mesh still uses.
 #include <algorithm>
-#include <cctype>
 #include <cstring>
 #include <map>
 
@@ -12,6 +11,7 @@
 #include <mucosa/mesh/gltf.hpp>
 
 #include "core/json_parse.hpp"
+#include "import_checks.hpp"
 
 namespace mucosa::mesh {
 
@@ -57,20 +57,6 @@ bool decodeBase64(std::string_view text, std::vector<std::uint8_t>& out) {
     for (; i < text.size(); ++i)
         if (text[i] != '=') return false;
     return true;
-}
-
-std::string percentDecode(const std::string& s) {
-    std::string out;
-    for (std::size_t i = 0; i < s.size(); ++i) {
-        if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
-            std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
-            out += static_cast<char>(std::stoi(s.substr(i + 1, 2), nullptr, 16));
-            i += 2;
-        } else {
-            out += s[i];
-        }
-    }
-    return out;
 }
 
 class Source {
@@ -177,7 +163,7 @@ private:
             if (!decodeBase64(std::string_view(u).substr(comma + 1), out)) fail(field, "malformed base64");
             return out;
         }
-        const auto p = confinedPath(path_.parent_path(), percentDecode(u));
+        const auto p = confinedPath(path_.parent_path(), detail::percentDecoded(u));
         if (!p) fail(field, fmt::format("'{}' is not a file beside the model", u));
         if (!std::filesystem::exists(*p)) fail(field, fmt::format("{} does not exist", p->string()));
         const std::vector<std::byte> b = readFile(*p);

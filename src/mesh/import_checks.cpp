@@ -1,6 +1,7 @@
 #include "import_checks.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -86,20 +87,6 @@ void checkDeclaredSizes(const std::filesystem::path& path, const std::string& ex
 
 namespace {
 
-std::string percentDecoded(const std::string& s) {
-    std::string out;
-    for (std::size_t i = 0; i < s.size(); ++i) {
-        if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
-            std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
-            out += static_cast<char>(std::stoi(s.substr(i + 1, 2), nullptr, 16));
-            i += 2;
-        } else {
-            out += s[i];
-        }
-    }
-    return out;
-}
-
 // A non-negative whole JSON number that fits in 2^53, or `fallback` when absent.
 std::uint64_t count(const json& object, const char* key, const fs::path& path, const std::string& where,
                     std::uint64_t fallback = 0) {
@@ -135,6 +122,20 @@ std::uint64_t componentsOf(const std::string& type) {
 }
 
 }  // namespace
+
+std::string percentDecoded(const std::string& s) {
+    std::string out;
+    for (std::size_t i = 0; i < s.size(); ++i) {
+        if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+            std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+            out += static_cast<char>(std::stoi(s.substr(i + 1, 2), nullptr, 16));
+            i += 2;
+        } else {
+            out += s[i];
+        }
+    }
+    return out;
+}
 
 bool insideFolder(const fs::path& folder, const std::string& reference) {
     return confinedPath(folder, percentDecoded(reference)).has_value();

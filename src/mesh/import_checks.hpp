@@ -14,6 +14,10 @@ namespace mucosa::mesh::detail {
 // "..", after symlinks are resolved. Percent-escapes are decoded first.
 bool insideFolder(const std::filesystem::path& folder, const std::string& reference);
 
+// A URI reference's percent-escapes decoded (RFC 3986 2.1); a '%' not followed
+// by two hex digits is kept as it is.
+std::string percentDecoded(const std::string& s);
+
 // PLY element counts and binary STL's triangle count against the file's size;
 // a PLY header must end (end_header) within 1 MiB / 10000 lines.
 void checkDeclaredSizes(const std::filesystem::path& path, const std::string& ext, std::uintmax_t fileBytes);
