@@ -12,19 +12,6 @@
 namespace mucosa::test {
 namespace {
 
-// Progress lines may precede it; exactly one line is the error, and it is the last.
-void expectOneErrorLine(const std::string& err, const std::string& what) {
-    int errors = 0;
-    std::string last;
-    std::istringstream in(err);
-    for (std::string l; std::getline(in, l);) {
-        errors += l.rfind("error: ", 0) == 0 ? 1 : 0;
-        last = l;
-    }
-    EXPECT_EQ(errors, 1) << what << ": " << err;
-    EXPECT_EQ(last.rfind("error: ", 0), 0u) << what << ": " << err;
-}
-
 TEST(MeshCli, InfoReportsTheAirway) {
     const auto r = runCli("mesh info '" + testdata("airway/vh_m_airway_lumen.obj").string() + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;

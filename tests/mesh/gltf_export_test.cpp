@@ -30,18 +30,6 @@ namespace {
 
 using json = nlohmann::json;
 
-void expectOneErrorLine(const std::string& err, const std::string& what) {
-    int errors = 0;
-    std::string last;
-    std::istringstream in(err);
-    for (std::string l; std::getline(in, l);) {
-        errors += l.rfind("error: ", 0) == 0 ? 1 : 0;
-        last = l;
-    }
-    EXPECT_EQ(errors, 1) << what << ": " << err;
-    EXPECT_EQ(last.rfind("error: ", 0), 0u) << what << ": " << err;
-}
-
 std::string q(const std::filesystem::path& p) {
     return "'" + p.string() + "'";
 }

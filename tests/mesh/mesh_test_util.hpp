@@ -3,9 +3,11 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include <mucosa/mesh/mesh.hpp>
@@ -18,6 +20,20 @@ using mesh::Mesh;
 using mesh::Vec2;
 using mesh::Vec3;
 using mesh::Vec4;
+
+// A command's stderr: progress lines may precede it; exactly one line is the
+// error, and it is the last.
+inline void expectOneErrorLine(const std::string& err, const std::string& what) {
+    int errors = 0;
+    std::string last;
+    std::istringstream in(err);
+    for (std::string l; std::getline(in, l);) {
+        errors += l.rfind("error: ", 0) == 0 ? 1 : 0;
+        last = l;
+    }
+    EXPECT_EQ(errors, 1) << what << ": " << err;
+    EXPECT_EQ(last.rfind("error: ", 0), 0u) << what << ": " << err;
+}
 
 inline double angleDeg(const Vec3& a, const Vec3& b) {
     const double d = double(a[0]) * b[0] + double(a[1]) * b[1] + double(a[2]) * b[2];
