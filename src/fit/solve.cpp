@@ -246,8 +246,9 @@ int schurLevenbergMarquardt(const std::vector<Sample>& samples, const std::vecto
     // 2000, sec. 4.4; variable projection in effect): the albedos follow the
     // shared parameters at once instead of lagging behind them under the
     // damping, which on a fall-off whose cubic terms trade off against each
-    // other left plain LM crawling along the valley (a 10 % higher cost than
-    // Ceres' after its iteration cap).
+    // other left plain LM crawling along the valley (ten frames of a lamp:
+    // the free fit stopped at its iteration cap at cost 14.1, where the
+    // minimum is 6.56).
     auto refitAlbedo = [&](const std::array<double, 6>& p, std::vector<std::array<double, 3>>& a, std::size_t stride) {
         const DeltaMap dm = deltaMap(form, p.data() + 3);
         arena.execute([&] {
@@ -421,7 +422,7 @@ constexpr double kRiseTolerance = 1e-9;
 // ... and worth a warning when it shows: by more than this in delta (which
 // is 1 at r = 0), or by more than kRiseWarningShare of the light where it
 // started rising when that light is not darkness (far tissue 10 % brighter
-// than nearer tissue is plainly visible, 0.10 to 0.12 as much as 0.5 to 0.6).
+// than nearer tissue is plainly visible: 0.10 to 0.12 as plainly as 0.5 to 0.6).
 constexpr double kRiseWarning = 0.02;
 constexpr double kRiseWarningShare = 0.10, kRiseWarningLit = 0.05;
 
