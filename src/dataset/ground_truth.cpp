@@ -183,11 +183,16 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
     t.b2.assign(n, 0.f);
     t.valid.assign(n, 0);
     t.inView.assign(n, 1);
-    for (int y = 0; y < K.height; ++y)
-        for (int x = 0; x < K.width; ++x) {
-            const std::size_t i = static_cast<std::size_t>(y) * K.width + x;
-            if (g.triangle[i] >= 0) fillPixel(t, mesh, c2w, x, y, g.triangle[i], g.b1[i], g.b2[i], g.depth[i]);
-        }
+    // Each pixel from its own z-buffer entry: the rows in parallel.
+    tbb::task_arena arena(resolveThreads(threads));
+    arena.execute([&] {
+        tbb::parallel_for(0, K.height, [&](int y) {
+            for (int x = 0; x < K.width; ++x) {
+                const std::size_t i = static_cast<std::size_t>(y) * K.width + x;
+                if (g.triangle[i] >= 0) fillPixel(t, mesh, c2w, x, y, g.triangle[i], g.b1[i], g.b2[i], g.depth[i]);
+            }
+        });
+    });
     return t;
 }
 
@@ -259,7 +264,8 @@ void flowWith(GroundTruth& t, const fit::Mat4& c2w, const GroundTruth* prev, con
         for (int c = 0; c < 4; ++c)
             for (int k = 0; k < 4; ++k) m[r][c] += w2p[r][k] * c2w[k][c];
     const int w = t.width, h = t.height;
-    for (int y = 0; y < h; ++y)
+    // Each pixel alone (the rows in parallel): the same result however they are shared out.
+    tbb::parallel_for(0, h, [&](int y) {
         for (int x = 0; x < w; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * w + x;
             if (!t.valid[i]) continue;
@@ -291,6 +297,7 @@ void flowWith(GroundTruth& t, const fit::Mat4& c2w, const GroundTruth* prev, con
             depth /= weight;
             if (std::abs(depth - P[2]) <= 0.01 * P[2] + 0.01) t.flow.at(x, y, 2) = 1.f;
         }
+    });
 }
 
 }  // namespace
@@ -376,10 +383,11 @@ std::vector<std::uint8_t> fieldOfView(const shading::FrameSetup& frame) {
     std::vector<std::uint8_t> in(static_cast<std::size_t>(frame.width) * frame.height);
     // Coverage >= 1/2 at the pixel centre (GL's window coordinates: x + 1/2;
     // the mask is symmetric, so the rows' order does not matter).
-    for (int y = 0; y < frame.height; ++y)
+    tbb::parallel_for(0, frame.height, [&](int y) {
         for (int x = 0; x < frame.width; ++x)
             in[static_cast<std::size_t>(y) * frame.width + x] =
                 shading::glsl::fovMask(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f, c) >= 0.5f;
+    });
     return in;
 }
 
@@ -427,6 +435,11 @@ void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outpu
     // once all have finished (each file is atomic: none is left half-written).
     tbb::task_group files;
     const image::ExrCompression exr = o.exrCompression;
+    // zlib level 1 for the PNGs: a dataset's size is its EXRs', and level 6
+    // costs a 16-bit depth PNG 6x the time for 30 % fewer bytes (640x480:
+    // 26 ms for 79 KiB against 4 ms for 113 KiB).
+    image::PngWriteOptions png1;
+    png1.level = 1;
     if (o.depth) {
         files.run([&] { image::writeExr(beside(rgbName, ".depth.exr"), t.depth, exr); });
         files.run([&] {
@@ -435,7 +448,7 @@ void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outpu
                 for (int x = 0; x < w; ++x)
                     png.at(x, y) =
                         static_cast<std::uint16_t>(std::min(65535.0, std::round(t.depth.at(x, y) / depthScale)));
-            image::writePng(beside(rgbName, ".depth.png"), png);
+            image::writePng(beside(rgbName, ".depth.png"), png, png1);
         });
     }
     if (o.normals) {
@@ -449,14 +462,14 @@ void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outpu
                             t.valid[static_cast<std::size_t>(y) * w + x]
                                 ? static_cast<std::uint16_t>(std::lround((t.normals.at(x, y, c) + 1.0) * 0.5 * 65535.0))
                                 : 0;
-            image::writePng(beside(rgbName, ".normals.png"), png);
+            image::writePng(beside(rgbName, ".normals.png"), png, png1);
         });
     }
     if (o.mask)
         files.run([&] {
             image::Image8 png(w, h, 1);
             for (std::size_t i = 0; i < t.valid.size(); ++i) png.data()[i] = t.valid[i] && t.inView[i] ? 255 : 0;
-            image::writePng(beside(rgbName, ".mask.png"), png);
+            image::writePng(beside(rgbName, ".mask.png"), png, png1);
         });
     if (o.uv) files.run([&] { image::writeExr(beside(rgbName, ".uv.exr"), t.uv, exr); });
     if (o.face)
@@ -471,7 +484,7 @@ void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outpu
             image::Image8 png(w, h, 1);
             for (int y = 0; y < h; ++y)
                 for (int x = 0; x < w; ++x) png.at(x, y) = t.flow.at(x, y, 2) > 0 ? 0 : 255;
-            image::writePng(beside(rgbName, ".occlusion.png"), png);
+            image::writePng(beside(rgbName, ".occlusion.png"), png, png1);
         });
     }
     if (o.branch)
@@ -479,7 +492,7 @@ void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outpu
             image::Image16 png(w, h, 1);
             for (std::size_t i = 0; i < t.branch.size(); ++i)
                 png.data()[i] = static_cast<std::uint16_t>(std::clamp(t.branch[i] + 1, 0, 65535));
-            image::writePng(beside(rgbName, ".branch.png"), png);
+            image::writePng(beside(rgbName, ".branch.png"), png, png1);
         });
     files.wait();
 }

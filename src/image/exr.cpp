@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <mutex>
 #include <set>
 #include <string>
@@ -207,14 +208,24 @@ ExrCompression parseExrCompression(const std::string& name, const std::string& w
     throw InputError(what, where, fmt::format("'{}' is not an EXR compression: none, rle, zips, zip or piz", name));
 }
 
+namespace {
+std::atomic<bool> exrThreadsChosen{false};
+}  // namespace
+
+void setExrThreads(int threads) {
+    if (threads < 0) throw InputError("EXR threads", "", "must be 0 or more");
+    exrThreadsChosen = true;
+    Imf::setGlobalThreadCount(threads);
+}
+
 void writeExr(const std::filesystem::path& path, const ImageF& img, ExrCompression compression) {
     if (img.empty()) throw InputError("image", path.string(), "is empty");
     // OpenEXR compresses a file's line blocks on its global thread pool, which
     // is empty unless the program sizes it: size it to the machine once,
-    // unless the program already has.
+    // unless the program already has (setExrThreads).
     static std::once_flag pool;
     std::call_once(pool, [] {
-        if (Imf::globalThreadCount() == 0)
+        if (!exrThreadsChosen.load())
             Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
     });
     AtomicFile file(path);  // reserves the temporary name; OpenEXR writes it

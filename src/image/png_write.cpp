@@ -142,18 +142,51 @@ struct Piece {
     std::size_t length = 0;
 };
 
-// Noise-like data (filtered normal maps) gains nothing from LZ77 matches, so
-// plain Huffman coding is both smaller and ~20x faster than zlib there. Probe a
-// 64 KiB sample: if zlib level 1 cannot beat the Huffman estimate by 10 %, the
-// piece is Huffman-coded.
-bool huffmanWins(const std::uint8_t* data, std::size_t n) {
-    const std::size_t m = std::min<std::size_t>(n, 65536);
-    if (m < 1024) return false;
-    const double huffmanBytes = detail::byteEntropyBits(data, m) * static_cast<double>(m) / 8.0;
-    uLongf zlen = compressBound(static_cast<uLong>(m));
-    std::vector<Bytef> tmp(zlen);
-    if (compress2(tmp.data(), &zlen, data, static_cast<uLong>(m), 1) != Z_OK) return true;
-    return static_cast<double>(zlen) > 0.9 * huffmanBytes;
+// How a piece is deflated. Noise-like data (filtered normal maps) gains
+// nothing from LZ77 matches: plain Huffman coding is both smaller and ~20x
+// faster than zlib there. Filtered photographs and smooth gradients are
+// mostly runs of small residuals: zlib's run-length strategy (matches at
+// distance 1 only) finds what matters there at several times level 6's speed,
+// often smaller (a 640x480 frame: 258 KiB in 4.8 ms against 295 KiB in 31 ms).
+// Depth-like 16-bit data repeats at longer distances: full LZ77 at `level`.
+enum class PieceCoding { Huffman, Rle, Lz77 };
+
+// Probes a 64 KiB sample, four 16 KiB runs spread over the piece (its first
+// rows alone can be all background): Huffman-only (estimated: the byte
+// entropy, at least 1 bit a byte, a Huffman code's floor) unless zlib level 1
+// or its run-length strategy beats it by 10 %; run-length where it comes
+// within 5 % of level 1.
+PieceCoding chooseCoding(const std::uint8_t* data, std::size_t n) {
+    constexpr std::size_t kRuns = 4, kRun = 16384;
+    if (n < 1024) return PieceCoding::Lz77;
+    std::vector<std::uint8_t> sample;
+    if (n <= kRuns * kRun) {
+        sample.assign(data, data + n);
+    } else {
+        sample.reserve(kRuns * kRun);
+        for (std::size_t r = 0; r < kRuns; ++r) {
+            const std::uint8_t* at = data + r * ((n - kRun) / (kRuns - 1));
+            sample.insert(sample.end(), at, at + kRun);
+        }
+    }
+    const std::size_t m = sample.size();
+    const double huffmanBytes = std::max(1.0, detail::byteEntropyBits(sample.data(), m)) * static_cast<double>(m) / 8.0;
+    std::vector<Bytef> tmp(compressBound(static_cast<uLong>(m)) + 64);
+    auto probe = [&](int strategy) {
+        z_stream zs{};
+        if (deflateInit2(&zs, 1, Z_DEFLATED, -15, 8, strategy) != Z_OK) return static_cast<double>(2 * m);
+        zs.next_in = sample.data();
+        zs.avail_in = static_cast<uInt>(m);
+        zs.next_out = tmp.data();
+        zs.avail_out = static_cast<uInt>(tmp.size());
+        const int rc = deflate(&zs, Z_FINISH);
+        const double bytes = rc == Z_STREAM_END ? static_cast<double>(zs.total_out) : static_cast<double>(2 * m);
+        deflateEnd(&zs);
+        return bytes;
+    };
+    const double lz = probe(Z_DEFAULT_STRATEGY), rle = probe(Z_RLE);
+    if (std::min(lz, rle) > 0.9 * huffmanBytes) return PieceCoding::Huffman;
+    return rle <= 1.05 * lz ? PieceCoding::Rle : PieceCoding::Lz77;
 }
 
 // A piece: whole rows [y0, y1), about kPiece filtered bytes. Filtering row y0
@@ -184,7 +217,8 @@ void encodePiece(const PngRowSource& src, std::size_t rowBytes, std::size_t bpp,
     filter(job.y0, job.y1);
     const std::uint8_t* data = filtered.data() + back * stride;
     const std::size_t n = (job.y1 - job.y0) * stride;
-    const bool huffmanOnly = opt.compression == PngCompression::Auto && huffmanWins(data, n);
+    const PieceCoding coding = opt.compression == PngCompression::Auto ? chooseCoding(data, n) : PieceCoding::Lz77;
+    const bool huffmanOnly = coding == PieceCoding::Huffman;
     // ... and only zlib needs the rows behind them, for its dictionary.
     if (!huffmanOnly && back > 0) {
         generate(rawFirst, job.y0 - 1);
@@ -201,7 +235,8 @@ void encodePiece(const PngRowSource& src, std::size_t rowBytes, std::size_t bpp,
         return;
     }
     z_stream zs{};
-    if (deflateInit2(&zs, opt.level, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+    if (deflateInit2(&zs, opt.level, Z_DEFLATED, -15, 8, coding == PieceCoding::Rle ? Z_RLE : Z_DEFAULT_STRATEGY) !=
+        Z_OK)
         throw InternalError("zlib deflateInit2 failed");
     if (back > 0) {
         const std::size_t dict = std::min(kWindow, back * stride);

@@ -237,6 +237,44 @@ TEST(GroundTruth, EachWallVertexBelongsToTheBranchItSurrounds) {
     EXPECT_EQ(t.branch[static_cast<std::size_t>(24 * 64 + 10)], 0);  // the trachea's wall, to the side
 }
 
+TEST(GroundTruth, TheZBufferSeesWhatRaysSeeWhateverTheThreads) {
+    // Inside the phantom's trachea, the walls beside the camera cut by the
+    // near plane: the z-buffer (triangles set up once, culled to the image,
+    // rasterised in bands) against a ray per pixel into the SAH tree, and
+    // against itself on 1, 2 and 3 threads (bit for bit).
+    mesh::PhantomParams pp;
+    pp.generations = 2;
+    pp.resolution = 1;
+    const mesh::Phantom ph = mesh::makePhantom(pp);
+    const fit::Intrinsics K = camera(160, 120, 80);  // within 45 degrees of the axis: the same near plane for both
+    const auto& trachea = ph.centerline.branches[0];
+    const mesh::Vec3& a = trachea.points[trachea.points.size() / 3];
+    const mesh::Vec3& b = trachea.points.back();
+    const Mat4 c2w = fit::lookAtPose({a[0] + 2, a[1], a[2]}, {b[0], b[1], b[2]}, {0, 0, 1});
+    const double near = 3.0;
+    const dataset::GroundTruth z1 = dataset::groundTruth(ph.mesh, K, c2w, near, 1);
+    for (int threads : {2, 3}) {
+        const dataset::GroundTruth zn = dataset::groundTruth(ph.mesh, K, c2w, near, threads);
+        EXPECT_EQ(zn.face, z1.face) << threads;
+        EXPECT_EQ(zn.b1, z1.b1) << threads;
+        EXPECT_TRUE(std::equal(z1.depth.data(), z1.depth.data() + z1.depth.size(), zn.depth.data())) << threads;
+    }
+    const dataset::GroundTruth rays = dataset::groundTruth(ph.mesh, dataset::fromIntrinsics(K), c2w, near);
+    std::size_t seen = 0, sameFace = 0, sameDepth = 0;
+    for (std::size_t i = 0; i < z1.face.size(); ++i) {
+        EXPECT_EQ(z1.face[i] >= 0, rays.face[i] >= 0) << "pixel " << i;
+        if (z1.face[i] < 0) continue;
+        ++seen;
+        sameFace += z1.face[i] == rays.face[i];
+        const int x = static_cast<int>(i % K.width), y = static_cast<int>(i / K.width);
+        sameDepth += std::abs(z1.depth.at(x, y) - rays.depth.at(x, y)) <= 1e-4 * rays.depth.at(x, y);
+    }
+    EXPECT_EQ(seen, z1.face.size());  // inside a closed tube every pixel sees the wall
+    // Pixels on a shared edge may take either triangle; their depth agrees.
+    EXPECT_GE(sameFace, seen * 98 / 100);
+    EXPECT_GE(sameDepth, seen * 999 / 1000);
+}
+
 TEST(GroundTruth, InsideASphereDepthAndNormalsAreItsClosedForm) {
     const double r = 20;
     const mesh::Mesh sphere = mesh::makeSphere(static_cast<float>(r), 360, 180);

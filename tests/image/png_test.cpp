@@ -4,6 +4,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <random>
 
@@ -90,6 +91,36 @@ TEST(Png, MultiPieceStreamsDecodeForNoiseAndSmoothContent) {
     EXPECT_EQ(decodePng(encodePng(smooth16)).pixels, smooth16);
     // Smooth content must still compress well (the zlib path was chosen).
     EXPECT_LT(encodePng(smooth).size(), smooth.size() / 20);
+}
+
+TEST(Png, MasksLabelsAndPhotographsAreNoLargerThanZlibsOwn) {
+    // Near-constant data (a mask, a label image) has under 1 bit a byte of
+    // entropy, below any Huffman code's floor: the probe must not pick
+    // Huffman-only for it (it did, at 1 bit a byte: 20-40x zlib's size).
+    // Filtered photographs take the run-length strategy, no larger than
+    // zlib level 6.
+    Image8 mask(640, 480, 1);
+    Image16 labels(640, 480, 1);
+    Image8 photo(640, 480, 3);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> grain(0.0, 1.5);
+    for (int y = 0; y < 480; ++y)
+        for (int x = 0; x < 640; ++x) {
+            const double r = std::hypot(x - 320.0, y - 240.0);
+            mask.at(x, y) = r < 200 ? 255 : 0;
+            labels.at(x, y) = static_cast<std::uint16_t>(r < 90 ? 0 : (x < 320 ? 3 : 7));
+            for (int c = 0; c < 3; ++c)
+                photo.at(x, y, c) =
+                    static_cast<std::uint8_t>(std::clamp(120 + 80 * std::cos(r / 60.0 + c) + grain(rng), 0.0, 255.0));
+        }
+    PngWriteOptions zlib6;
+    zlib6.compression = PngCompression::Zlib;
+    EXPECT_LE(encodePng(mask).size(), encodePng(mask, zlib6).size() * 3 / 2);
+    EXPECT_LE(encodePng(labels).size(), encodePng(labels, zlib6).size() * 3 / 2);
+    EXPECT_LT(encodePng(mask).size(), mask.size() / 50);
+    EXPECT_LE(encodePng(photo).size(), encodePng(photo, zlib6).size() * 105 / 100);
+    EXPECT_EQ(decodeWithLibpng<std::uint8_t>(encodePng(photo), 3), photo);
+    EXPECT_EQ(decodePng(encodePng(labels)).pixels, labels);
 }
 
 TEST(Png, BytesAreIdenticalForAnyThreadCount) {

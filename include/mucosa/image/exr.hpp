@@ -22,4 +22,13 @@ ExrCompression parseExrCompression(const std::string& name, const std::string& w
 void writeExr(const std::filesystem::path& path, const ImageF& img, ExrCompression compression = ExrCompression::Zip);
 ImageF readExr(const std::filesystem::path& path);
 
+// OpenEXR compresses a file's blocks of scan lines on a process-wide thread
+// pool, which writeExr sizes to the machine the first time unless the program
+// has chosen first. A program that writes many files at once, each on a task
+// of its own (`mucosa render --outputs`), sets 0: the files already fill the
+// cores, and the pool would only add a hand-off (a task and two semaphore
+// posts) per block of scan lines, one per line when uncompressed. Call it
+// before writing, not while another thread writes.
+void setExrThreads(int threads);
+
 }  // namespace mucosa::image

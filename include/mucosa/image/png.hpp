@@ -12,9 +12,11 @@
 namespace mucosa::image {
 
 enum class PngCompression {
-    // Per 1 MiB piece: Huffman-only DEFLATE where the filtered bytes look like
-    // noise (>= 3 bits/byte of entropy: normal maps), zlib level `level`
-    // otherwise (smooth images, where LZ77 pays). See docs/theory.md.
+    // Per 1 MiB piece, from a probe of its filtered bytes: Huffman-only
+    // DEFLATE where they look like noise (normal maps), zlib's run-length
+    // strategy where it does as well as LZ77 (filtered photographs), zlib at
+    // `level` otherwise (depth-like data, where longer matches pay). See
+    // docs/theory.md.
     Auto,
     Zlib,  // zlib at `level` everywhere (what libpng would write, in parallel)
 };
