@@ -211,6 +211,9 @@ Plan readPlan(const fs::path& dir) {
             throw InputError("plan", where, "was edited: its content does not match its content_sha256");
         p.outputs = dataset::parseOutputs(p.settings.value("outputs", std::string("rgb")), "outputs", where);
         p.outputs.rgbBits = p.args.rgbBits;
+        // A plan is a dataset whatever its outputs: its frames have records.
+        p.args.dataset = true;
+        p.outputs.record = true;
         return p;
     } catch (const json::exception& e) {
         throw InputError("plan", where, fmt::format("is not a Mucosa plan ({})", e.what()));
@@ -366,6 +369,8 @@ std::string frameProblem(const Plan& p, int i) {
         try {
             if (f.extension() == ".exr")
                 (void)image::readExr(f);
+            else if (f.extension() == ".json")
+                (void)dataset::readFrameExposure(f);
             else
                 (void)image::readPng(f);
         } catch (const Error& e) {

@@ -68,6 +68,14 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
                           double depthScaleMm, const nlohmann::json& settings, const mesh::Centerline& tree,
                           const std::optional<dataset::Lens>& lens) {
     fit::FrameSet set;
+    // Each frame's exposure, from its record where it is on disk (the
+    // manifest is written again once every frame is).
+    std::vector<double> exposures(names.size(), 0.0);
+    if (dataset::hasRecord(outputs))
+        for (std::size_t i = 0; i < names.size(); ++i) {
+            const std::filesystem::path record = dataset::recordFile(names[i]);
+            if (std::filesystem::exists(record)) exposures[i] = dataset::readFrameExposure(record);
+        }
     // How to read the frames' pixels back to the signal. Only the
     // photographic modes' frames go through the scope's camera (camera.glsl,
     // Renderer::draw); the others write their values as they are: the brdf
@@ -75,12 +83,11 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
     // already a camera's linear output: mucosa fit's), the debug views
     // display values. For those the camera's settings describe nothing in the
     // frames: the manifest says linear, no vignetting. The photographic
-    // frames: the tone curve, the vignetting and the colour enhancement, which
-    // `mucosa fit` undoes; auto-exposure gives each frame an exposure this file
-    // does not record, which it refuses (a fixed exposure is one factor, which
-    // the albedo takes). Not undone: the sensor's noise (random: the fit's
-    // robust loss), the optics' softness (a blur under a pixel) and the mask
-    // (the fit finds it in the frames).
+    // frames: the tone curve, the vignetting, the colour enhancement and each
+    // frame's exposure (frames[i].exposure, from its record), which `mucosa
+    // fit` undoes. Not undone: the sensor's noise (random: the fit's robust
+    // loss), the optics' softness (a blur under a pixel) and the mask (the
+    // fit finds it in the frames).
     if (shading::info(scene.mode).photographic) {
         set.response.toneCurve = static_cast<int>(scene.params[shading::Param::ToneCurve]);
         set.response.vignetting = scene.params[shading::Param::Vignetting];
@@ -102,6 +109,7 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
         f.image = names[i];
         f.K = K;
         f.cameraToWorld = dataset::cameraToWorldOf(poses[i]);
+        f.exposure = exposures[i];
         set.frames.push_back(f);
     }
     nlohmann::json extra;
@@ -152,11 +160,12 @@ Prepared prepare(const RenderArgs& a) {
     p.frames = a.frames > 0 ? a.frames : scene.frames;
     // What each frame writes: --outputs, else the scene's "outputs"; with
     // either, a dataset manifest (out.frames.json) goes beside the frames.
-    p.asDataset = !a.outputs.empty() || !scene.outputs.empty();
-    p.outputs = !a.outputs.empty() ? dataset::parseOutputs(a.outputs, "--outputs", "the command line")
-                : p.asDataset      ? dataset::parseOutputs(scene.outputs, "outputs",
-                                                      scene.file.empty() ? "the scene" : scene.file.string())
-                                   : dataset::Outputs{};
+    p.asDataset = a.dataset || !a.outputs.empty() || !scene.outputs.empty();
+    p.outputs = !a.outputs.empty()       ? dataset::parseOutputs(a.outputs, "--outputs", "the command line")
+                : !scene.outputs.empty() ? dataset::parseOutputs(scene.outputs, "outputs",
+                                                                 scene.file.empty() ? "the scene" : scene.file.string())
+                                         : dataset::Outputs{};
+    p.outputs.record = p.asDataset;
     p.outputs.rgbBits = a.rgbBits;
     p.outputs.exrCompression = image::parseExrCompression(a.exrCompression, "--exr-compression", "the command line");
     if (a.rgbBits == 16 && a.reference)
@@ -445,17 +454,24 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
                                      manifest, assets.centerlineTree, lens);
         }
         // The colour frame last: a frame is complete when all its files are.
-        writer.push([encode, png, truth, linear, highlight, name, &outputs, scale = a.depthScaleMm, shard, i] {
-            if (truth) dataset::writeGroundTruth(*truth, name, outputs, scale);
-            auto beside = [&name](const char* suffix) {
-                fs::path p = name;
-                return p.replace_filename(name.stem().string() + suffix);
-            };
-            if (outputs.linear) image::writeExr(beside(".linear.exr"), *linear, outputs.exrCompression);
-            if (outputs.highlight) image::writePng(beside(".highlight.png"), *highlight);
-            if (outputs.rgb) writeFileAtomic(name, png->empty() ? encode() : *png);
-            if (shard && shard->written) shard->written(i);
-        });
+        // The exposure the camera gave this frame (the modes without a camera: 1).
+        const double frameExposure = !photographic ? 1.0
+                                     : a.reference ? static_cast<double>(std::exp2(exposure.ev))
+                                                   : static_cast<double>(session->renderer().lastExposure());
+        writer.push(
+            [encode, png, truth, linear, highlight, name, &outputs, scale = a.depthScaleMm, shard, i, frameExposure] {
+                if (truth) dataset::writeGroundTruth(*truth, name, outputs, scale);
+                auto beside = [&name](const char* suffix) {
+                    fs::path p = name;
+                    return p.replace_filename(name.stem().string() + suffix);
+                };
+                if (outputs.linear) image::writeExr(beside(".linear.exr"), *linear, outputs.exrCompression);
+                if (outputs.highlight) image::writePng(beside(".highlight.png"), *highlight);
+                if (dataset::hasRecord(outputs))
+                    writeFileAtomic(dataset::recordFile(name), dataset::frameRecord(i, frameExposure).dump(2) + "\n");
+                if (outputs.rgb) writeFileAtomic(name, png->empty() ? encode() : *png);
+                if (shard && shard->written) shard->written(i);
+            });
         if (truth && outputs.flow) previous = truth, previousIndex = i;
         if (written++ == 0) firstWritten = i;
         lastWritten = i;
@@ -493,6 +509,10 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
     }
     writer.finish();
     if (tty && frames > 1) std::fprintf(stderr, "\n");
+    // Every frame is on disk: the manifest again, with each frame's exposure.
+    if (prep.asDataset && !shard && dataset::hasRecord(outputs))
+        writeDatasetManifest(datasetManifestPath(out), out, scene, poses, names, outputs, a.depthScaleMm, manifest,
+                             assets.centerlineTree, lens);
     if (frames == 1 && !shard)
         info(g, fmt::format("wrote {} ({}x{}, mode {})", out.string(), scene.width, scene.height,
                             shading::modeName(scene.mode)));

@@ -28,6 +28,7 @@ struct RenderArgs {
     std::string lens;                    // --lens FILE (overrides the scene's camera.lens)
     int rgbBits = 8;                     // --rgb-bits
     std::string exrCompression = "zip";  // --exr-compression
+    bool dataset = false;                // a plan's run: a dataset (frame records) whatever the outputs
 };
 
 // A dataset plan's share of a sequence (mucosa dataset run): which frames to

@@ -12,6 +12,7 @@
 #include <tbb/task_group.h>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/core/file.hpp>
 #include <mucosa/core/memory.hpp>
 #include <mucosa/core/parallel.hpp>
 #include <mucosa/dataset/raycast.hpp>
@@ -19,6 +20,7 @@
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
 
+#include "core/json_parse.hpp"
 #include "shading/glsl.hpp"
 
 namespace mucosa::dataset {
@@ -419,7 +421,26 @@ std::vector<fs::path> outputFiles(const fs::path& rgbName, const Outputs& o) {
     if (o.branch) files.push_back(beside(rgbName, ".branch.png"));
     if (o.linear) files.push_back(beside(rgbName, ".linear.exr"));
     if (o.highlight) files.push_back(beside(rgbName, ".highlight.png"));
+    if (hasRecord(o)) files.push_back(recordFile(rgbName));
     return files;
+}
+
+fs::path recordFile(const fs::path& rgbName) {
+    return beside(rgbName, ".frame.json");
+}
+
+nlohmann::json frameRecord(int index, double exposure) {
+    return {{"frame", index}, {"exposure", exposure}, {"exposure_ev", std::log2(exposure)}};
+}
+
+double readFrameExposure(const fs::path& path) {
+    const std::string file = path.string();
+    const nlohmann::json j = detail::parseJsonFile(readTextFile(path), file);
+    if (!j.is_object() || !j.contains("exposure") || !j["exposure"].is_number())
+        throw InputError("frame record", file, "has no number 'exposure'");
+    const double e = j["exposure"].get<double>();
+    if (!(e > 0 && std::isfinite(e))) throw InputError("field 'exposure'", file, "must be a positive number");
+    return e;
 }
 
 void writeGroundTruth(const GroundTruth& t, const fs::path& rgbName, const Outputs& o, double depthScale) {
@@ -528,6 +549,14 @@ nlohmann::json describeOutputs(const fs::path& output, int frames, const Outputs
                                     "(material.specular_strength's lobe) adds at least {} of full scale to the "
                                     "luminance of the noise-free linear signal (after clipping); 0 elsewhere",
                                     kHighlightMinSignal)}};
+    if (hasRecord(o))
+        j["record"] = {
+            {"file", stem + ".frame.json"},
+            {"encoding", "JSON: {\"frame\": index, \"exposure\": gain, \"exposure_ev\": log2 of it}"},
+            {"content",
+             "the exposure the camera gave the frame: the linear gain applied to its sensor signal (2^EV, the "
+             "metered value under auto-exposure, 2^camera.exposure_ev without; 1 in the modes without a camera); "
+             "copied into this file's frames[i].exposure, which `mucosa fit` divides out"}};
     if (o.depth) {
         j["depth"] = {{"file", stem + ".depth.exr"},
                       {"encoding", exr("one FLOAT channel 'Y'")},

@@ -73,7 +73,8 @@ image::ImageF loadFrameImage(const Frame& frame, const Response& response, image
     const bool enhanced = colour == 3 && response.colourGain != 1;
     for (int y = 0; y < px.height(); ++y)
         for (int x = 0; x < px.width(); ++x) {
-            const double vignette = response.vignette(frame.K, x, y);
+            // The vignetting and the frame's recorded exposure (its gain) divided out.
+            const double vignette = response.vignette(frame.K, x, y) * (frame.exposure > 0 ? frame.exposure : 1.0);
             bool sat = false;
             std::array<double, 3> v{};
             for (int c = 0; c < 3; ++c) {

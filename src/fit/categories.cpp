@@ -86,19 +86,20 @@ image::Image8 toImage8(const image::ImageF& linear, double gamma) {
 }
 
 // Categories 2-4 as the scope shows a frame: the fitted model's linear
-// signal (the frames' exposure is in the albedo, and so is any colour
+// signal (an unrecorded exposure is in the albedo, and so is any colour
 // processing the scope did that the frames file does not name) through the
 // frames' own response, the inverse of what `mucosa fit` did to read them:
-// the vignetting cos^k put back, clipping at 1, the tone curve, the colour
-// enhancement ("saturation"); and black where the real frame is outside the
-// scope's field of view (its own mask, whatever its shape).
-image::Image8 develop(const image::ImageF& linear, const Intrinsics& K, const Response& response,
+// the frame's recorded exposure (`gain`) and the vignetting cos^k put back,
+// clipping at 1, the tone curve, the colour enhancement ("saturation"); and
+// black where the real frame is outside the scope's field of view (its own
+// mask, whatever its shape).
+image::Image8 develop(const image::ImageF& linear, const Intrinsics& K, const Response& response, double gain,
                       const std::vector<std::uint8_t>& outside) {
     image::Image8 out(linear.width(), linear.height(), 3);
     for (int y = 0; y < linear.height(); ++y)
         for (int x = 0; x < linear.width(); ++x) {
             if (outside[static_cast<std::size_t>(y) * linear.width() + x]) continue;
-            const double vignette = response.vignette(K, x, y);
+            const double vignette = response.vignette(K, x, y) * gain;
             std::array<double, 3> v{};
             for (int c = 0; c < 3; ++c)
                 v[static_cast<std::size_t>(c)] = response.encode(std::clamp(linear.at(x, y, c) * vignette, 0.0, 1.0));
@@ -212,8 +213,9 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
             const bool photographic = shading::info(mode).photographic;
             (photographic ? fb : linear).bind();
             renderer.draw(setup);
-            const image::Image8 img =
-                photographic ? fb.readRgb() : develop(linear.readRgbLinear(), f.K, frames.response, outside);
+            const image::Image8 img = photographic ? fb.readRgb()
+                                                   : develop(linear.readRgbLinear(), f.K, frames.response,
+                                                             f.exposure > 0 ? f.exposure : 1.0, outside);
             CategoryImage ci{fmt::format("p{:03}_c{}", i, category), fmt::format("pose{:03}_cat{}.png", i, category),
                              category, i};
             image::writePng(outDir / ci.file, img);

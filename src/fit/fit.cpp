@@ -110,13 +110,18 @@ AtlasShape atlasShape(const mesh::Mesh& m, std::array<float, 2> uvMin, std::arra
 
 FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOptions& o) {
     const auto t0 = std::chrono::steady_clock::now();
-    // Each frame's own, unrecorded exposure would be read as shading (auto-
-    // exposure brightens the far, dark views: delta comes out flattened).
+    // Each frame's own exposure, unrecorded, would be read as shading (auto-
+    // exposure brightens the far, dark views: delta comes out flattened);
+    // recorded, it is divided out (loadFrameImage).
     if (set.autoExposure)
-        throw InputError("field 'auto_exposure'", "",
-                         "is true: the frames were rendered with auto-exposure, each at an exposure of its own that "
-                         "the file does not record and the fit would take for shading; render them with a fixed "
-                         "exposure (--set camera.auto_exposure=0, and camera.exposure_ev)");
+        for (std::size_t i = 0; i < set.frames.size(); ++i)
+            if (!(set.frames[i].exposure > 0))
+                throw InputError(
+                    fmt::format("field 'frames[{}].exposure'", i), "",
+                    "is missing and 'auto_exposure' is true: each frame was exposed at a gain of its own, which the "
+                    "fit would take for shading; a dataset of mucosa render records it (its frames' .frame.json; "
+                    "`mucosa dataset verify` copies them in), or render with a fixed exposure (--set "
+                    "camera.auto_exposure=0)");
     if (!mesh.hasUvs())
         throw InputError("mesh", "",
                          "has no texture coordinates: prepare it with `mucosa mesh IN -o OUT --uv centerline`");

@@ -151,6 +151,13 @@ FrameSet readFrames(const fs::path& path, bool anyLens) {
         if (!f.contains("camera_to_world"))
             throw InputError("field '" + where + "camera_to_world'", file, "must be a row-major 4x4 matrix");
         fr.cameraToWorld = parseMatrix(f["camera_to_world"], where + "camera_to_world", file);
+        if (f.contains("exposure")) {
+            if (!f["exposure"].is_number() || !(f["exposure"].get<double>() > 0) ||
+                !std::isfinite(f["exposure"].get<double>()))
+                throw InputError("field '" + where + "exposure'", file,
+                                 "must be a positive number (the camera's linear gain, 2^EV)");
+            fr.exposure = f["exposure"].get<double>();
+        }
         // `mucosa register` flags frames it could not register.
         if (f.contains("registration") && f["registration"].is_object() && f["registration"].contains("converged") &&
             f["registration"]["converged"].is_boolean())
@@ -248,8 +255,9 @@ void writeFrames(const fs::path& path, const FrameSet& set, const json& extra) {
         json m = json::array();
         for (const auto& row : f.cameraToWorld) m.push_back(row);
         const json k = intrinsicsJson(f.K);
-        j["frames"].push_back(
-            json{{"image", relativePath(f.image, path.parent_path())}, {"intrinsics", k}, {"camera_to_world", m}});
+        json entry{{"image", relativePath(f.image, path.parent_path())}, {"intrinsics", k}, {"camera_to_world", m}};
+        if (f.exposure > 0) entry["exposure"] = f.exposure;
+        j["frames"].push_back(std::move(entry));
     }
     for (const auto& [key, value] : extra.items())
         if (!j.contains(key)) j[key] = value;

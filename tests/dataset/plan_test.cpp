@@ -68,7 +68,9 @@ TEST(DatasetPlan, AnyShardingGivesTheBytesOfOneRun) {
     fs::copy_file(a / "plan.json", b / "plan.json");
     ok("dataset run " + q(b));
     expectSameFrames(a, b);
-    EXPECT_EQ(framesOf(a).size(), 7u * 8u);  // png, depth and normals (exr, png), flow, occlusion, .sha256
+    // png, depth and normals (exr, png), flow, occlusion, the frame's record
+    // (its exposure: the same bytes too), .sha256
+    EXPECT_EQ(framesOf(a).size(), 7u * 9u);
     // More shards than segments (4): some have nothing to do.
     const test::RunResult empty = ok("dataset run " + q(a) + " --shard 5/10");
     EXPECT_NE(empty.out.find("no frames"), std::string::npos) << empty.out;
@@ -85,7 +87,7 @@ TEST(DatasetPlan, WithFixedExposureTheFramesAreMucosaRendersFrames) {
     ok("dataset run " + q(dir / "plan") + " --shard 0/2");
     ok("render --frames 4" + common + " -o " + q(dir / "fly.png"));
     for (int i = 0; i < 4; ++i)
-        for (const char* suffix : {".png", ".depth.exr", ".depth.png"}) {
+        for (const char* suffix : {".png", ".depth.exr", ".depth.png", ".frame.json"}) {
             const std::string n = "_000" + std::to_string(i) + suffix;
             EXPECT_TRUE(test::readBytes(dir / "plan" / "frames" / ("frame" + n)) == test::readBytes(dir / ("fly" + n)))
                 << n;

@@ -46,10 +46,28 @@ struct Outputs {
     // Drawn by the renderer with the colour frame's exposure:
     bool linear = false;     // the camera's linear signal (before the tone curve): float32 EXR
     bool highlight = false;  // the specular-highlight pixels: 8-bit PNG
+    // Each colour frame's record, OUT_NNNN.frame.json: the exposure the
+    // camera gave it (auto-exposure changes it frame by frame), which
+    // `mucosa fit` divides out. Written by every dataset (a run with outputs,
+    // or a plan's); not by a plain sequence of frames.
+    bool record = false;
     // How the float EXRs are compressed (lossless; image::ExrCompression).
     image::ExrCompression exrCompression = image::ExrCompression::Zip;
     bool any() const noexcept { return depth || normals || mask || uv || face || flow || branch; }  // any ground truth
 };
+// Whether the frames have a record (Outputs::record, and a colour output).
+inline bool hasRecord(const Outputs& o) noexcept {
+    return o.record && (o.rgb || o.linear || o.highlight);
+}
+// A frame's record: {"frame": index, "exposure": the linear gain the camera
+// applied to the frame's signal (2^EV), "exposure_ev": its log2}. The
+// non-photographic modes (brdf, the debug views) have no camera: 1 and 0.
+nlohmann::json frameRecord(int index, double exposure);
+// out_0012.png -> out_0012.frame.json.
+std::filesystem::path recordFile(const std::filesystem::path& rgbName);
+// The exposure in a record file; throws InputError naming the file.
+double readFrameExposure(const std::filesystem::path& path);
+
 // The highlight mask: a pixel is a specular highlight where the specular
 // lobe (material.specular_strength) adds at least this much, of full scale,
 // to the noise-free linear signal's luminance (after the sensor clips: a

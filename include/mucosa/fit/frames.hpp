@@ -27,6 +27,11 @@ struct Frame {
     Intrinsics K;
     Mat4 cameraToWorld{};
     bool flagged = false;  // registration.converged is false (`mucosa register` could not register it)
+    // The linear gain the camera applied to this frame's signal (the file's
+    // "exposure": 2^EV; mucosa render's datasets record it per frame), which
+    // the frame's linearised values are divided by. 0: not recorded (a real
+    // scope's frames): one unknown gain for all frames, which the albedo takes.
+    double exposure = 0;
 };
 
 // How a frame's pixel values (0..1) go back to the sensor's linear signal:
@@ -69,9 +74,9 @@ struct FrameSet {
     Vec3d lightOffset{0, 0, 0};
     // The frames were rendered with auto-exposure (the file's "auto_exposure":
     // true; mucosa render's manifest of a photographic mode with
-    // camera.auto_exposure on): each frame has an exposure of its own that the
-    // file does not record, which the shading cannot be told from, so
-    // fitFrames refuses them.
+    // camera.auto_exposure on): each frame has an exposure of its own, which
+    // the shading cannot be told from, so fitFrames refuses them unless every
+    // frame's exposure is recorded (Frame::exposure).
     bool autoExposure = false;
     std::vector<Frame> frames;
 };
