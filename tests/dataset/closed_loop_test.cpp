@@ -270,6 +270,29 @@ void keep(const test::TempDir& dir) {
                  fs::copy_options::recursive | fs::copy_options::overwrite_existing);
 }
 
+// The photographic loops' light: the paper's model (the lamp at the eye, no
+// angular fall-off, no ambient, wrap or mucus; a 100 mm source radius makes
+// its I / (z^2 + a^2) a smooth factor of delta), and the truth it gives.
+constexpr double kIntensity = 10000, kSourceRadius = 100;
+
+std::string paperLighting() {
+    return fmt::format(
+        " --set material.base_color=1,1,1 --set material.mucus_opacity=0 --set material.ambient=0 "
+        "--set material.wrap=0 --set light.spread=0 --set light.source_radius_mm={} --set light.intensity={}",
+        kSourceRadius, kIntensity);
+}
+
+Truth photographicTruth(const Brdf& brdf) {
+    return {[brdf](double g) { return brdf.rho(g); },
+            [brdf](double z) { return brdf.delta(z) * kIntensity / (z * z + kSourceRadius * kSourceRadius); },
+            [](double u, double v) {
+                // The photographic modes decode the texture as sRGB.
+                auto a = textureValue(u, v);
+                for (double& x : a) x = shading::inverseToneCurve(static_cast<float>(std::round(x * 255.0) / 255.0), 2);
+                return a;
+            }};
+}
+
 }  // namespace
 
 // The brdf mode writes texture x rho x delta as they are (no camera): its
@@ -333,11 +356,7 @@ TEST(ClosedLoop, PhotographicDatasetIsReadBackToItsSignalThroughTheCli) {
     test::TempDir dir;
     writeScene(dir.path());
     const Brdf brdf;
-    constexpr double kIntensity = 10000, kSourceRadius = 100;
-    const std::string lighting = fmt::format(
-        " --set material.base_color=1,1,1 --set material.mucus_opacity=0 --set material.ambient=0 "
-        "--set material.wrap=0 --set light.spread=0 --set light.source_radius_mm={} --set light.intensity={}",
-        kSourceRadius, kIntensity);
+    const std::string lighting = paperLighting();
     auto t0 = std::chrono::steady_clock::now();
     const auto render = test::runCli(fmt::format("render scene.json --mode diffuse{}{} --set camera.auto_exposure=0 "
                                                  "--outputs rgb --frames {} -o frames/f.png",
@@ -356,15 +375,7 @@ TEST(ClosedLoop, PhotographicDatasetIsReadBackToItsSignalThroughTheCli) {
         test::runCli("fit --mesh tube.ply --frames frames/f.frames.json -o fit --texture-size 256", dir.path());
     ASSERT_EQ(fit.exitCode, 0) << fit.err;
     const double fitSeconds = since(t0);
-    const Truth truth{[&](double g) { return brdf.rho(g); },
-                      [&](double z) { return brdf.delta(z) * kIntensity / (z * z + kSourceRadius * kSourceRadius); },
-                      [](double u, double v) {
-                          // The photographic modes decode the texture as sRGB.
-                          auto a = textureValue(u, v);
-                          for (double& x : a)
-                              x = shading::inverseToneCurve(static_cast<float>(std::round(x * 255.0) / 255.0), 2);
-                          return a;
-                      }};
+    const Truth truth = photographicTruth(brdf);
     const Recovery e = compare(dir.path(), dir / "frames/f.frames.json", truth);
     print("photographic closed loop", e, renderSeconds, fitSeconds);
     keep(dir);
@@ -392,11 +403,7 @@ TEST(ClosedLoop, AutoExposedDatasetFitsBackWithItsRecordedExposures) {
     test::TempDir dir;
     writeScene(dir.path());
     const Brdf brdf;
-    constexpr double kIntensity = 10000, kSourceRadius = 100;
-    const std::string lighting = fmt::format(
-        " --set material.base_color=1,1,1 --set material.mucus_opacity=0 --set material.ambient=0 "
-        "--set material.wrap=0 --set light.spread=0 --set light.source_radius_mm={} --set light.intensity={}",
-        kSourceRadius, kIntensity);
+    const std::string lighting = paperLighting();
     const auto render =
         test::runCli(fmt::format("render scene.json --mode diffuse{}{} --outputs rgb --frames {} -o frames/f.png",
                                  brdf.setArgs(), lighting, kFrames),
@@ -421,14 +428,7 @@ TEST(ClosedLoop, AutoExposedDatasetFitsBackWithItsRecordedExposures) {
     const auto fit =
         test::runCli("fit -q --mesh tube.ply --frames frames/f.frames.json -o fit --texture-size 256", dir.path());
     ASSERT_EQ(fit.exitCode, 0) << fit.err;
-    const Truth truth{[&](double g) { return brdf.rho(g); },
-                      [&](double z) { return brdf.delta(z) * kIntensity / (z * z + kSourceRadius * kSourceRadius); },
-                      [](double u, double v) {
-                          auto a = textureValue(u, v);
-                          for (double& x : a)
-                              x = shading::inverseToneCurve(static_cast<float>(std::round(x * 255.0) / 255.0), 2);
-                          return a;
-                      }};
+    const Truth truth = photographicTruth(brdf);
     const Recovery e = compare(dir.path(), dir / "frames/f.frames.json", truth);
     print("auto-exposed closed loop", e, 0, 0);
     keep(dir);
