@@ -16,7 +16,7 @@ enum class PngCompression {
     // DEFLATE where they look like noise (normal maps), zlib's run-length
     // strategy where it does as well as LZ77 (filtered photographs), zlib at
     // `level` otherwise (depth-like data, where longer matches pay). See
-    // docs/theory.md.
+    // docs/dependencies.md.
     Auto,
     Zlib,  // zlib at `level` everywhere (what libpng would write, in parallel)
 };
