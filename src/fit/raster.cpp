@@ -85,10 +85,17 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
     g.width = K.width;
     g.height = K.height;
     const std::size_t n = static_cast<std::size_t>(K.width) * K.height;
+    // A triangle clipped and projected once.
+    struct Setup {
+        ScreenVertex s[4];
+        std::int32_t tri;
+        int corners;     // 3, or 4 (clipped by the near plane: two triangles)
+        int yMin, yMax;  // rows its bounding box spans, inside the image
+    };
     // The z-buffer, the vertices in camera space, each triangle's set-up.
-    requireMemory(
-        saturatingMul(n, 16) + saturatingMul(mesh.vertexCount(), 24) + saturatingMul(mesh.triangleCount(), 176),
-        "a depth pass");
+    requireMemory(saturatingMul(n, 16) + saturatingMul(mesh.vertexCount(), 24) +
+                      saturatingMul(mesh.triangleCount(), sizeof(Setup)),
+                  "a depth pass");
     g.triangle.assign(n, -1);
     g.b1.assign(n, 0.f);
     g.b2.assign(n, 0.f);
@@ -103,12 +110,6 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
     // taking the kept triangles in the mesh's order, so the result is the
     // same for any number of threads. (Every band setting up every triangle
     // cost 8x the setup on two cores.)
-    struct Setup {
-        ScreenVertex s[4];
-        std::int32_t tri;
-        int corners;     // 3, or 4 (clipped by the near plane: two triangles)
-        int yMin, yMax;  // rows its bounding box spans, inside the image
-    };
     constexpr std::size_t kChunk = 4096;
     const std::size_t chunks = (triangles + kChunk - 1) / kChunk;
     std::vector<std::vector<Setup>> kept(chunks);
@@ -143,8 +144,9 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
                 if (!(maxX >= 0 && minX <= K.width - 1 && maxY >= 0 && minY <= K.height - 1)) continue;
                 u.tri = static_cast<std::int32_t>(t);
                 u.corners = m;
-                u.yMin = std::max(0, static_cast<int>(std::ceil(minY)));
-                u.yMax = std::min(K.height - 1, static_cast<int>(std::floor(maxY)));
+                // Clamped to the image before the conversion (a projection near the near plane can be huge).
+                u.yMin = static_cast<int>(std::ceil(std::max(minY, 0.0)));
+                u.yMax = static_cast<int>(std::floor(std::min(maxY, K.height - 1.0)));
                 if (u.yMin > u.yMax) continue;
                 out.push_back(u);
             }
