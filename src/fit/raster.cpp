@@ -80,21 +80,67 @@ std::size_t GBuffer::hits() const noexcept {
     return static_cast<std::size_t>(std::count_if(triangle.begin(), triangle.end(), [](auto t) { return t >= 0; }));
 }
 
+namespace {
+
+// A triangle clipped against the near plane and projected: one polygon of 3
+// or 4 corners (two triangles when the plane cuts it).
+struct Projected {
+    ScreenVertex s[4];
+    int corners = 0;
+    int yMin = 0, yMax = -1;  // rows its bounding box spans, inside the image
+};
+
+// False when the triangle is behind the near plane or its bounding box holds
+// no pixel centre of the image.
+bool project(const std::vector<Vec3d>& cam, const mesh::Mesh& mesh, std::size_t t, const Intrinsics& K, double near,
+             Projected& u) {
+    ClipVertex in[3];
+    for (int k = 0; k < 3; ++k) {
+        const Vec3d& v = cam[mesh.indices[3 * t + k]];
+        in[k] = {v[0], v[1], v[2], k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0};
+    }
+    if (in[0].z < near && in[1].z < near && in[2].z < near) return false;
+    ClipVertex poly[4];
+    const int m = clipNear(in, near, poly);
+    if (m < 3) return false;
+    double minX = std::numeric_limits<double>::infinity(), maxX = -minX, minY = minX, maxY = -minX;
+    for (int k = 0; k < m; ++k) {
+        const double iz = 1.0 / poly[k].z;
+        u.s[k] = {K.fx * poly[k].x * iz + K.cx, K.fy * poly[k].y * iz + K.cy, iz, poly[k].b1 * iz, poly[k].b2 * iz};
+        minX = std::min(minX, u.s[k].sx), maxX = std::max(maxX, u.s[k].sx);
+        minY = std::min(minY, u.s[k].sy), maxY = std::max(maxY, u.s[k].sy);
+    }
+    if (!(maxX >= 0 && minX <= K.width - 1 && maxY >= 0 && minY <= K.height - 1)) return false;
+    u.corners = m;
+    // Clamped to the image before the conversion (a projection near the near
+    // plane can be huge).
+    u.yMin = static_cast<int>(std::ceil(std::max(minY, 0.0)));
+    u.yMax = static_cast<int>(std::floor(std::min(maxY, K.height - 1.0)));
+    return u.yMin <= u.yMax;
+}
+
+void rasterProjected(const Projected& u, std::int32_t tri, int yBegin, int yEnd, GBuffer& g) {
+    rasterTriangle(u.s[0], u.s[1], u.s[2], tri, yBegin, yEnd, g);
+    if (u.corners == 4) rasterTriangle(u.s[0], u.s[2], u.s[3], tri, yBegin, yEnd, g);
+}
+
+}  // namespace
+
 GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, double near, int threads) {
     GBuffer g;
     g.width = K.width;
     g.height = K.height;
     const std::size_t n = static_cast<std::size_t>(K.width) * K.height;
-    // A triangle clipped and projected once.
-    struct Setup {
-        ScreenVertex s[4];
+    // A kept triangle: its index and the rows it spans.
+    struct Kept {
         std::int32_t tri;
-        int corners;     // 3, or 4 (clipped by the near plane: two triangles)
-        int yMin, yMax;  // rows its bounding box spans, inside the image
+        int yMin, yMax;
     };
-    // The z-buffer, the vertices in camera space, each triangle's set-up.
+    const std::size_t triangles = mesh.triangleCount();
+    const int workers = resolveThreads(threads);
+    // The z-buffer, the vertices in camera space, the kept triangles.
     requireMemory(saturatingMul(n, 16) + saturatingMul(mesh.vertexCount(), 24) +
-                      saturatingMul(mesh.triangleCount(), sizeof(Setup)),
+                      (workers == 1 ? 0 : saturatingMul(triangles, sizeof(Kept))),
                   "a depth pass");
     g.triangle.assign(n, -1);
     g.b1.assign(n, 0.f);
@@ -102,63 +148,51 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
     g.depth.assign(n, std::numeric_limits<float>::infinity());
 
     std::vector<Vec3d> cam(mesh.vertexCount());
-    const std::size_t triangles = mesh.triangleCount();
-    const int workers = resolveThreads(threads);
-    // Each triangle is clipped and projected once (in chunks of triangles, in
-    // parallel), kept only where its bounding box meets the image; then
-    // bands of rows rasterise, each owning its rows of the z-buffer and
-    // taking the kept triangles in the mesh's order, so the result is the
-    // same for any number of threads. (Every band setting up every triangle
-    // cost 8x the setup on two cores.)
-    constexpr std::size_t kChunk = 4096;
+    const auto toCamera = [&](std::size_t i) {
+        const auto& p = mesh.positions[i];
+        cam[i] = transformPoint(W, {p[0], p[1], p[2]});
+    };
+    if (workers == 1) {
+        // One pass, nothing stored: the registration calls this thousands of
+        // times on small images from inside its own parallel loops.
+        for (std::size_t i = 0; i < cam.size(); ++i) toCamera(i);
+        Projected u;
+        for (std::size_t t = 0; t < triangles; ++t)
+            if (project(cam, mesh, t, K, near, u)) rasterProjected(u, static_cast<std::int32_t>(t), 0, K.height, g);
+        return g;
+    }
+    // Each triangle is culled once (in chunks of triangles, in parallel) and
+    // kept, with its rows, only where its bounding box meets the image; then
+    // bands of rows rasterise, each owning its rows of the z-buffer, taking
+    // the kept triangles that reach its rows in the mesh's order and
+    // projecting them again (cheaper than storing the projection, and a
+    // triangle reaches one or two bands), so the result is the same, bit for
+    // bit, for any number of threads. (Every band clipping and projecting
+    // every triangle cost 8x that work on two cores.)
+    constexpr std::size_t kChunk = 16384;
     const std::size_t chunks = (triangles + kChunk - 1) / kChunk;
-    std::vector<std::vector<Setup>> kept(chunks);
+    std::vector<std::vector<Kept>> kept(chunks);
     tbb::task_arena arena(workers);
     arena.execute([&] {
-        tbb::parallel_for(std::size_t{0}, cam.size(), [&](std::size_t i) {
-            const auto& p = mesh.positions[i];
-            cam[i] = transformPoint(W, {p[0], p[1], p[2]});
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cam.size(), 4096), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i < r.end(); ++i) toCamera(i);
         });
         tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-            std::vector<Setup>& out = kept[c];
-            for (std::size_t t = c * kChunk; t < std::min(triangles, (c + 1) * kChunk); ++t) {
-                ClipVertex in[3];
-                for (int k = 0; k < 3; ++k) {
-                    const Vec3d& v = cam[mesh.indices[3 * t + k]];
-                    in[k] = {v[0], v[1], v[2], k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0};
-                }
-                if (in[0].z < near && in[1].z < near && in[2].z < near) continue;
-                ClipVertex poly[4];
-                const int m = clipNear(in, near, poly);
-                if (m < 3) continue;
-                Setup u;
-                double minX = std::numeric_limits<double>::infinity(), maxX = -minX, minY = minX, maxY = -minX;
-                for (int k = 0; k < m; ++k) {
-                    const double iz = 1.0 / poly[k].z;
-                    u.s[k] = {K.fx * poly[k].x * iz + K.cx, K.fy * poly[k].y * iz + K.cy, iz, poly[k].b1 * iz,
-                              poly[k].b2 * iz};
-                    minX = std::min(minX, u.s[k].sx), maxX = std::max(maxX, u.s[k].sx);
-                    minY = std::min(minY, u.s[k].sy), maxY = std::max(maxY, u.s[k].sy);
-                }
-                // No pixel centre inside the image (or a degenerate projection).
-                if (!(maxX >= 0 && minX <= K.width - 1 && maxY >= 0 && minY <= K.height - 1)) continue;
-                u.tri = static_cast<std::int32_t>(t);
-                u.corners = m;
-                // Clamped to the image before the conversion (a projection near the near plane can be huge).
-                u.yMin = static_cast<int>(std::ceil(std::max(minY, 0.0)));
-                u.yMax = static_cast<int>(std::floor(std::min(maxY, K.height - 1.0)));
-                if (u.yMin > u.yMax) continue;
-                out.push_back(u);
-            }
+            std::vector<Kept>& out = kept[c];
+            const std::size_t end = std::min(triangles, (c + 1) * kChunk);
+            Projected u;
+            for (std::size_t t = c * kChunk; t < end; ++t)
+                if (project(cam, mesh, t, K, near, u)) out.push_back({static_cast<std::int32_t>(t), u.yMin, u.yMax});
         });
-        const int bands = workers == 1 ? 1 : std::max(1, std::min(K.height, 4 * workers));
+        const int bands = std::max(1, std::min(K.height, 4 * workers));
         tbb::parallel_for(0, bands, [&](int band) {
             const int yBegin = K.height * band / bands, yEnd = K.height * (band + 1) / bands;
-            for (const std::vector<Setup>& chunk : kept)
-                for (const Setup& u : chunk) {
-                    if (u.yMax < yBegin || u.yMin >= yEnd) continue;
-                    rasterTriangle(u.s[0], u.s[1], u.s[2], u.tri, yBegin, yEnd, g);
-                    if (u.corners == 4) rasterTriangle(u.s[0], u.s[2], u.s[3], u.tri, yBegin, yEnd, g);
+            Projected u;
+            for (const std::vector<Kept>& chunk : kept)
+                for (const Kept& k : chunk) {
+                    if (k.yMax < yBegin || k.yMin >= yEnd) continue;
+                    project(cam, mesh, static_cast<std::size_t>(k.tri), K, near, u);
+                    rasterProjected(u, k.tri, yBegin, yEnd, g);
                 }
         });
     });
