@@ -11,6 +11,18 @@
 
 #include "commands.hpp"
 
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+// Sanitizer builds: the tool loads Mesa's driver, after which LeakSanitizer's
+// exit-time scan of dynamic TLS (recorded by its __tls_get_addr interceptor)
+// can meet a garbage record and crash ("Tracer caught signal 11"). The tests
+// run it from scripts too, outside ctest's per-test environment, so the
+// default lives in the binary (ASAN_OPTIONS still overrides it); see
+// tests/CMakeLists.txt. LSan still scans each thread's static TLS.
+extern "C" const char* __asan_default_options() { return "intercept_tls_get_addr=0"; }
+#endif
+#endif
+
 int main(int argc, char** argv) {
     using namespace mucosa;
     // Line-buffered even into a file or pipe, so a run that is killed keeps
