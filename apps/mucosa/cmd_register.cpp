@@ -38,7 +38,7 @@ struct RegisterArgs {
     double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
            rollPrior = fit::RegisterOptions{}.rollPrior, albedoPrior = fit::RegisterOptions{}.albedoPrior;
-    bool restart = false, noAlbedoMap = false;
+    bool restart = false, noAlbedoMap = false, keepMapPose = false;
 };
 
 // The frames of a video: the PNG files of a folder, sorted by name.
@@ -124,6 +124,9 @@ void run(const RegisterArgs& a, const Global& g) {
     o.motionPrior = a.motionPrior;
     o.rollPrior = a.rollPrior;
     o.albedoPrior = a.albedoPrior;
+    if (a.keepMapPose && a.noAlbedoMap)
+        throw InputError("--keep-map-pose", "", "keeps the albedo map's pose, and --no-albedo-map turns the map off");
+    o.keepMapPose = a.keepMapPose;
     o.threads = g.threads;
     const fs::path out = a.out;
     if (out.extension() != ".json") throw InputError("--output", a.out, "must end in .json (a frames file)");
@@ -355,6 +358,10 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                   "Weight holding the method's pose near the albedo map's (units of --motion-prior)")
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
+    c->add_flag("--keep-map-pose", a->keepMapPose,
+                "A frame the method does not converge on keeps the albedo map's pose (where that converged) as "
+                "its estimate, still flagged, and the next frame starts there; for a mesh fine enough for the "
+                "map to resolve the wall (edges of 1 mm or less)");
     c->add_option("--roll-prior", a->rollPrior,
                   "Weight of the same prior on the roll alone (the rotation about the optical axis, 2 degrees), "
                   "which a round airway leaves free, e.g. 0.002 [0 = off]")

@@ -19,7 +19,9 @@
 // run it from scripts too, outside ctest's per-test environment, so the
 // default lives in the binary (ASAN_OPTIONS still overrides it); see
 // tests/CMakeLists.txt. LSan still scans each thread's static TLS.
-extern "C" const char* __asan_default_options() { return "intercept_tls_get_addr=0"; }
+extern "C" const char* __asan_default_options() {
+    return "intercept_tls_get_addr=0";
+}
 #endif
 #endif
 

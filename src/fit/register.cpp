@@ -990,6 +990,9 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
     }
     FrameRegistration best;
     bool have = false;
+    // The map's step where it converged: the estimate kept for a frame the
+    // method itself does not converge on.
+    std::optional<FrameRegistration> byMapBest;
     double render = 0, similarity = 0, optimiser = 0;
     int iterations = 0, evaluations = 0;
     for (const Mat4& trackStart : tracker.starts()) {
@@ -1002,6 +1005,7 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
             if (m.converged) {
                 start = m.cameraToWorld;
                 method.motionPrior = o.albedoPrior;
+                if (!byMapBest || m.similarity > byMapBest->similarity) byMapBest = m;
             }
         }
         FrameRegistration r = registerFrame(mesh, frame, start, method);
@@ -1010,6 +1014,17 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
         if (!have || (r.converged && !best.converged) ||
             (r.converged == best.converged && r.similarity > best.similarity))
             best = r, have = true;
+    }
+    if (!best.converged && byMapBest && o.keepMapPose) {
+        // Flagged either way; the estimate is the map's converged pose, with
+        // the method's similarity there (an evaluation, no iterations).
+        RegisterOptions at = options;
+        at.maxIterations = 0;
+        at.recheck = false;
+        const FrameRegistration s = registerFrame(mesh, frame, byMapBest->cameraToWorld, at);
+        render += s.renderSeconds, similarity += s.similaritySeconds, evaluations += s.evaluations;
+        best.cameraToWorld = byMapBest->cameraToWorld;
+        best.similarity = s.similarity;
     }
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
     best.iterations = iterations, best.evaluations = evaluations;

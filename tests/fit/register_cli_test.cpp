@@ -208,6 +208,8 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     writeText(p.dir / "bad.json", R"({"position": [0, 0, 0], "look_at": [0, 0, 0], "up": [0, 1, 0]})");
     check(p.args("", {{"--init", p.dir / "bad.json"}}), "look_at");
     check(p.args("--method sift"), "pq or intensity");
+    // Keeping the albedo map's pose with the map off.
+    check(p.args("--keep-map-pose --no-albedo-map"), "--no-albedo-map turns the map off");
     // A model shading that is not a brdf.json.
     writeText(p.dir / "brdf.json", R"({"c": [1, 0, 0], "d": [0, 0, 0], "zmin": 1, "zmax": 2})");
     check(p.args("", {{"--brdf", p.dir / "brdf.json"}}), "field 'c'");

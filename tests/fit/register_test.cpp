@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <random>
 
 #include <mucosa/core/error.hpp>
@@ -709,36 +710,50 @@ TEST(RegisterAlbedo, AMapLearntAlongTheTrackFollowsTheWallsAlbedo) {
 // glinting smooth tube pq scores under its threshold even at the true pose,
 // so its frames are flagged and never painted (bench_patient measures pq
 // with the map on the phantom).
-TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
+// A smooth round tube (the model coarser than the truth) and a scope moving
+// down it: 0.6 mm a frame, a pause of four frames, then 1 mm a frame; the
+// video rendered with vessels, noise and an exposure that varies.
+struct SmoothTubeTrack {
+    mesh::Mesh model, truth;
+    std::vector<Mat4> poses;
+    std::vector<fit::VideoFrame> frames;
+};
+
+SmoothTubeTrack smoothTubeTrack(const fit::RegisterOptions& ro) {
     auto smoothTube = [](int around, int along) {
         mesh::Mesh m = mesh::makeTube(7.0f, 70.0f, around, along);
         m.tangents.clear();
         mesh::recomputeNormals(m, 1);
         return m;
     };
-    const mesh::Mesh model = smoothTube(96, 240), truth = smoothTube(192, 480);
+    SmoothTubeTrack t{smoothTube(96, 240), smoothTube(192, 480), {}, {}};
     const auto centre = mesh::tubeCenterline(70.0f, 701);  // 0.1 mm apart
-    // 0.6 mm a frame, a pause of four frames, then 1 mm a frame.
     const int advance[] = {0, 6, 6, 6, 6, 0, 0, 0, 0, 10, 10};
-    std::vector<Mat4> poses;
     int at = 150;
     for (int step : advance) {
         at += step;
         const auto& p = centre[static_cast<std::size_t>(at)];
         const auto& q = centre[static_cast<std::size_t>(at + 100)];
-        poses.push_back(fit::lookAtPose({p[0] + 1.5, p[1] + 0.8, p[2]}, {q[0] + 1.0, q[1] - 0.5, q[2]}, {0, 1, 0}));
+        t.poses.push_back(fit::lookAtPose({p[0] + 1.5, p[1] + 0.8, p[2]}, {q[0] + 1.0, q[1] - 0.5, q[2]}, {0, 1, 0}));
     }
     const Intrinsics K = pinhole(160, 90);
     test::VideoOptions vo;
-    std::vector<fit::VideoFrame> frames;
-    fit::RegisterOptions ro;
-    ro.method = fit::RegistrationMethod::Intensity;
-    for (std::size_t f = 0; f < poses.size(); ++f) {
+    for (std::size_t f = 0; f < t.poses.size(); ++f) {
         vo.seed = static_cast<unsigned>(f + 1);
         vo.gain = 1.0 + 0.2 * std::sin(1.7 * static_cast<double>(f));
         image::Image8 sat;
-        frames.push_back(fit::prepareFrame(test::renderVideoFrame(truth, K, poses[f], vo, 0, &sat), &sat, K, ro));
+        t.frames.push_back(fit::prepareFrame(test::renderVideoFrame(t.truth, K, t.poses[f], vo, 0, &sat), &sat, K, ro));
     }
+    return t;
+}
+
+TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
+    fit::RegisterOptions ro;
+    ro.method = fit::RegistrationMethod::Intensity;
+    const SmoothTubeTrack scene = smoothTubeTrack(ro);
+    const mesh::Mesh& model = scene.model;
+    const std::vector<Mat4>& poses = scene.poses;
+    const std::vector<fit::VideoFrame>& frames = scene.frames;
     // The first frame is registered (here: at its true pose, as the initial
     // search would give it) and painted into the map; the rest is tracked.
     auto track = [&](bool withMap) {
@@ -768,4 +783,74 @@ TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
     EXPECT_GT(shapeOnly.degrees, 10.0);
     EXPECT_LT(mapped.position, 0.7);
     EXPECT_LT(mapped.degrees, 2.0);
+}
+
+// pq on the same tube scores under its threshold even at the true pose (the
+// glints) and most of its frames are flagged. A flagged frame's estimate is
+// the map's step's pose where that converged (RegisterOptions::keepMapPose),
+// not where pq's iterations ended: the map's step is the estimate that
+// converged, and the next frame starts from it.
+TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
+    fit::RegisterOptions ro;  // pq
+    const SmoothTubeTrack scene = smoothTubeTrack(ro);
+    auto track = [&](bool keep) {
+        fit::RegisterOptions o = ro;
+        o.keepMapPose = keep;
+        fit::Tracker tracker(scene.poses[0]);
+        fit::AlbedoMap map(scene.model.vertexCount());
+        map.add(scene.model, scene.frames[0], scene.poses[0], o);
+        fit::PoseError first, worst;
+        // The scope's advance and the start of the pause: frames 1-5.
+        for (std::size_t f = 1; f < 6; ++f) {
+            const std::vector<Mat4> starts = tracker.starts();
+            const fit::FrameRegistration r = fit::registerTracked(scene.model, scene.frames[f], tracker, o, &map);
+            const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[f]);
+            std::printf("%s frame %zu: %.2f mm %.2f deg (S %.3f, %s)\n", keep ? "keep" : "pq's own", f, e.position,
+                        e.degrees, r.similarity, r.converged ? "converged" : "flagged");
+            if (f == 1) first = e;
+            if (!keep || r.converged) {
+                worst.position = std::max(worst.position, e.position);
+                worst.degrees = std::max(worst.degrees, e.degrees);
+                continue;
+            }
+            // Flagged (so the map is as it was): the map's step from each of
+            // the tracker's starts, as registerTracked runs it; the best
+            // converged one.
+            fit::RegisterOptions byMap = o;
+            byMap.method = fit::RegistrationMethod::Intensity;
+            byMap.texture = map.texture();
+            std::optional<fit::FrameRegistration> m;
+            for (const Mat4& start : starts) {
+                const fit::FrameRegistration s = fit::registerFrame(scene.model, scene.frames[f], start, byMap);
+                if (s.converged && (!m || s.similarity > m->similarity)) m = s;
+            }
+            if (!m) ADD_FAILURE() << "frame " << f << ": the map's step did not converge";
+            if (m) {
+                // The map's own pose, and pq's similarity evaluated there.
+                const fit::PoseError d = fit::poseError(r.cameraToWorld, m->cameraToWorld);
+                EXPECT_LT(d.position, 1e-9) << f;
+                EXPECT_LT(d.degrees, 1e-4) << f;  // acos near 1
+                fit::RegisterOptions at = o;
+                at.maxIterations = 0;
+                EXPECT_DOUBLE_EQ(r.similarity,
+                                 fit::registerFrame(scene.model, scene.frames[f], r.cameraToWorld, at).similarity);
+            }
+            worst.position = std::max(worst.position, e.position);
+            worst.degrees = std::max(worst.degrees, e.degrees);
+        }
+        return std::pair{first, worst};
+    };
+    const auto [ownFirst, own] = track(false);
+    const auto [keptFirst, kept] = track(true);
+    std::printf("frame 1: pq's own estimate %.2f mm %.2f deg, the map's pose %.2f mm %.2f deg\n", ownFirst.position,
+                ownFirst.degrees, keptFirst.position, keptFirst.degrees);
+    std::printf("worst error: pq's own estimates %.2f mm %.1f deg, the map's poses kept %.2f mm %.1f deg\n",
+                own.position, own.degrees, kept.position, kept.degrees);
+    // Measured: frame 1 (flagged either way) 0.72 mm / 1.21 deg -> 0.05 mm /
+    // 0.18 deg; the worst of frames 1-5 1.54 -> 1.40 mm. What remains is
+    // pq's bias on this tube: frames it converges on 1.2 mm off paint the
+    // map there.
+    EXPECT_LT(keptFirst.position, 0.3);
+    EXPECT_LT(keptFirst.position, 0.5 * ownFirst.position);
+    EXPECT_LT(kept.position, own.position);
 }

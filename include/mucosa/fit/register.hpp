@@ -164,6 +164,15 @@ struct RegisterOptions {
     // motionPrior's units, that holds the method's registration near the
     // pose the map gave (docs/theory.md, "An albedo learnt along the track").
     double albedoPrior = 0.002;
+    // With an albedo map: a frame the method does not converge on keeps the
+    // map's step's pose (where that converged) as its estimate, still
+    // flagged, instead of where the method's own iterations ended, and the
+    // next frame starts from it. Off by default: on the phantom (a fine
+    // mesh, whose map resolves the wall) it held the track through the
+    // stretch pq cannot register; on the coarse VH airway, whose map is
+    // blurred, it made the track worse (docs/theory.md, "A flagged frame
+    // keeps the map's pose").
+    bool keepMapPose = false;
 };
 
 struct FrameRegistration {
