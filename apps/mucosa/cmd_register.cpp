@@ -37,7 +37,8 @@ struct RegisterArgs {
     std::size_t maxFrames = 0;
     double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
-           rollPrior = fit::RegisterOptions{}.rollPrior, albedoPrior = fit::RegisterOptions{}.albedoPrior;
+           rollPrior = fit::RegisterOptions{}.rollPrior, albedoPrior = fit::RegisterOptions{}.albedoPrior,
+           paintMin = fit::RegisterOptions{}.minPaintSimilarity;
     bool restart = false, noAlbedoMap = false, keepMapPose = false;
 };
 
@@ -127,6 +128,9 @@ void run(const RegisterArgs& a, const Global& g) {
     if (a.keepMapPose && a.noAlbedoMap)
         throw InputError("--keep-map-pose", "", "keeps the albedo map's pose, and --no-albedo-map turns the map off");
     o.keepMapPose = a.keepMapPose;
+    if (a.paintMin > 0 && a.noAlbedoMap)
+        throw InputError("--paint-min", "", "sets which frames paint the albedo map, and --no-albedo-map turns it off");
+    o.minPaintSimilarity = a.paintMin;
     o.threads = g.threads;
     const fs::path out = a.out;
     if (out.extension() != ".json") throw InputError("--output", a.out, "must end in .json (a frames file)");
@@ -234,7 +238,8 @@ void run(const RegisterArgs& a, const Global& g) {
         // Each kept frame is read and prepared again (tens of ms a frame).
         info(g, fmt::format("albedo map: repainting from the {} kept", count(first, "frame")));
         for (std::size_t i = 0; i < first; ++i)
-            if (run.frames[i].r.converged) map.add(m, prepare(run.frames[i].image), run.frames[i].r.cameraToWorld, o);
+            if (run.frames[i].r.converged && run.frames[i].r.similarity >= o.minPaintSimilarity)
+                map.add(m, prepare(run.frames[i].image), run.frames[i].r.cameraToWorld, o);
         info(g, fmt::format("albedo map: rebuilt from {} ({:.0f} % of the mesh's vertices seen)",
                             count(map.frames(), "registered frame"), 100 * map.seenFraction()));
     }
@@ -362,6 +367,10 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                 "A frame the method does not converge on keeps the albedo map's pose (where that converged) as "
                 "its estimate, still flagged, and the next frame starts there; for a mesh fine enough for the "
                 "map to resolve the wall (edges of 1 mm or less)");
+    c->add_option("--paint-min", a->paintMin,
+                  "A converged frame paints the albedo map only if its similarity is at least this, e.g. 0.80 "
+                  "with --keep-map-pose [0 = every converged frame]")
+        ->check(CLI::Range(0.0, 1.0));
     c->add_option("--roll-prior", a->rollPrior,
                   "Weight of the same prior on the roll alone (the rotation about the optical axis, 2 degrees), "
                   "which a round airway leaves free, e.g. 0.002 [0 = off]")

@@ -21,7 +21,8 @@
 // MUCOSA_NO_SEARCH_FIRST=1 registers the first frame from the initial pose
 // alone, MUCOSA_NO_ALBEDO_MAP=1 tracks without the map,
 // MUCOSA_ALBEDO_PRIOR=K sets RegisterOptions::albedoPrior,
-// MUCOSA_KEEP_MAP_POSE=1 sets RegisterOptions::keepMapPose.
+// MUCOSA_KEEP_MAP_POSE=1 sets RegisterOptions::keepMapPose,
+// MUCOSA_PAINT_MIN=S sets RegisterOptions::minPaintSimilarity.
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -117,6 +118,7 @@ int main(int argc, char** argv) {
         if (const char* k = std::getenv("MUCOSA_ROLL_PRIOR")) o.rollPrior = std::atof(k);
         if (const char* k = std::getenv("MUCOSA_ALBEDO_PRIOR")) o.albedoPrior = std::atof(k);
         if (std::getenv("MUCOSA_KEEP_MAP_POSE")) o.keepMapPose = true;
+        if (const char* k = std::getenv("MUCOSA_PAINT_MIN")) o.minPaintSimilarity = std::atof(k);
         return o;
     };
     // MUCOSA_TRACE=FILE: one line per frame and method (error, similarity, converged).

@@ -1029,7 +1029,7 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
     best.iterations = iterations, best.evaluations = evaluations;
     tracker.update(best);
-    if (map && best.converged) map->add(mesh, frame, best.cameraToWorld, o);
+    if (map && best.converged && best.similarity >= o.minPaintSimilarity) map->add(mesh, frame, best.cameraToWorld, o);
     return best;
 }
 

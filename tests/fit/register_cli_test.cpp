@@ -210,6 +210,7 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     check(p.args("--method sift"), "pq or intensity");
     // Keeping the albedo map's pose with the map off.
     check(p.args("--keep-map-pose --no-albedo-map"), "--no-albedo-map turns the map off");
+    check(p.args("--paint-min 0.8 --no-albedo-map"), "--no-albedo-map turns it off");
     // A model shading that is not a brdf.json.
     writeText(p.dir / "brdf.json", R"({"c": [1, 0, 0], "d": [0, 0, 0], "zmin": 1, "zmax": 2})");
     check(p.args("", {{"--brdf", p.dir / "brdf.json"}}), "field 'c'");

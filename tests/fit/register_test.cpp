@@ -783,6 +783,14 @@ TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
     EXPECT_GT(shapeOnly.degrees, 10.0);
     EXPECT_LT(mapped.position, 0.7);
     EXPECT_LT(mapped.degrees, 2.0);
+    // A frame that converges but scores under minPaintSimilarity paints nothing.
+    fit::RegisterOptions strict = ro;
+    strict.minPaintSimilarity = 1.01;  // over any NCC
+    fit::Tracker tracker(poses[0]);
+    fit::AlbedoMap map(model.vertexCount());
+    map.add(model, frames[0], poses[0], strict);
+    EXPECT_TRUE(fit::registerTracked(model, frames[1], tracker, strict, &map).converged);
+    EXPECT_EQ(map.frames(), 1u);
 }
 
 // pq on the same tube scores under its threshold even at the true pose (the

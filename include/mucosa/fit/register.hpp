@@ -173,6 +173,12 @@ struct RegisterOptions {
     // blurred, it made the track worse (docs/theory.md, "A flagged frame
     // keeps the map's pose").
     bool keepMapPose = false;
+    // With an albedo map: a converged frame paints the map only when its
+    // similarity is at least this (0: every converged frame paints). With
+    // keepMapPose on the phantom, 0.80 kept frames that converged just over
+    // pq's threshold, 2.9 mm off, from painting the map there
+    // (docs/theory.md, "A flagged frame keeps the map's pose").
+    double minPaintSimilarity = 0.0;
 };
 
 struct FrameRegistration {
