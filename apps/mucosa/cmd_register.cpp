@@ -33,13 +33,14 @@ namespace fs = std::filesystem;
 struct RegisterArgs {
     std::string mesh, video, camera, init, out, method = "pq", report, brdf, framesDir;
     std::vector<int> levels;
+    std::vector<double> mapAgreement;  // empty: RegisterOptions' default
     int maxIterations = 12, reportSamples = 6, step = 1;
     std::size_t maxFrames = 0;
     double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
            rollPrior = fit::RegisterOptions{}.rollPrior, albedoPrior = fit::RegisterOptions{}.albedoPrior,
-           paintMin = fit::RegisterOptions{}.minPaintSimilarity;
-    bool restart = false, noAlbedoMap = false, keepMapPose = false;
+           paintMin = -1;  // -1: not given (RegisterOptions' default)
+    bool restart = false, noAlbedoMap = false, keepMapPose = false, noKeepMapPose = false;
 };
 
 // The frames of a video: the PNG files of a folder, sorted by name.
@@ -127,10 +128,23 @@ void run(const RegisterArgs& a, const Global& g) {
     o.albedoPrior = a.albedoPrior;
     if (a.keepMapPose && a.noAlbedoMap)
         throw InputError("--keep-map-pose", "", "keeps the albedo map's pose, and --no-albedo-map turns the map off");
-    o.keepMapPose = a.keepMapPose;
-    if (a.paintMin > 0 && a.noAlbedoMap)
-        throw InputError("--paint-min", "", "sets which frames paint the albedo map, and --no-albedo-map turns it off");
-    o.minPaintSimilarity = a.paintMin;
+    if (a.keepMapPose && a.noKeepMapPose)
+        throw InputError("--keep-map-pose", "", "and --no-keep-map-pose contradict each other");
+    if (a.noKeepMapPose) o.keepMapPose = false;
+    if (a.paintMin >= 0) {
+        if (a.noAlbedoMap)
+            throw InputError("--paint-min", "",
+                             "sets which frames paint the albedo map, and --no-albedo-map turns it off");
+        o.minPaintSimilarity = a.paintMin;
+    }
+    if (!a.mapAgreement.empty()) {
+        if (a.noAlbedoMap)
+            throw InputError("--map-agreement", "",
+                             "compares with the albedo map's pose, and --no-albedo-map turns "
+                             "the map off");
+        o.mapAgreementMm = a.mapAgreement[0];
+        o.mapAgreementDegrees = a.mapAgreement[1];
+    }
     o.threads = g.threads;
     const fs::path out = a.out;
     if (out.extension() != ".json") throw InputError("--output", a.out, "must end in .json (a frames file)");
@@ -273,8 +287,9 @@ void run(const RegisterArgs& a, const Global& g) {
             const std::string line = fmt::format(
                 "[register {}/{}{} {:.0f}%] {}: similarity {:.3f}{}, {:.2f} s/frame, ETA {}", i + 1,
                 source.isVideo() ? "~" : "", total, 100.0 * static_cast<double>(i + 1) / static_cast<double>(total),
-                name->filename().string(), r.similarity, r.converged ? "" : " NOT CONVERGED", per,
-                formatDuration(per * static_cast<double>(total - i - 1)));
+                name->filename().string(), r.similarity,
+                r.converged ? "" : (r.mapDisagreed ? " NOT CONVERGED (the albedo map disagrees)" : " NOT CONVERGED"),
+                per, formatDuration(per * static_cast<double>(total - i - 1)));
             if (tty)
                 std::fprintf(stderr, "\r%s\x1b[K", line.c_str());
             else if (!r.converged || (i + 1) % std::max<std::size_t>(1, total / 10) == 0 || i + 1 == total)
@@ -365,12 +380,20 @@ void addRegisterCommand(CLI::App& app, Global& g) {
         ->capture_default_str();
     c->add_flag("--keep-map-pose", a->keepMapPose,
                 "A frame the method does not converge on keeps the albedo map's pose (where that converged) as "
-                "its estimate, still flagged, and the next frame starts there; for a mesh fine enough for the "
-                "map to resolve the wall (edges of 1 mm or less)");
+                "its estimate, still flagged, and the next frame starts there [on]");
+    c->add_flag("--no-keep-map-pose", a->noKeepMapPose,
+                "A frame the method does not converge on keeps where the method's own iterations ended");
     c->add_option("--paint-min", a->paintMin,
-                  "A converged frame paints the albedo map only if its similarity is at least this, e.g. 0.80 "
-                  "with --keep-map-pose [0 = every converged frame]")
+                  fmt::format("A converged frame paints the albedo map only if its similarity is at least this "
+                              "[{:.2f}; 0 = every converged frame]",
+                              fit::RegisterOptions{}.minPaintSimilarity))
         ->check(CLI::Range(0.0, 1.0));
+    c->add_option("--map-agreement", a->mapAgreement,
+                  fmt::format("MM DEG: a frame the method converges on farther than this from the albedo map's "
+                              "converged pose is flagged (neither painted nor fitted) [{} {}; 0 0 = off]",
+                              fit::RegisterOptions{}.mapAgreementMm, fit::RegisterOptions{}.mapAgreementDegrees))
+        ->expected(2)
+        ->check(CLI::Range(0.0, 1000.0));
     c->add_option("--roll-prior", a->rollPrior,
                   "Weight of the same prior on the roll alone (the rotation about the optical axis, 2 degrees), "
                   "which a round airway leaves free, e.g. 0.002 [0 = off]")

@@ -21,8 +21,16 @@
 // MUCOSA_NO_SEARCH_FIRST=1 registers the first frame from the initial pose
 // alone, MUCOSA_NO_ALBEDO_MAP=1 tracks without the map,
 // MUCOSA_ALBEDO_PRIOR=K sets RegisterOptions::albedoPrior,
-// MUCOSA_KEEP_MAP_POSE=1 sets RegisterOptions::keepMapPose,
-// MUCOSA_PAINT_MIN=S sets RegisterOptions::minPaintSimilarity.
+// MUCOSA_KEEP_MAP_POSE=0|1 sets RegisterOptions::keepMapPose,
+// MUCOSA_PAINT_MIN=S sets RegisterOptions::minPaintSimilarity,
+// MUCOSA_MAP_AGREEMENT=MM,DEG sets RegisterOptions::mapAgreementMm and
+// mapAgreementDegrees (0,0: off);
+// MUCOSA_KEEP_PATIENT=1 keeps the synthetic patient's folder (its video,
+// truth, mesh and camera: what `mucosa register` takes) and prints its path;
+// MUCOSA_TRACE=FILE writes one line per frame and method: frame, position
+// and orientation error, similarity, converged, the viewing direction's
+// error, then the albedo map step's position and orientation error (-1: it
+// did not converge).
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -117,11 +125,12 @@ int main(int argc, char** argv) {
         if (const char* k = std::getenv("MUCOSA_PRIOR")) o.motionPrior = std::atof(k);
         if (const char* k = std::getenv("MUCOSA_ROLL_PRIOR")) o.rollPrior = std::atof(k);
         if (const char* k = std::getenv("MUCOSA_ALBEDO_PRIOR")) o.albedoPrior = std::atof(k);
-        if (std::getenv("MUCOSA_KEEP_MAP_POSE")) o.keepMapPose = true;
+        if (const char* k = std::getenv("MUCOSA_KEEP_MAP_POSE")) o.keepMapPose = std::atoi(k) != 0;
         if (const char* k = std::getenv("MUCOSA_PAINT_MIN")) o.minPaintSimilarity = std::atof(k);
+        if (const char* k = std::getenv("MUCOSA_MAP_AGREEMENT"))
+            std::sscanf(k, "%lf,%lf", &o.mapAgreementMm, &o.mapAgreementDegrees);
         return o;
     };
-    // MUCOSA_TRACE=FILE: one line per frame and method (error, similarity, converged).
     FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;
     const bool pqOnly = std::getenv("MUCOSA_PQ_ONLY") != nullptr;
     const bool singleStart = std::getenv("MUCOSA_SINGLE_START") != nullptr;
@@ -163,8 +172,12 @@ int main(int argc, char** argv) {
                 const fit::Mat4& a = r.cameraToWorld;
                 const fit::Mat4& b = truth.frames[i].cameraToWorld;
                 const double dot = a[0][2] * b[0][2] + a[1][2] * b[1][2] + a[2][2] * b[2][2];
-                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f\n", label, i, e.position, e.degrees, r.similarity,
-                             r.converged ? 1 : 0, std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI);
+                // Then the albedo map's step: its pose's error (-1: it did not converge).
+                fit::PoseError m{-1, -1};
+                if (r.mapConverged) m = fit::poseError(r.mapCameraToWorld, b);
+                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f\n", label, i, e.position, e.degrees,
+                             r.similarity, r.converged ? 1 : 0, std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI,
+                             m.position, m.degrees);
             }
             lostFor = (e.position > 5 || e.degrees > 10) ? lostFor + 1 : 0;
             if (lostFor == 11) ++losses;
@@ -244,7 +257,10 @@ int main(int argc, char** argv) {
         std::printf("\n");
     }
     std::error_code ec;
-    fs::remove_all(dir, ec);
+    if (std::getenv("MUCOSA_KEEP_PATIENT"))
+        std::printf("the synthetic patient is kept in %s\n", dir.string().c_str());
+    else
+        fs::remove_all(dir, ec);
     rusage ru{};
     getrusage(RUSAGE_SELF, &ru);
     std::printf("peak memory %.0f MB\n", static_cast<double>(ru.ru_maxrss) / 1024.0);

@@ -1015,6 +1015,12 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
             (r.converged == best.converged && r.similarity > best.similarity))
             best = r, have = true;
     }
+    if (best.converged && byMapBest) {
+        const PoseError apart = poseError(best.cameraToWorld, byMapBest->cameraToWorld);
+        if ((o.mapAgreementMm > 0 && apart.position > o.mapAgreementMm) ||
+            (o.mapAgreementDegrees > 0 && apart.degrees > o.mapAgreementDegrees))
+            best.converged = false, best.mapDisagreed = true;
+    }
     if (!best.converged && byMapBest && o.keepMapPose) {
         // Flagged either way; the estimate is the map's converged pose, with
         // the method's similarity there (an evaluation, no iterations).
@@ -1028,6 +1034,8 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
     }
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
     best.iterations = iterations, best.evaluations = evaluations;
+    best.mapConverged = byMapBest.has_value();
+    if (byMapBest) best.mapCameraToWorld = byMapBest->cameraToWorld;
     tracker.update(best);
     if (map && best.converged && best.similarity >= o.minPaintSimilarity) map->add(mesh, frame, best.cameraToWorld, o);
     return best;

@@ -53,6 +53,7 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
                                      {"iterations", f.r.iterations},
                                      {"renders", f.r.evaluations},
                                      {"converged", f.r.converged},
+                                     {"map_disagreed", f.r.mapDisagreed},
                                      {"seconds",
                                       {{"render", f.r.renderSeconds},
                                        {"similarity", f.r.similaritySeconds},
@@ -91,6 +92,8 @@ RegistrationRun readRegistration(const fs::path& path) {
             if (r.contains("iterations") && r["iterations"].is_number_integer())
                 f.r.iterations = r["iterations"].get<int>();
             if (r.contains("renders") && r["renders"].is_number_integer()) f.r.evaluations = r["renders"].get<int>();
+            if (r.contains("map_disagreed") && r["map_disagreed"].is_boolean())
+                f.r.mapDisagreed = r["map_disagreed"].get<bool>();
         }
         run.frames.push_back(std::move(f));
     }
@@ -192,8 +195,9 @@ std::string svgTrace(const RegistrationRun& run) {
     for (std::size_t i = 0; i < n; ++i)
         if (!run.frames[i].r.converged)
             svg += fmt::format(
-                R"(<circle cx="{:.1f}" cy="{:.1f}" r="3" fill="#d62728"><title>frame {} not converged</title></circle>)",
-                X(double(i)), Y(run.frames[i].r.similarity), i);
+                R"(<circle cx="{:.1f}" cy="{:.1f}" r="3" fill="#d62728"><title>frame {} not converged{}</title></circle>)",
+                X(double(i)), Y(run.frames[i].r.similarity), i,
+                run.frames[i].r.mapDisagreed ? " (the albedo map's pose disagrees)" : "");
     return svg + "</svg>";
 }
 
@@ -262,7 +266,10 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
             "<tr><td>{}<br>{}<br>similarity {:.3f}<br>{}</td><td><img src=\"{}_overlay.png\"></td>"
             "<td><img src=\"{}_pq_video.png\"></td><td><img src=\"{}_pq_model.png\"></td></tr>\n",
             i, escapeXml(f.image.filename().string()), f.r.similarity,
-            f.r.converged ? "converged" : "<b>NOT converged</b>", stem, stem, stem);
+            f.r.converged      ? "converged"
+            : f.r.mapDisagreed ? "<b>NOT converged</b> (the albedo map's pose disagrees)"
+                               : "<b>NOT converged</b>",
+            stem, stem, stem);
     }
     const std::size_t converged = static_cast<std::size_t>(
         std::count_if(run.frames.begin(), run.frames.end(), [](const RegisteredFrame& f) { return f.r.converged; }));

@@ -208,9 +208,11 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     writeText(p.dir / "bad.json", R"({"position": [0, 0, 0], "look_at": [0, 0, 0], "up": [0, 1, 0]})");
     check(p.args("", {{"--init", p.dir / "bad.json"}}), "look_at");
     check(p.args("--method sift"), "pq or intensity");
-    // Keeping the albedo map's pose with the map off.
+    // The albedo map's rules with the map off, and contradicting flags.
     check(p.args("--keep-map-pose --no-albedo-map"), "--no-albedo-map turns the map off");
     check(p.args("--paint-min 0.8 --no-albedo-map"), "--no-albedo-map turns it off");
+    check(p.args("--map-agreement 2 5 --no-albedo-map"), "--no-albedo-map turns the map off");
+    check(p.args("--keep-map-pose --no-keep-map-pose"), "contradict");
     // A model shading that is not a brdf.json.
     writeText(p.dir / "brdf.json", R"({"c": [1, 0, 0], "d": [0, 0, 0], "zmin": 1, "zmax": 2})");
     check(p.args("", {{"--brdf", p.dir / "brdf.json"}}), "field 'c'");

@@ -862,3 +862,57 @@ TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
     EXPECT_LT(keptFirst.position, 0.5 * ownFirst.position);
     EXPECT_LT(kept.position, own.position);
 }
+
+// On the same tube pq converges on frames its bias puts about a millimetre
+// from where the map's step converged. With RegisterOptions::mapAgreementMm
+// under that, those frames are flagged for the disagreement: they paint
+// nothing, and every frame left converged lies within the agreement of the
+// map's pose. The estimate stays the method's own (keepMapPose is off).
+TEST(RegisterAlbedo, AFrameTheMapsPoseDisagreesWithIsFlaggedAndPaintsNothing) {
+    fit::RegisterOptions o;  // pq
+    const SmoothTubeTrack scene = smoothTubeTrack(o);
+    o.mapAgreementMm = 0.5;
+    o.mapAgreementDegrees = 2.0;
+    o.keepMapPose = false;
+    o.minPaintSimilarity = 0;
+    fit::Tracker tracker(scene.poses[0]);
+    fit::AlbedoMap map(scene.model.vertexCount());
+    map.add(scene.model, scene.frames[0], scene.poses[0], o);
+    std::size_t converged = 0, disagreed = 0;
+    for (std::size_t f = 1; f < 4; ++f) {
+        const fit::FrameRegistration r = fit::registerTracked(scene.model, scene.frames[f], tracker, o, &map);
+        const fit::PoseError apart = fit::poseError(r.cameraToWorld, r.mapCameraToWorld);
+        std::printf("frame %zu: %s, %.2f mm %.2f deg from the map's pose (S %.3f)\n", f,
+                    r.converged      ? "converged"
+                    : r.mapDisagreed ? "flagged: disagrees"
+                                     : "flagged",
+                    apart.position, apart.degrees, r.similarity);
+        ASSERT_TRUE(r.mapConverged) << f;
+        if (r.mapDisagreed) {
+            ++disagreed;
+            EXPECT_FALSE(r.converged) << f;
+            EXPECT_TRUE(apart.position > o.mapAgreementMm || apart.degrees > o.mapAgreementDegrees) << f;
+        }
+        if (r.converged) {
+            ++converged;
+            EXPECT_LE(apart.position, o.mapAgreementMm) << f;
+            EXPECT_LE(apart.degrees, o.mapAgreementDegrees) << f;
+        }
+        // Only converged frames paint.
+        EXPECT_EQ(map.frames(), 1 + converged) << f;
+    }
+    EXPECT_GE(disagreed, 1u);
+    // The frames file carries the reason, and reads it back.
+    const test::TempDir dir;
+    fit::RegistrationRun run;
+    run.camera.K = scene.frames[1].levels.back().K;
+    fit::FrameRegistration r;
+    r.cameraToWorld = scene.poses[1];
+    r.mapDisagreed = true;
+    run.frames.push_back({dir / "frame.png", r});
+    fit::writeRegistration(dir / "frames.json", run);
+    const fit::RegistrationRun back = fit::readRegistration(dir / "frames.json");
+    ASSERT_EQ(back.frames.size(), 1u);
+    EXPECT_TRUE(back.frames[0].r.mapDisagreed);
+    EXPECT_FALSE(back.frames[0].r.converged);
+}

@@ -164,21 +164,29 @@ struct RegisterOptions {
     // motionPrior's units, that holds the method's registration near the
     // pose the map gave (docs/theory.md, "An albedo learnt along the track").
     double albedoPrior = 0.002;
+    // The three settings below decide which estimate a frame leaves and
+    // which frames paint the albedo map. Together (the defaults since
+    // session 23) pq met every target on the phantom's three 300-frame
+    // sequences, where without them one slid 12 mm; on the VH CT airway they
+    // left the track as it was (docs/theory.md, "A flagged frame keeps the
+    // map's pose").
     // With an albedo map: a frame the method does not converge on keeps the
     // map's step's pose (where that converged) as its estimate, still
     // flagged, instead of where the method's own iterations ended, and the
-    // next frame starts from it. Off by default: on the phantom (a fine
-    // mesh, whose map resolves the wall) it held the track through the
-    // stretch pq cannot register; on the coarse VH airway, whose map is
-    // blurred, it made the track worse (docs/theory.md, "A flagged frame
-    // keeps the map's pose").
-    bool keepMapPose = false;
+    // next frame starts from it.
+    bool keepMapPose = true;
     // With an albedo map: a converged frame paints the map only when its
-    // similarity is at least this (0: every converged frame paints). With
-    // keepMapPose on the phantom, 0.80 kept frames that converged just over
-    // pq's threshold, 2.9 mm off, from painting the map there
-    // (docs/theory.md, "A flagged frame keeps the map's pose").
-    double minPaintSimilarity = 0.0;
+    // similarity is at least this (0: every converged frame paints): 0.80
+    // keeps frames that converge just over pq's threshold (0.78), which on
+    // the phantom were 2.9 mm off, from painting the map there. For the
+    // intensity method (converged at NCC 0.8) it changes nothing.
+    double minPaintSimilarity = 0.80;
+    // With an albedo map: a frame the method converges on more than this many
+    // millimetres or degrees from the map step's converged pose is flagged
+    // (it paints nothing, and with keepMapPose takes the map's pose): the
+    // shape and the wall's own albedo disagree, and one of them is wrong; on
+    // the phantom it was the shape, 5 mm off at S 0.82. 0 turns a test off.
+    double mapAgreementMm = 2.0, mapAgreementDegrees = 5.0;
 };
 
 struct FrameRegistration {
@@ -188,6 +196,14 @@ struct FrameRegistration {
     int evaluations = 0;    // renders
     bool converged = false;
     double renderSeconds = 0, similaritySeconds = 0, optimiserSeconds = 0;
+    // registerTracked with an albedo map: whether the map's step converged
+    // from any start, and its best such pose (a diagnostic, and the pose
+    // RegisterOptions::keepMapPose keeps for a flagged frame).
+    bool mapConverged = false;
+    Mat4 mapCameraToWorld{};
+    // The method converged, but on a pose the map's step disagrees with
+    // (RegisterOptions::mapAgreementMm): flagged for that.
+    bool mapDisagreed = false;
 };
 
 // A frame prepared for registration: linear luminance at every level,
