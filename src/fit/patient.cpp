@@ -97,7 +97,7 @@ mesh::Vec3 rotate(const mesh::Vec3& v, const mesh::Vec3& k, double angle) {
 
 // Arc position (in dense-pose steps, 0..last) of every frame at `speed` steps
 // per frame: forward, and with pauses: every 75 frames, 50 forward, 8 still,
-// 10 back at half speed, 7 still. The scope stops at the path's end.
+// 10 back at half speed, 7 still. At the path's end the scope turns back.
 std::vector<double> schedule(int frames, bool pauses, double speed, double last) {
     std::vector<double> pace(static_cast<std::size_t>(frames), 1.0);
     if (pauses)
@@ -108,7 +108,17 @@ std::vector<double> schedule(int frames, bool pauses, double speed, double last)
     std::vector<double> at(static_cast<std::size_t>(frames), 0.0);
     for (int t = 1; t < frames; ++t)
         at[static_cast<std::size_t>(t)] = at[static_cast<std::size_t>(t - 1)] + pace[static_cast<std::size_t>(t - 1)];
-    for (double& a : at) a = std::clamp(a * speed, 0.0, last);
+    // Where the path ends before the schedule does, the scope is withdrawn
+    // along it, as a bronchoscopist does, rather than held still at the end
+    // (which on a CT path can face the wall for the rest of the sequence).
+    for (double& a : at) {
+        a = std::max(0.0, a * speed);
+        if (last > 0) {
+            a = std::fmod(a, 2 * last);
+            if (a > last) a = 2 * last - a;
+        }
+        a = std::clamp(a, 0.0, last);
+    }
     return at;
 }
 

@@ -294,6 +294,15 @@ TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
         EXPECT_LE(step.position, o.speedMm * 1.2 + 0.05) << i;
         EXPECT_LE(step.degrees, 6.0) << i;
     }
+    // The path ends before the schedule does, and the scope turns back
+    // there: no stretch of still frames is longer than the schedule's
+    // pauses (8), where it once stood 65 frames facing the wall.
+    int still = 0, longest = 0;
+    for (std::size_t i = 1; i < p.poses.size(); ++i) {
+        still = fit::poseError(p.poses[i - 1], p.poses[i]).position < 1e-9 ? still + 1 : 0;
+        longest = std::max(longest, still);
+    }
+    EXPECT_LE(longest, 8);
     for (std::size_t i = 0; i < p.poses.size(); i += 15)
         EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "ct", "p")) << i;
     EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses.back(), p.camera.lightOffset, "ct", "p"));

@@ -166,10 +166,10 @@ struct RegisterOptions {
     double albedoPrior = 0.002;
     // The three settings below decide which estimate a frame leaves and
     // which frames paint the albedo map. Together (the defaults since
-    // session 23) pq met every target on the phantom's three 300-frame
-    // sequences, where without them one slid 12 mm; on the VH CT airway they
-    // left the track as it was (docs/theory.md, "A flagged frame keeps the
-    // map's pose").
+    // session 23) they removed a 12 mm slide and its two losses on the
+    // phantom's lamp sequence and left the other sequences within their
+    // spread (docs/theory.md, "The map's pose as a check, and the
+    // defaults").
     // With an albedo map: a frame the method does not converge on keeps the
     // map's step's pose (where that converged) as its estimate, still
     // flagged, instead of where the method's own iterations ended, and the
