@@ -395,8 +395,9 @@ void addRegisterCommand(CLI::App& app, Global& g) {
         ->expected(2)
         ->check(CLI::Range(0.0, 1000.0));
     c->add_option("--roll-prior", a->rollPrior,
-                  "Weight of the same prior on the roll alone (the rotation about the optical axis, 2 degrees), "
-                  "which a round airway leaves free, e.g. 0.002 [0 = off]")
+                  fmt::format("Weight of the same prior on the roll alone (the rotation about the optical axis, 2 "
+                              "degrees), which a round airway leaves free [{}; 0 = off]",
+                              fit::RegisterOptions{}.rollPrior))
         ->check(CLI::Range(0.0, 1.0));
     c->add_option("--search-radius", a->searchRadius,
                   "First frame: search this far (mm) around --init, and --search-degrees of rotation, before "
