@@ -154,8 +154,10 @@ struct RegisterOptions {
     // sequences within every target (the roll at the lobar bronchus's end)
     // and did no harm on the VH airway, but it also holds the first frame's
     // search near each candidate's roll (a capture test 1.5 -> 2.2 degrees),
-    // so it is not yet the default (docs/theory.md, "The sequences,
-    // revised"); 0.002 without the map held the CT airway's roll back.
+    // and applied in tracking only it did not hold the targets (one run per
+    // sequence decides a p95), so it is not the default (docs/theory.md,
+    // "The sequences, revised"); 0.002 without the map held the CT airway's
+    // roll back.
     double rollPrior = 0.0;
     double priorMm = 1.0, priorDeg = 2.0;
     // recheck: when the coarse levels move the pose further than recheckMm /
