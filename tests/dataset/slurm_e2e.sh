@@ -124,6 +124,17 @@ victim_temporaries() {
 
 task_state() { scontrol show job "$1" 2>/dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p' | head -n 1; }
 
+# The victim's process on this node (the batch script execs `mucosa dataset
+# run DIR --shard I/K`), found through /proc with builtins only: no procps,
+# and no fork per process, so a scan takes milliseconds.
+victim_pids() {
+  local d args
+  for d in /proc/[0-9]*; do
+    mapfile -d '' args <"$d/cmdline" 2>/dev/null || continue
+    if [[ " ${args[*]} " == *" dataset run "*" --shard $VICTIM/$SHARDS "* ]]; then echo "${d#/proc/}"; fi
+  done
+}
+
 # ---- refusals, before any cluster ---------------------------------------------
 
 "$mucosa" dataset plan --frames "$FRAMES" --size "$SIZE" --outputs "$OUTPUTS" --segment-frames "$SEGMENT" \
@@ -158,18 +169,37 @@ log "submitted job $job; shard $VICTIM is frames $victim_first..$((victim_end - 
 
 # ---- kill the victim in the middle of its shard ------------------------------
 
+# The moment a frame of its shard is done, the victim is stopped (SIGSTOP,
+# straight to its process), counted, then killed through Slurm. A shard takes
+# a few seconds on a fast machine, less than Slurm's own signalling or a loop
+# of scontrol calls can be trusted to land within; a stopped process makes
+# no progress, so the count is what the kill finds. The polling below runs
+# builtins only (scontrol once a second), every 10 ms.
 deadline=$((SECONDS + WAIT_VICTIM))
-while :; do
-  state="$(task_state "${job}_$VICTIM")"
-  done_now="$(victim_done)"
-  if [ "$state" = RUNNING ] && [ "$done_now" -ge 1 ]; then break; fi
-  [ -z "$state" ] || [ "$state" = RUNNING ] || [ "$state" = PENDING ] || [ "$state" = CONFIGURING ] ||
-    fail "task ${job}_$VICTIM is $state before it could be killed"
-  [ "$SECONDS" -lt "$deadline" ] || fail "task ${job}_$VICTIM did not finish a frame within ${WAIT_VICTIM}s"
+pids=""
+polls=0
+while [ -z "$pids" ]; do
+  pids="$(victim_pids)"
+  if [ -z "$pids" ] && [ $((polls % 20)) = 0 ]; then
+    state="$(task_state "${job}_$VICTIM")"
+    [ -z "$state" ] || [ "$state" = RUNNING ] || [ "$state" = PENDING ] || [ "$state" = CONFIGURING ] ||
+      fail "task ${job}_$VICTIM is $state before its process could be found"
+  fi
+  [ "$SECONDS" -lt "$deadline" ] || fail "no process of task ${job}_$VICTIM ('dataset run ... --shard $VICTIM/$SHARDS') within ${WAIT_VICTIM}s"
+  polls=$((polls + 1))
   sleep 0.05
 done
+while [ "$(victim_done)" -lt 1 ]; do
+  kill -0 $pids 2>/dev/null || fail "task ${job}_$VICTIM's process ($pids) ended before a frame of its shard was done"
+  [ "$SECONDS" -lt "$deadline" ] || fail "task ${job}_$VICTIM did not finish a frame within ${WAIT_VICTIM}s"
+  sleep 0.01
+done
+kill -STOP $pids 2>/dev/null || fail "task ${job}_$VICTIM's process ($pids) ended before it could be stopped"
+state="$(task_state "${job}_$VICTIM")"
+[ "$state" = RUNNING ] || fail "task ${job}_$VICTIM is ${state:-gone} when a frame of its shard is done"
+done_now="$(victim_done)"
 [ "$done_now" -lt "$victim_frames" ] ||
-  fail "task ${job}_$VICTIM finished its $victim_frames frames before the kill; frames must take longer"
+  fail "task ${job}_$VICTIM finished its $victim_frames frames before it could be stopped; frames must take longer"
 scancel --signal=KILL "${job}_$VICTIM" || fail "scancel --signal=KILL ${job}_$VICTIM failed"
 deadline=$((SECONDS + WAIT_KILLED))
 while :; do
