@@ -30,7 +30,9 @@
 // MUCOSA_TRACE=FILE writes one line per frame and method: frame, position
 // and orientation error, similarity, converged, the viewing direction's
 // error, then the albedo map step's position and orientation error (-1: it
-// did not converge).
+// did not converge), then the method's similarity at the true pose (above
+// the similarity reached: the optimiser stopped short of the truth; below
+// it: the objective itself prefers the wrong pose).
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -175,9 +177,14 @@ int main(int argc, char** argv) {
                 // Then the albedo map's step: its pose's error (-1: it did not converge).
                 fit::PoseError m{-1, -1};
                 if (r.mapConverged) m = fit::poseError(r.mapCameraToWorld, b);
-                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f\n", label, i, e.position, e.degrees,
-                             r.similarity, r.converged ? 1 : 0, std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI,
-                             m.position, m.degrees);
+                fit::RegisterOptions atTruth = o;
+                atTruth.maxIterations = 0;
+                atTruth.recheck = false;
+                const double truthSimilarity = fit::registerFrame(patient.mesh, vf, b, atTruth).similarity;
+                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f\n", label, i, e.position,
+                             e.degrees, r.similarity, r.converged ? 1 : 0,
+                             std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI, m.position, m.degrees,
+                             truthSimilarity);
             }
             lostFor = (e.position > 5 || e.degrees > 10) ? lostFor + 1 : 0;
             if (lostFor == 11) ++losses;

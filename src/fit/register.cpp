@@ -1094,6 +1094,11 @@ FrameRegistration registerInitial(const mesh::Mesh& fullMesh, const VideoFrame& 
     std::vector<FrameRegistration> refined;
     RegisterOptions full = o;
     full.recheck = true;
+    // No motion or roll prior: the candidates are draws around a rough pose,
+    // not a prediction of where the scope is, and a prior around each would
+    // hold its refinement near the draw (the roll prior took the capture
+    // test's worst orientation from 1.5 to 2.2 degrees).
+    full.motionPrior = full.rollPrior = 0;
     for (std::size_t i : starts) {
         refined.push_back(registerFrame(fullMesh, frame, poses[i], full));
         const FrameRegistration& r = refined.back();

@@ -472,6 +472,29 @@ TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
     EXPECT_LT(fit::poseError(t.start(), r.cameraToWorld).position, 1e-9);
 }
 
+// The tracker's constant velocity is taken between consecutive converged
+// frames only. After a flagged stretch the last converged pose lies many
+// frames back: its motion to the next converged frame is many frames' worth,
+// and extrapolated as one frame's it would throw the start far ahead.
+TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
+    auto at = [](double z, bool converged) {
+        fit::FrameRegistration r;
+        r.cameraToWorld = fit::lookAtPose({0, 0, z}, {0, 0, z - 10}, {0, 1, 0});
+        r.converged = converged;
+        return r;
+    };
+    fit::Tracker t(at(0, true).cameraToWorld);
+    t.update(at(0, true));
+    t.update(at(-1, true));  // 1 mm a frame along -z
+    EXPECT_NEAR(fit::cameraCentre(t.start())[2], -2.0, 1e-9);
+    for (int i = 0; i < 10; ++i) t.update(at(-2 - i, false));
+    EXPECT_NEAR(fit::cameraCentre(t.start())[2], -1.0, 1e-9);  // where the track last was
+    t.update(at(-12, true));  // converged again, 11 mm on from the last converged frame
+    EXPECT_NEAR(fit::cameraCentre(t.start())[2], -12.0, 1e-9) << "the 11 mm gap taken as one frame's motion";
+    t.update(at(-13, true));  // consecutive: the velocity is back
+    EXPECT_NEAR(fit::cameraCentre(t.start())[2], -14.0, 1e-9);
+}
+
 // The walls' back-scatter: the renderer's ambient k_a adds k_a / 10^2 (the
 // lamp's on-axis irradiance at 10 mm, for unit power) wherever the model
 // sees the surface, lit by the lamp or not.
@@ -555,7 +578,8 @@ TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
 // The first frame from a rough initial pose: 5-6 mm and 10-12 degrees off
 // (two of three starts tried; the third, also missed alone, only adds time),
 // where Levenberg-Marquardt from the start alone ends elsewhere, the search
-// around it finds the frame's pose.
+// around it finds the frame's pose, and a motion or roll prior does not
+// hold the search.
 TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
     const OffStart off;
     const Mat4& truth = off.scene.poses[0];
@@ -583,6 +607,15 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
         EXPECT_LT(es.degrees, 1.5);
         // Results within InitialSearch::tie of the best are equal: the nearest is kept.
         EXPECT_GE(searched.similarity, one.similarity - fit::InitialSearch{}.tie);
+        if (&t == &offsets.front().first) {
+            // The candidates are draws, not predictions: no motion or roll
+            // prior holds their refinement (the same pose with either on).
+            fit::RegisterOptions held;
+            held.motionPrior = held.rollPrior = 1e4;
+            const fit::FrameRegistration h = fit::registerInitial(off.scene.mesh, off.vf, start, held);
+            EXPECT_LT(fit::poseError(h.cameraToWorld, searched.cameraToWorld).position, 1e-9);
+            EXPECT_LT(fit::poseError(h.cameraToWorld, searched.cameraToWorld).degrees, 1e-6);
+        }
     }
     EXPECT_EQ(missed, 2);  // the search is what captures them
 }

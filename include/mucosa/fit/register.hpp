@@ -273,7 +273,13 @@ public:
         if (!fresh_) o.motionPrior = 0;
         return o;
     }
+    // The velocity is taken only between two consecutive converged frames:
+    // after a flagged stretch, the last converged pose lies many frames
+    // back, and its motion to this frame applied again as one frame's would
+    // throw the next start far ahead (on the phantom, 48 flagged frames then
+    // a 5 mm jump the track kept for 28 frames).
     void update(const FrameRegistration& r) noexcept {
+        const bool consecutive = fresh_;
         fresh_ = r.converged;
         if (!r.converged) {
             haveBefore_ = false;
@@ -281,7 +287,7 @@ public:
             return;
         }
         before_ = last_;
-        haveBefore_ = started_;
+        haveBefore_ = started_ && consecutive;
         last_ = r.cameraToWorld;
         started_ = true;
     }
