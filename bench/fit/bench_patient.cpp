@@ -24,7 +24,8 @@
 // MUCOSA_KEEP_MAP_POSE=0|1 sets RegisterOptions::keepMapPose,
 // MUCOSA_PAINT_MIN=S sets RegisterOptions::minPaintSimilarity,
 // MUCOSA_MAP_AGREEMENT=MM,DEG sets RegisterOptions::mapAgreementMm and
-// mapAgreementDegrees (0,0: off);
+// mapAgreementDegrees (0,0: off); MUCOSA_ANCHOR=0|1 sets
+// Tracker::anchorOnMap;
 // MUCOSA_KEEP_PATIENT=1 keeps the synthetic patient's folder (its video,
 // truth, mesh and camera: what `mucosa register` takes) and prints its path;
 // MUCOSA_TRACE=FILE writes one line per frame and method: frame, position
@@ -146,6 +147,7 @@ int main(int argc, char** argv) {
         double render = 0, similarity = 0, optimiser = 0, wall = 0;
         int converged = 0, losses = 0, lostFor = 0;
         fit::Tracker tracker(init, 1.0);
+        if (const char* k = std::getenv("MUCOSA_ANCHOR")) tracker.anchorOnMap = std::atoi(k) != 0;
         for (std::size_t i = 0; i < truth.frames.size(); ++i) {
             const auto t0 = std::chrono::steady_clock::now();
             const fit::VideoFrame vf = fit::prepareFrame(linear[i], &sat[i], patient.camera.K, o);
@@ -181,10 +183,9 @@ int main(int argc, char** argv) {
                 atTruth.maxIterations = 0;
                 atTruth.recheck = false;
                 const double truthSimilarity = fit::registerFrame(patient.mesh, vf, b, atTruth).similarity;
-                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f\n", label, i, e.position,
-                             e.degrees, r.similarity, r.converged ? 1 : 0,
-                             std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI, m.position, m.degrees,
-                             truthSimilarity);
+                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f\n", label, i, e.position, e.degrees,
+                             r.similarity, r.converged ? 1 : 0, std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI,
+                             m.position, m.degrees, truthSimilarity);
             }
             lostFor = (e.position > 5 || e.degrees > 10) ? lostFor + 1 : 0;
             if (lostFor == 11) ++losses;

@@ -10,6 +10,7 @@ bench_patient prints per run. Percentiles are bench_patient's: the value at
 index round(q * (n - 1)) of the sorted errors (the trace's errors are
 rounded to 3 decimals). Standard library only.
 """
+import signal
 import sys
 
 
@@ -68,4 +69,5 @@ def main(paths):
 
 
 if __name__ == "__main__":
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # piped into head: stop quietly
     sys.exit(main(sys.argv[1:]))

@@ -1031,6 +1031,7 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
         render += s.renderSeconds, similarity += s.similaritySeconds, evaluations += s.evaluations;
         best.cameraToWorld = byMapBest->cameraToWorld;
         best.similarity = s.similarity;
+        best.mapPoseKept = true;
     }
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
     best.iterations = iterations, best.evaluations = evaluations;

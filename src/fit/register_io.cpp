@@ -54,6 +54,7 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
                                      {"renders", f.r.evaluations},
                                      {"converged", f.r.converged},
                                      {"map_disagreed", f.r.mapDisagreed},
+                                     {"map_pose_kept", f.r.mapPoseKept},
                                      {"seconds",
                                       {{"render", f.r.renderSeconds},
                                        {"similarity", f.r.similaritySeconds},
@@ -94,6 +95,9 @@ RegistrationRun readRegistration(const fs::path& path) {
             if (r.contains("renders") && r["renders"].is_number_integer()) f.r.evaluations = r["renders"].get<int>();
             if (r.contains("map_disagreed") && r["map_disagreed"].is_boolean())
                 f.r.mapDisagreed = r["map_disagreed"].get<bool>();
+            // The tracker resumes from it as it went on (Tracker::anchorOnMap).
+            if (r.contains("map_pose_kept") && r["map_pose_kept"].is_boolean())
+                f.r.mapPoseKept = r["map_pose_kept"].get<bool>() && !f.r.converged;
         }
         run.frames.push_back(std::move(f));
     }

@@ -473,9 +473,9 @@ TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
 }
 
 // The tracker's constant velocity is taken between consecutive converged
-// frames only. After a flagged stretch the last converged pose lies many
-// frames back: its motion to the next converged frame is many frames' worth,
-// and extrapolated as one frame's it would throw the start far ahead.
+// frames only, and a flagged frame that kept the map's pose moves the track. After a flagged stretch the last converged
+// pose lies many frames back: its motion to the next converged frame is many frames' worth, and extrapolated as one
+// frame's it would throw the start far ahead.
 TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
     auto at = [](double z, bool converged) {
         fit::FrameRegistration r;
@@ -493,6 +493,23 @@ TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
     EXPECT_NEAR(fit::cameraCentre(t.start())[2], -12.0, 1e-9) << "the 11 mm gap taken as one frame's motion";
     t.update(at(-13, true));  // consecutive: the velocity is back
     EXPECT_NEAR(fit::cameraCentre(t.start())[2], -14.0, 1e-9);
+    // A flagged frame that kept the albedo map's pose moves the track there,
+    // without velocity, and the next frame starts there alone; without
+    // anchorOnMap the track stays and the kept pose is a second start.
+    fit::FrameRegistration kept = at(-16, false);
+    kept.mapPoseKept = true;
+    for (bool anchor : {true, false}) {
+        fit::Tracker a(at(0, true).cameraToWorld);
+        a.anchorOnMap = anchor;
+        a.update(at(-1, true));
+        a.update(at(-2, true));
+        a.update(kept);
+        ASSERT_EQ(a.starts().size(), anchor ? 1u : 2u);
+        EXPECT_NEAR(fit::cameraCentre(a.start())[2], anchor ? -16.0 : -2.0, 1e-9);
+        EXPECT_NEAR(fit::cameraCentre(a.starts().back())[2], -16.0, 1e-9);
+        a.update(at(-17, true));  // converged again: no velocity from the kept pose yet
+        EXPECT_NEAR(fit::cameraCentre(a.start())[2], -17.0, 1e-9);
+    }
 }
 
 // The walls' back-scatter: the renderer's ambient k_a adds k_a / 10^2 (the
@@ -609,12 +626,18 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
         EXPECT_GE(searched.similarity, one.similarity - fit::InitialSearch{}.tie);
         if (&t == &offsets.front().first) {
             // The candidates are draws, not predictions: no motion or roll
-            // prior holds their refinement (the same pose with either on).
+            // prior holds their refinement (the same pose with either on; a
+            // small search, which is what takes the time under sanitizers).
+            fit::InitialSearch small;
+            small.candidates = 16;
+            small.refine = 1;
             fit::RegisterOptions held;
             held.motionPrior = held.rollPrior = 1e4;
-            const fit::FrameRegistration h = fit::registerInitial(off.scene.mesh, off.vf, start, held);
-            EXPECT_LT(fit::poseError(h.cameraToWorld, searched.cameraToWorld).position, 1e-9);
-            EXPECT_LT(fit::poseError(h.cameraToWorld, searched.cameraToWorld).degrees, 1e-6);
+            const fit::FrameRegistration free = fit::registerInitial(off.scene.mesh, off.vf, start, {}, small);
+            const fit::FrameRegistration h = fit::registerInitial(off.scene.mesh, off.vf, start, held, small);
+            EXPECT_GT(fit::poseError(free.cameraToWorld, start).position, 0.5);  // it moved from the start
+            EXPECT_LT(fit::poseError(h.cameraToWorld, free.cameraToWorld).position, 1e-9);
+            EXPECT_LT(fit::poseError(h.cameraToWorld, free.cameraToWorld).degrees, 1e-6);
         }
     }
     EXPECT_EQ(missed, 2);  // the search is what captures them
@@ -849,6 +872,9 @@ TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
             std::printf("%s frame %zu: %.2f mm %.2f deg (S %.3f, %s)\n", keep ? "keep" : "pq's own", f, e.position,
                         e.degrees, r.similarity, r.converged ? "converged" : "flagged");
             if (f == 1) first = e;
+            if (!keep) {
+                EXPECT_FALSE(r.mapPoseKept);
+            }
             if (!keep || r.converged) {
                 worst.position = std::max(worst.position, e.position);
                 worst.degrees = std::max(worst.degrees, e.degrees);
@@ -875,6 +901,11 @@ TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
                 at.maxIterations = 0;
                 EXPECT_DOUBLE_EQ(r.similarity,
                                  fit::registerFrame(scene.model, scene.frames[f], r.cameraToWorld, at).similarity);
+                // Said so, and the track moves there: the next frame starts
+                // from the kept pose alone (Tracker::anchorOnMap).
+                EXPECT_TRUE(r.mapPoseKept);
+                EXPECT_EQ(tracker.starts().size(), 1u);
+                EXPECT_EQ(tracker.start(), r.cameraToWorld);
             }
             worst.position = std::max(worst.position, e.position);
             worst.degrees = std::max(worst.degrees, e.degrees);
@@ -942,10 +973,12 @@ TEST(RegisterAlbedo, AFrameTheMapsPoseDisagreesWithIsFlaggedAndPaintsNothing) {
     fit::FrameRegistration r;
     r.cameraToWorld = scene.poses[1];
     r.mapDisagreed = true;
+    r.mapPoseKept = true;
     run.frames.push_back({dir / "frame.png", r});
     fit::writeRegistration(dir / "frames.json", run);
     const fit::RegistrationRun back = fit::readRegistration(dir / "frames.json");
     ASSERT_EQ(back.frames.size(), 1u);
     EXPECT_TRUE(back.frames[0].r.mapDisagreed);
+    EXPECT_TRUE(back.frames[0].r.mapPoseKept);
     EXPECT_FALSE(back.frames[0].r.converged);
 }

@@ -149,15 +149,12 @@ struct RegisterOptions {
     // The same prior on the roll alone (the rotation about the optical axis,
     // sigma priorDeg), added to motionPrior's: the pose's least observable
     // axis looking down a round airway, held without holding back the
-    // position or the viewing direction. 0: off (the default). With the
-    // albedo map's three rules below, 0.0005 took the phantom's revised
-    // sequences within every target (the roll at the lobar bronchus's end)
-    // and did no harm on the VH airway, but it also holds the first frame's
-    // search near each candidate's roll (a capture test 1.5 -> 2.2 degrees),
-    // and applied in tracking only it did not hold the targets (one run per
-    // sequence decides a p95), so it is not the default (docs/theory.md,
-    // "The sequences, revised"); 0.002 without the map held the CT airway's
-    // roll back.
+    // position or the viewing direction. 0: off (the default). In tracking
+    // only (registerInitial refines its candidates without priors), with the
+    // tracker's velocity fixed (session 24), 0.0005 helped category 4 seed 1
+    // (p95 4.28 -> 3.60 degrees) and hurt lamp seed 1 (1.95 -> 4.30), so
+    // it is not the default (docs/theory.md, "The track across a flagged
+    // stretch"); 0.002 without the map held the CT airway's roll back.
     double rollPrior = 0.0;
     double priorMm = 1.0, priorDeg = 2.0;
     // recheck: when the coarse levels move the pose further than recheckMm /
@@ -212,6 +209,9 @@ struct FrameRegistration {
     // The method converged, but on a pose the map's step disagrees with
     // (RegisterOptions::mapAgreementMm): flagged for that.
     bool mapDisagreed = false;
+    // Flagged, and the estimate is the map's step's converged pose
+    // (RegisterOptions::keepMapPose), not where the method ended.
+    bool mapPoseKept = false;
 };
 
 // A frame prepared for registration: linear luminance at every level,
@@ -246,24 +246,35 @@ Mat4 predictPose(const Mat4& before, const Mat4& last, double damping = 0.5) noe
 
 // Frame-to-frame tracking: each frame starts from the last converged pose
 // moved on by the last converged motion (constant velocity, times
-// `prediction`); a frame that does not converge leaves the track where it
-// was and drops the velocity. The frame after a flagged one is registered
-// from two starts (registerTracked): where the track was, and where the
-// flagged frame ended, since a frame scoring just under the threshold at
-// its true pose (a jerk of the scope, a glint) is usually right and the scope
-// moves on meanwhile.
+// `prediction`; a velocity only between consecutive converged frames); a
+// frame that does not converge leaves the track where it was and drops the
+// velocity. The frame after a flagged one is registered from two starts
+// (registerTracked): where the track was, and where the flagged frame
+// ended, since a frame scoring just under the threshold at its true pose (a
+// jerk of the scope, a glint) is usually right and the scope moves on
+// meanwhile; or, where the flagged frame kept the albedo map's pose, from
+// that pose alone (anchorOnMap).
 class Tracker {
 public:
     explicit Tracker(const Mat4& initial, double prediction = 1.0) noexcept
         : last_(initial), before_(initial), prediction_(prediction) {}
     Mat4 start() const noexcept { return haveBefore_ ? predictPose(before_, last_, prediction_) : last_; }
     // Every start for the next frame: start(), then the last flagged
-    // frame's estimate if the frame before this one was flagged.
+    // frame's estimate if the frame before this one was flagged (and the
+    // track did not move there).
     std::vector<Mat4> starts() const {
         std::vector<Mat4> s{start()};
-        if (!fresh_) s.push_back(flagged_);
+        if (!fresh_ && flagged_ != last_) s.push_back(flagged_);
         return s;
     }
+    // A flagged frame whose estimate is the albedo map's converged pose
+    // (RegisterOptions::keepMapPose) moves the track there, without a
+    // velocity: the next frame starts from it alone, not also from the last
+    // converged pose, which a flagged stretch leaves many frames behind (on
+    // the phantom the map's step, started 13 frames back, converged 11 mm
+    // off and the track followed). false: the track stays at the last
+    // converged pose and the map's pose is a second start.
+    bool anchorOnMap = true;
     // The options for the next frame: the motion prior only around a fresh
     // prediction. After a flagged frame the start is where the track last
     // was, which the scope has left: a prior there would hold the pose back
@@ -284,6 +295,10 @@ public:
         if (!r.converged) {
             haveBefore_ = false;
             flagged_ = r.cameraToWorld;
+            if (anchorOnMap && r.mapPoseKept) {
+                last_ = r.cameraToWorld;
+                started_ = true;
+            }
             return;
         }
         before_ = last_;
