@@ -473,9 +473,10 @@ TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
 }
 
 // The tracker's constant velocity is taken between consecutive converged
-// frames only, and a flagged frame that kept the map's pose moves the track. After a flagged stretch the last converged
-// pose lies many frames back: its motion to the next converged frame is many frames' worth, and extrapolated as one
-// frame's it would throw the start far ahead.
+// frames only: after a flagged stretch the last converged pose lies many
+// frames back, its motion to the next converged frame is many frames' worth,
+// and extrapolated as one frame's it would throw the start far ahead. A
+// flagged frame that kept the albedo map's pose moves the track there.
 TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
     auto at = [](double z, bool converged) {
         fit::FrameRegistration r;
