@@ -14,6 +14,8 @@
 // MUCOSA_SINGLE_START=1 tracks from the tracker's first start only (no retry
 // from a flagged frame's estimate);
 // MUCOSA_SEED=N draws another path, roll and noise (PatientOptions::seed);
+// MUCOSA_PARAMS=name=value,... sets registry parameters on the video's look
+// (PatientOptions::params; e.g. specular_strength=0,sheen_strength=0);
 // MUCOSA_PQ_ONLY=1 runs pq alone, without the capture test;
 // by default each run registers as `mucosa register` does: the first frame
 // searched around the initial pose (fit::registerInitial), then tracked with
@@ -33,7 +35,10 @@
 // error, then the albedo map step's position and orientation error (-1: it
 // did not converge), then the method's similarity at the true pose (above
 // the similarity reached: the optimiser stopped short of the truth; below
-// it: the objective itself prefers the wrong pose).
+// it: the objective itself prefers the wrong pose), the position's error in
+// the true camera's axes (x, y, z), and the similarity at the truth moved
+// 5 mm along its x axis and at the truth turned 10 degrees about its y axis
+// (what a wrong pose scores: the flag threshold's other side).
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -54,6 +59,7 @@
 #include <mucosa/fit/fit.hpp>
 #include <mucosa/fit/patient.hpp>
 #include <mucosa/fit/register.hpp>
+#include <mucosa/shading/params.hpp>
 #include <mucosa/shading/reference.hpp>
 
 using namespace mucosa;
@@ -78,6 +84,23 @@ int main(int argc, char** argv) {
     const std::string model = argc > 5 ? argv[5] : look == "lamp" ? "lamp" : "brdf";
     if (argc > 6) po.meshFile = argv[6];
     if (const char* k = std::getenv("MUCOSA_SEED")) po.seed = std::strtoull(k, nullptr, 10);
+    // MUCOSA_PARAMS=name=value,...: registry parameters set on the video's
+    // look (e.g. specular_strength=0 to take the highlights out).
+    if (const char* k = std::getenv("MUCOSA_PARAMS")) {
+        std::string list = k;
+        for (std::size_t at = 0; at < list.size();) {
+            const std::size_t end = std::min(list.find(',', at), list.size());
+            const std::string item = list.substr(at, end - at);
+            const std::size_t eq = item.find('=');
+            const shading::ParamInfo* p = eq == std::string::npos ? nullptr : shading::findParam(item.substr(0, eq));
+            if (!p) {
+                std::fprintf(stderr, "error: MUCOSA_PARAMS: unknown parameter in '%s'\n", item.c_str());
+                return 2;
+            }
+            po.params.emplace_back(p->id, std::strtof(item.c_str() + eq + 1, nullptr));
+            at = end + 1;
+        }
+    }
     if ((look != "lamp" && look != "category4") || (model != "lamp" && model != "brdf") || po.frames < 2 ||
         po.size < 64) {
         std::fprintf(stderr, "usage: bench_patient [lamp|category4] [frames] [size] [start_mm] [lamp|brdf] [mesh]\n");
@@ -183,9 +206,47 @@ int main(int argc, char** argv) {
                 atTruth.maxIterations = 0;
                 atTruth.recheck = false;
                 const double truthSimilarity = fit::registerFrame(patient.mesh, vf, b, atTruth).similarity;
-                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f\n", label, i, e.position, e.degrees,
-                             r.similarity, r.converged ? 1 : 0, std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI,
-                             m.position, m.degrees, truthSimilarity);
+                // And at two wrong poses: the truth moved 5 mm sideways, and turned 10 degrees.
+                const double offSimilarity[2] = {
+                    fit::registerFrame(patient.mesh, vf, fit::perturbPose(b, {5, 0, 0}, {0, 0, 0}), atTruth).similarity,
+                    fit::registerFrame(patient.mesh, vf, fit::perturbPose(b, {0, 0, 0}, {0, 10 * M_PI / 180, 0}), atTruth)
+                        .similarity};
+                // The position's error in the true camera's axes (x right, y down, z forward).
+                double off[3] = {0, 0, 0};
+                for (int c = 0; c < 3; ++c)
+                    for (int k = 0; k < 3; ++k) off[c] += b[k][c] * (a[k][3] - b[k][3]);
+                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f %.3f %.3f %.3f %.4f %.4f\n", label, i,
+                             e.position, e.degrees, r.similarity, r.converged ? 1 : 0,
+                             std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI, m.position, m.degrees,
+                             truthSimilarity, off[0], off[1], off[2], offSimilarity[0], offSimilarity[1]);
+            }
+            if (const char* dumpDir = std::getenv("MUCOSA_DUMP")) {
+                // MUCOSA_DUMP=DIR with MUCOSA_DUMP_FRAMES=a,b,...: the finest
+                // level's fields of those frames as raw float32 files (width
+                // x height, row-major): the video's luminance, p, q, weight;
+                // the model's p, q, weight at the true and at the estimated pose.
+                const std::string list = std::string(",") + (std::getenv("MUCOSA_DUMP_FRAMES") ? std::getenv("MUCOSA_DUMP_FRAMES") : "") + ",";
+                if (list.find("," + std::to_string(i) + ",") != std::string::npos && !vf.levels.empty()) {
+                    const fit::VideoFrame::Level& lv = vf.levels.back();
+                    auto raw = [&](const std::string& name, const float* v, std::size_t n) {
+                        FILE* f = std::fopen((fs::path(dumpDir) / (label + std::string("_") + std::to_string(i) + "_" + name + ".f32")).c_str(), "wb");
+                        if (f) std::fwrite(v, sizeof(float), n, f), std::fclose(f);
+                    };
+                    const std::size_t n = static_cast<std::size_t>(lv.K.width) * lv.K.height;
+                    raw("lum", lv.luminance.data(), n);
+                    std::vector<float> valid(lv.valid.begin(), lv.valid.end());
+                    raw("valid", valid.data(), n);
+                    raw("vp", lv.pq.p.data(), n), raw("vq", lv.pq.q.data(), n), raw("vw", lv.pq.weight.data(), n);
+                    const fit::Mat4* poses[2] = {&truth.frames[i].cameraToWorld, &r.cameraToWorld};
+                    const char* names[2] = {"t", "e"};
+                    for (int k = 0; k < 2; ++k) {
+                        const fit::ModelView mv = fit::renderModel(patient.mesh, lv.K, *poses[k], o.lightOffset, 2, o.supersample, o.lamp, o.brdf ? &*o.brdf : nullptr, o.texture.get());
+                        const fit::PqField m = fit::pqFromModel(mv, lv.K, lv.pqOptions, &lv.pq.usable);
+                        raw(std::string(names[k]) + "p", m.p.data(), n), raw(std::string(names[k]) + "q", m.q.data(), n);
+                        raw(std::string(names[k]) + "w", m.weight.data(), n), raw(std::string(names[k]) + "s", mv.shading.data(), n);
+                    }
+                    std::printf("dumped frame %zu (%dx%d)\n", i, lv.K.width, lv.K.height);
+                }
             }
             lostFor = (e.position > 5 || e.degrees > 10) ? lostFor + 1 : 0;
             if (lostFor == 11) ++losses;

@@ -91,21 +91,26 @@ image::ImageF openClose(const image::ImageF& E, const std::vector<std::uint8_t>&
 }
 
 // The closed-form solve: log-intensity derivatives (per unit of normalised
-// image coordinate) at (x, y) -> (p, q, conditioning), or nothing if masked.
-std::optional<std::array<double, 3>> solvePq(double gx, double gy, double xn, double yn, const PqOptions& o) {
+// image coordinate) at (x, y) -> the normal (a, b, -c) up to scale, with c =
+// 1 + a x + b y (p = a / c, q = b / c), or nothing if masked. The normal is
+// defined at any c (c = 0: a wall parallel to the optical axis, which looking
+// down a bronchus is most of it); the mask is on the normal's cosine to the
+// ray (x, y, 1), 1 / (|(a, b, c)| |(x, y, 1)|): grazing walls, occluding
+// contours and folds, where the plane breaks. `grazing`: no mask (the
+// model's side: a wall it sees is a wall, however it is seen).
+std::optional<std::array<double, 3>> solvePq(double gx, double gy, double xn, double yn, const PqOptions& o,
+                                             bool grazing = false) {
     const double S = 1 + xn * xn + yn * yn;
     const double a = -gx / 3 - xn / S, b = -gy / 3 - yn / S;
-    const double cond = 1 + a * xn + b * yn;
-    if (cond < o.minConditioning) return std::nullopt;
-    const double p = a / cond, q = b / cond;
-    if (p * p + q * q > o.maxSlope * o.maxSlope) return std::nullopt;
-    return std::array<double, 3>{p, q, cond};
+    const double c = 1 + a * xn + b * yn;
+    if (!grazing && 1 / std::sqrt((a * a + b * b + c * c) * S) < o.minRayCosine) return std::nullopt;
+    return std::array<double, 3>{a, b, c};
 }
 
 // The video-side estimator. `E`: linear irradiance; `use`: pixels
 // that may be used; `weighted`: the video's confidence (else weight 1).
 PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const Intrinsics& K, const PqOptions& o,
-                 double darkLevel) {
+                 double darkLevel, bool grazing = false) {
     const int w = E.width(), h = E.height();
     const std::size_t n = static_cast<std::size_t>(w) * h;
     PqField f;
@@ -114,6 +119,7 @@ PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const In
     f.p.assign(n, 0.f);
     f.q.assign(n, 0.f);
     f.weight.assign(n, 0.f);
+    f.normal.assign(n, {0.f, 0.f, 0.f});
     std::vector<float> L(n, 0.f);
     for (std::size_t i = 0; i < n; ++i) {
         const float e = E.data()[i];
@@ -162,15 +168,18 @@ PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const In
             const Eigen::Vector3d sol = A.ldlt().solve(rhs);
             // d lnE / d(normalised x) = d lnE / du * fx.
             const double gx = sol[1] * K.fx, gy = sol[2] * K.fy;
-            const auto pq = solvePq(gx, gy, (x - K.cx) / K.fx, (y - K.cy) / K.fy, o);
-            if (!pq) continue;
-            const double cond = (*pq)[2];
-            f.p[i] = static_cast<float>((*pq)[0]);
-            f.q[i] = static_cast<float>((*pq)[1]);
-            // Conditioning: the solve amplifies gradient noise by 1 / cond.
+            const auto abc = solvePq(gx, gy, (x - K.cx) / K.fx, (y - K.cy) / K.fy, o, grazing);
+            if (!abc) continue;
+            const auto [a, bb, cond] = *abc;
+            const double held = std::max(cond, 0.01);  // p, q for display past the axis-parallel wall
+            f.p[i] = static_cast<float>(a / held);
+            f.q[i] = static_cast<float>(bb / held);
+            const double norm = std::sqrt(a * a + bb * bb + cond * cond);
+            f.normal[i] = {static_cast<float>(a / norm), static_cast<float>(bb / norm), static_cast<float>(-cond / norm)};
             // Brightness: the log-gradient's noise grows as the signal falls.
+            // (The model's side, noiseless, takes weight 1 wherever it has an estimate.)
             const double e = E.data()[i];
-            f.weight[i] = static_cast<float>(std::min(1.0, cond / (4 * o.minConditioning)) * (e / (e + 2 * darkLevel)));
+            f.weight[i] = grazing ? 1.f : static_cast<float>(e / (e + 2 * darkLevel));
         }
     return f;
 }
@@ -293,15 +302,13 @@ struct Objective {
             double sw = 0, sc = 0;
             for (std::size_t k = 0; k < pixels.size(); ++k) {
                 const std::size_t i = pixels[k];
-                const double pv = level.pq.p[i], qv = level.pq.q[i];
-                const double nv = std::sqrt(1 + pv * pv + qv * qv);
-                const Eigen::Vector3d a(pv / nv, qv / nv, -1 / nv);
+                const auto& nv = level.pq.normal[i];
+                const Eigen::Vector3d a(nv[0], nv[1], nv[2]);
                 Eigen::Vector3d diff;
                 double c = 0;
                 if (m.weight[i] > 0) {
-                    const double pm = m.p[i], qm = m.q[i];
-                    const double nm = std::sqrt(1 + pm * pm + qm * qm);
-                    const Eigen::Vector3d bv(pm / nm, qm / nm, -1 / nm);
+                    const auto& nm = m.normal[i];
+                    const Eigen::Vector3d bv(nm[0], nm[1], nm[2]);
                     diff = a - bv;
                     c = a.dot(bv);
                     if (seen) (*seen)[k] = 1;
@@ -653,9 +660,7 @@ PqField pqFromModel(const ModelView& view, const Intrinsics& K, const PqOptions&
     for (std::size_t i = 0; i < n; ++i)
         use[i] = view.seen[i] && view.shading.data()[i] > 0 && (!usable || (*usable)[i]);
     const image::ImageF filtered = openClose(view.shading, use, o.albedoFilterPx);
-    PqField f = estimate(filtered, std::move(use), K, o, 0);
-    for (float& w : f.weight) w = w > 0 ? 1.f : 0.f;
-    return f;
+    return estimate(filtered, std::move(use), K, o, 0, true);
 }
 
 double pqSimilarity(const PqField& video, const PqField& model) {
@@ -665,8 +670,9 @@ double pqSimilarity(const PqField& video, const PqField& model) {
         if (w <= 0) continue;
         sw += w;
         if (model.weight[i] <= 0) continue;
-        const double pa = video.p[i], qa = video.q[i], pb = model.p[i], qb = model.q[i];
-        sc += w * (pa * pb + qa * qb + 1) / std::sqrt((1 + pa * pa + qa * qa) * (1 + pb * pb + qb * qb));
+        const auto &a = video.normal[i], &b = model.normal[i];
+        sc += w * (static_cast<double>(a[0]) * b[0] + static_cast<double>(a[1]) * b[1] +
+                   static_cast<double>(a[2]) * b[2]);
     }
     return sw > 0 ? sc / sw : 0;
 }
@@ -958,8 +964,8 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
     FrameRegistration r = registerLevels(near.mesh, near.options, frame, initial, 0, start);
     // A coarse level can prefer a pose the finest one does not (a bias of the
     // blurred field: on the category-4 phantom's first frame, 40 pixels
-    // across preferred a roll 24 degrees off that scores 0.90 at 80 against
-    // 0.94 where the finest level alone goes). When the coarse levels moved
+    // across preferred a roll 24 degrees off that scored 0.90 at 80 against
+    // 0.94 where the finest level alone went, until session 25's normals). When the coarse levels moved
     // the pose further than `recheckMm` / `recheckDeg`, the finest level is
     // also run from the start, and the better of the two kept (with
     // options.recheck: registerInitial's refinement).

@@ -157,10 +157,10 @@ image::Image8 pqImage(const PqField& f) {
     for (std::size_t i = 0; i < f.weight.size(); ++i) {
         std::array<std::uint8_t, 3> c{40, 40, 40};
         if (f.weight[i] > 0) {
-            const double p = f.p[i], q = f.q[i], N = std::sqrt(1 + p * p + q * q);
-            c = {static_cast<std::uint8_t>(std::lround(127.5 * (1 + p / N))),
-                 static_cast<std::uint8_t>(std::lround(127.5 * (1 + q / N))),
-                 static_cast<std::uint8_t>(std::lround(255 / N))};
+            const auto& n = f.normal[i];
+            c = {static_cast<std::uint8_t>(std::lround(127.5 * (1 + n[0]))),
+                 static_cast<std::uint8_t>(std::lround(127.5 * (1 + n[1]))),
+                 static_cast<std::uint8_t>(std::lround(255 * std::clamp(-n[2], 0.f, 1.f)))};
         }
         for (int k = 0; k < 3; ++k) img.data()[3 * i + k] = c[k];
     }

@@ -356,22 +356,30 @@ FirstFrame firstFrame(fit::PatientLook look) {
 // Category 4: the coarse level (40 px) preferred a roll 24 degrees off,
 // which the finest level, started there, kept (0.90 against 0.94 at the
 // truth); the finest level run from the start too (recheck, what
-// registerInitial's refinement does) finds the better pose. (Searched, as
-// `mucosa register` does: 0.87 mm, 4.7 degrees; bench_patient.)
+// registerInitial's refinement does) found the better pose. Since session
+// 25 (normals compared, not gradients) the coarse level no longer jumps on
+// this frame: registered from the initial pose it lands within 1 mm and
+// 2 degrees. The recheck is then forced (thresholds 0): both runs are
+// counted, and the better of the two kept.
 TEST(SyntheticPatient, AFirstFramesCoarseJumpIsRecheckedAtTheFinestLevel) {
     const FirstFrame f = firstFrame(fit::PatientLook::Category4);
     const fit::FrameRegistration plain = fit::registerFrame(f.patient.mesh, f.frame, f.init, f.options);
     fit::RegisterOptions re = f.options;
     re.recheck = true;
+    re.recheckMm = re.recheckDeg = 0;
     const fit::FrameRegistration rechecked = fit::registerFrame(f.patient.mesh, f.frame, f.init, re);
     const fit::PoseError ep = fit::poseError(plain.cameraToWorld, f.truth);
     const fit::PoseError er = fit::poseError(rechecked.cameraToWorld, f.truth);
-    std::printf("from the initial pose: %.2f mm %.2f deg (S %.4f); rechecked %.2f mm %.2f deg (S %.4f)\n", ep.position,
-                ep.degrees, plain.similarity, er.position, er.degrees, rechecked.similarity);
-    EXPECT_GT(ep.degrees, 10);
-    EXPECT_LT(er.degrees, 5);
+    std::printf("from the initial pose: %.2f mm %.2f deg (S %.4f, %d evaluations); rechecked %.2f mm %.2f deg "
+                "(S %.4f, %d evaluations)\n",
+                ep.position, ep.degrees, plain.similarity, plain.evaluations, er.position, er.degrees,
+                rechecked.similarity, rechecked.evaluations);
+    EXPECT_LT(ep.position, 1.0);
+    EXPECT_LT(ep.degrees, 2.0);
     EXPECT_LT(er.position, 1.0);
-    EXPECT_GT(rechecked.similarity, plain.similarity);
+    EXPECT_LT(er.degrees, 2.0);
+    EXPECT_GE(rechecked.similarity, plain.similarity);
+    EXPECT_GT(rechecked.evaluations, plain.evaluations);  // the finest level ran again from the start
 }
 
 // Lamp: the search settled one tracheal ring (5 mm) along, scoring 0.006

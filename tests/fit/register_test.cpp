@@ -14,6 +14,7 @@
 #include <mucosa/mesh/repair.hpp>
 
 #include "register_scene.hpp"
+#include "synthetic.hpp"
 #include "test_support.hpp"
 
 using namespace mucosa;
@@ -95,7 +96,7 @@ TEST(RegisterPq, CylinderShadingGivesTheTrueGradient) {
     const double an = std::sqrt(ad[0] * ad[0] + ad[1] * ad[1] + ad[2] * ad[2]);
     for (double& v : ad) v /= an;
     image::ImageF E(K.width, K.height, 1);
-    std::vector<std::array<double, 2>> truth(static_cast<std::size_t>(K.width) * K.height);
+    std::vector<std::array<double, 3>> truth(static_cast<std::size_t>(K.width) * K.height);
     auto dot = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
         return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     };
@@ -118,26 +119,42 @@ TEST(RegisterPq, CylinderShadingGivesTheTrueGradient) {
             std::array<double, 3> n{-(w[0] - wd * ad[0]) / R, -(w[1] - wd * ad[1]) / R, -(w[2] - wd * ad[2]) / R};
             const double r = std::sqrt(dot(P, P));
             const double cosine = -dot(n, P) / r;
-            if (cosine <= 0 || n[2] >= 0) continue;
+            if (cosine <= 0) continue;
             E.at(x, y) = static_cast<float>(cosine / (r * r));
-            truth[i] = {n[0] / -n[2], n[1] / -n[2]};
+            truth[i] = n;
         }
     fit::PqOptions o;
     o.darkFraction = 0.01;
     o.saturation = 1e30;
     const fit::PqField f = fit::pqFromShading(E, K, o);
-    std::vector<double> err;
+    // Split where the wall's gradient stops being a useful description: up to
+    // |(p, q)| = 6, and steeper or turned past parallel to the optical axis
+    // (where only the normal is defined).
+    std::vector<double> err, steep;
     for (std::size_t i = 0; i < f.weight.size(); ++i)
-        if (f.weight[i] > 0) err.push_back(angleDeg(f.p[i], f.q[i], truth[i][0], truth[i][1]));
+        if (f.weight[i] > 0) {
+            const auto& m = f.normal[i];
+            const auto& n = truth[i];
+            const double e = std::acos(std::clamp(m[0] * n[0] + m[1] * n[1] + m[2] * n[2], -1.0, 1.0)) * 180 / M_PI;
+            (n[2] < -1 / std::sqrt(37.0) ? err : steep).push_back(e);
+        }
     ASSERT_GT(err.size(), 10000u);
+    ASSERT_GT(steep.size(), 1000u);
     std::sort(err.begin(), err.end());
+    std::sort(steep.begin(), steep.end());
     const double med = err[err.size() / 2], p95 = err[err.size() * 95 / 100];
-    std::printf("cylinder: %zu pixels, normal error median %.3f deg, p95 %.3f deg\n", err.size(), med, p95);
+    const double medSteep = steep[steep.size() / 2], p95Steep = steep[steep.size() * 95 / 100];
+    std::printf("cylinder: %zu pixels, normal error median %.3f deg, p95 %.3f deg; %zu steeper: median %.3f, "
+                "p95 %.3f\n",
+                err.size(), med, p95, steep.size(), medSteep, p95Steep);
     // Curvature breaks local planarity: n.(-P) varies along a curved wall
-    // seen off-axis. This bias is the estimator's, and the model side, run
-    // through the same estimator, shares it.
+    // seen off-axis, the more so the more steeply. This bias is the
+    // estimator's, and the model side, run through the same estimator,
+    // shares it.
     EXPECT_LT(med, 2.5);
     EXPECT_LT(p95, 6.0);
+    EXPECT_LT(medSteep, 6.5);
+    EXPECT_LT(p95Steep, 8.0);
 }
 
 // The model side of a plane mesh returns the plane's gradient in camera space.
@@ -277,6 +294,93 @@ INSTANTIATE_TEST_SUITE_P(BothMethods, RegisterTracking,
 // The similarity peaks at the true pose: moving 1 mm or 2 degrees along any
 // axis lowers it, at every level (the objective is informative in all six
 // directions; roll about the axis of a tube is the weakest).
+// Looking down a straight, smooth bronchus (radius 5 mm), the walls run
+// nearly parallel to the optical axis: their gradient (p, q) is huge or
+// undefined, their normal is not. Both sides compare normals, and mask only
+// walls grazing the ray. Until session 25 both masked |(p, q)| > 6 and
+// 1 + a x + b y < 0.2, and a model pixel masked where the video kept one
+// counted as unseen: here the video kept only the pixels noise made look
+// less steep, the similarity at the truth was 0.69, and 4 of the 8 shifted
+// poses below scored higher (on the phantom's lobar bronchus: 3-4 mm and
+// 6 degrees off).
+TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
+    const double R = 5;
+    const mesh::Mesh tube = test::makeTube(R, 160, 256, 320);  // along +z, normals into the lumen
+    const Intrinsics K = pinhole(80, 28);                       // 110 degrees across
+    const Mat4 truth = fit::lookAtPose({1.2, -0.8, 20}, {0.3, 0.2, 120}, {0, -1, 0});
+    // 1. The model's field against the cylinder's normals.
+    {
+        const fit::ModelView v = fit::renderModel(tube, K, truth, {0, 0, 0}, 1, 2);
+        fit::PqOptions o;
+        const fit::PqField f = fit::pqFromModel(v, K, o);
+        const Mat4 W = fit::invertRigid(truth);
+        const fit::Vec3d c = fit::cameraCentre(truth);
+        std::vector<double> err, steepErr;
+        int seen = 0, kept = 0;
+        for (int y = 4; y < K.height - 4; ++y)
+            for (int x = 4; x < K.width - 4; ++x) {
+                const std::size_t i = static_cast<std::size_t>(y) * K.width + x;
+                bool around = true;  // the whole window sees the wall
+                for (int dy = -4; dy <= 4; ++dy)
+                    for (int dx = -4; dx <= 4; ++dx)
+                        around = around && v.seen[static_cast<std::size_t>(y + dy) * K.width + x + dx];
+                if (!around) continue;
+                ++seen;
+                if (f.weight[i] <= 0) continue;
+                ++kept;
+                // The ray's hit on the cylinder x^2 + y^2 = R^2 (world).
+                const fit::Vec3d d = fit::transformDirection(truth, {(x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0});
+                const double a = d[0] * d[0] + d[1] * d[1], b = 2 * (c[0] * d[0] + c[1] * d[1]);
+                const double t = (-b + std::sqrt(b * b - 4 * a * (c[0] * c[0] + c[1] * c[1] - R * R))) / (2 * a);
+                const fit::Vec3d n = fit::transformDirection(W, {-(c[0] + t * d[0]) / R, -(c[1] + t * d[1]) / R, 0.0});
+                const auto& m = f.normal[i];
+                const double e =
+                    std::acos(std::clamp(m[0] * n[0] + m[1] * n[1] + m[2] * n[2], -1.0, 1.0)) * 180 / M_PI;
+                err.push_back(e);
+                // Steeper than |(p, q)| = 6 (the video side's mask until
+                // session 25), or turned past parallel to the optical axis.
+                if (n[2] > -1 / std::sqrt(1 + 36.0)) steepErr.push_back(e);
+            }
+        std::sort(err.begin(), err.end());
+        std::printf("straight tube, model side: %d of %d seen pixels kept; normal error median %.2f deg, p90 %.2f; "
+                    "%zu steeper than 6: median %.2f deg\n",
+                    kept, seen, median(err), err[err.size() * 9 / 10], steepErr.size(), median(steepErr));
+        // The estimator's curvature bias (as in CylinderShadingGivesTheTrueGradient's
+        // steep walls; the video side shares it).
+        EXPECT_GT(seen, 3000);
+        EXPECT_EQ(kept, seen);
+        EXPECT_GT(steepErr.size(), 3000u);  // nearly every wall: they run along the optical axis
+        EXPECT_LT(median(err), 5.0);
+        EXPECT_LT(err[err.size() * 9 / 10], 7.0);
+    }
+    // 2. The video (albedo, glints, noise): the similarity peaks at the truth
+    // against lateral shifts, each with the turn that keeps the far lumen
+    // where it was (the tube's flat valley).
+    fit::RegisterOptions ro;
+    image::Image8 sat;
+    const image::ImageF frame = test::renderVideoFrame(tube, pinhole(160, 56), truth, {}, 1, &sat);
+    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, pinhole(160, 56), ro);
+    const auto& L = vf.levels.back();
+    auto sim = [&](const Mat4& pose) {
+        return fit::pqSimilarity(L.pq, fit::pqFromModel(fit::renderModel(tube, L.K, pose, {0, 0, 0}, 1, 2), L.K,
+                                                        ro.pq, &L.pq.usable));
+    };
+    const double s0 = sim(truth);
+    std::printf("at the truth %.4f, shifted:", s0);
+    for (double mm : {-3.0, -1.5, 1.5, 3.0})
+        for (int axis = 0; axis < 2; ++axis) {
+            fit::Vec3d t{0, 0, 0}, w{0, 0, 0};
+            t[axis] = mm;
+            // Turned back towards the lumen 100 mm ahead: about y for an x shift.
+            const double turn = std::atan(mm / 100);
+            w[1 - axis] = axis == 0 ? -turn : turn;
+            const double s = sim(fit::perturbPose(truth, t, w));
+            std::printf(" %.4f", s);
+            EXPECT_LT(s, s0) << "shift " << mm << " mm along camera axis " << axis;
+        }
+    std::printf("\n");
+}
+
 TEST(RegisterPq, SimilarityPeaksAtTheTruePose) {
     const test::RegisterScene scene = test::makeRegisterScene();
     const Intrinsics K = pinhole(160, 90);
@@ -638,7 +742,7 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
             const fit::FrameRegistration h = fit::registerInitial(off.scene.mesh, off.vf, start, held, small);
             EXPECT_GT(fit::poseError(free.cameraToWorld, start).position, 0.5);  // it moved from the start
             EXPECT_LT(fit::poseError(h.cameraToWorld, free.cameraToWorld).position, 1e-9);
-            EXPECT_LT(fit::poseError(h.cameraToWorld, free.cameraToWorld).degrees, 1e-6);
+            EXPECT_LT(fit::poseError(h.cameraToWorld, free.cameraToWorld).degrees, 1e-4);  // acos near 1
         }
     }
     EXPECT_EQ(missed, 2);  // the search is what captures them
@@ -850,14 +954,17 @@ TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
     EXPECT_EQ(map.frames(), 1u);
 }
 
-// pq on the same tube scores under its threshold even at the true pose (the
-// glints) and most of its frames are flagged. A flagged frame's estimate is
-// the map's step's pose where that converged (RegisterOptions::keepMapPose),
-// not where pq's iterations ended: the map's step is the estimate that
-// converged, and the next frame starts from it.
+// A flagged frame's estimate is the map's step's pose where that converged
+// (RegisterOptions::keepMapPose), not where pq's iterations ended: the map's
+// step is the estimate that converged, and the next frame starts from it.
+// Until session 25 pq scored under its threshold on this tube even at the
+// true pose and was flagged on its own (frame 1 0.72 mm / 1.21 deg off, the
+// map's pose 0.05 mm / 0.18 deg); comparing normals, it converges within
+// 0.15 mm, so here a threshold no frame reaches flags every frame.
 TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
     fit::RegisterOptions ro;  // pq
     const SmoothTubeTrack scene = smoothTubeTrack(ro);
+    ro.minSimilarity = 1.01;
     auto track = [&](bool keep) {
         fit::RegisterOptions o = ro;
         o.keepMapPose = keep;
@@ -919,25 +1026,27 @@ TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
                 ownFirst.degrees, keptFirst.position, keptFirst.degrees);
     std::printf("worst error: pq's own estimates %.2f mm %.1f deg, the map's poses kept %.2f mm %.1f deg\n",
                 own.position, own.degrees, kept.position, kept.degrees);
-    // Measured: frame 1 (flagged either way) 0.72 mm / 1.21 deg -> 0.05 mm /
-    // 0.18 deg; the worst of frames 1-3 1.54 -> 1.40 mm. What remains is
-    // pq's bias on this tube: frames it converges on 1.2 mm off paint the
-    // map there.
+    // Measured: the map's poses within 0.07 mm / 0.3 deg; pq's own, started
+    // without a velocity after flagged frames, slid 2.8 mm / 10.7 deg along
+    // the smooth tube by frame 3 (scoring 0.987 there: the shape does not
+    // fix the axial position or the roll).
     EXPECT_LT(keptFirst.position, 0.3);
-    EXPECT_LT(keptFirst.position, 0.5 * ownFirst.position);
+    EXPECT_LT(kept.position, 0.5);
+    EXPECT_LT(kept.degrees, 2.0);
     EXPECT_LT(kept.position, own.position);
 }
 
-// On the same tube pq converges on frames its bias puts about a millimetre
-// from where the map's step converged. With RegisterOptions::mapAgreementMm
-// under that, those frames are flagged for the disagreement: they paint
-// nothing, and every frame left converged lies within the agreement of the
-// map's pose. The estimate stays the method's own (keepMapPose is off).
+// On the same tube pq converges 0.05-0.07 mm and 0.06-0.27 degrees from
+// where the map's step converged (until session 25 its bias put some frames
+// a millimetre away). With RegisterOptions::mapAgreementMm under that,
+// those frames are flagged for the disagreement: they paint nothing, and
+// every frame left converged lies within the agreement of the map's pose.
+// The estimate stays the method's own (keepMapPose is off).
 TEST(RegisterAlbedo, AFrameTheMapsPoseDisagreesWithIsFlaggedAndPaintsNothing) {
     fit::RegisterOptions o;  // pq
     const SmoothTubeTrack scene = smoothTubeTrack(o);
-    o.mapAgreementMm = 0.5;
-    o.mapAgreementDegrees = 2.0;
+    o.mapAgreementMm = 0.02;
+    o.mapAgreementDegrees = 0.03;
     o.keepMapPose = false;
     o.minPaintSimilarity = 0;
     fit::Tracker tracker(scene.poses[0]);

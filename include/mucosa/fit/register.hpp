@@ -35,9 +35,15 @@ const char* methodName(RegistrationMethod m) noexcept;
 // A (p, q) field over a pinhole image: the surface z(X, Y) in camera space
 // (OpenCV axes) has gradient (p, q), i.e. normal (p, q, -1) / sqrt(1 + p^2 + q^2)
 // facing the camera. weight 0 = no estimate (masked).
+// `normal`: the unit normal itself (camera axes, facing the camera), what the
+// similarity compares. It is defined where (p, q) is not: a wall parallel to
+// the optical axis (looking down a bronchus, most of it) has an infinite
+// gradient, and one turned past it (at the view's edge) none; there p and q
+// are held finite (c = 1 + a x + b y held at 0.01) and mean nothing.
 struct PqField {
     int width = 0, height = 0;
     std::vector<float> p, q, weight;
+    std::vector<std::array<float, 3>> normal;
     std::vector<std::uint8_t> usable;  // the pixels the local fits drew on
 };
 
@@ -46,8 +52,7 @@ struct PqOptions {
     double darkFraction = 0.04;    // below this fraction of the frame's 99th percentile: the dark lumen
     double saturation = 0.97;      // linear value at or above which a pixel is specular/clipped
     int borderPx = 2;              // image border (and field-of-view edge) masked, working pixels
-    double minConditioning = 0.2;  // 1 + a x + b y below this: near-grazing, masked
-    double maxSlope = 6.0;         // |(p, q)| above this: a fold or occluding contour, masked
+    double minRayCosine = 0.1;     // the normal's cosine to the viewing ray below this: grazing, masked (video side)
     int albedoFilterPx = 0;        // opening + closing radius removing vessels and glints, both sides (0: off)
 };
 
