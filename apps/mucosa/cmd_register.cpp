@@ -34,6 +34,7 @@ struct RegisterArgs {
     std::string mesh, video, camera, init, out, method = "pq", report, brdf, framesDir;
     std::vector<int> levels;
     std::vector<double> mapAgreement;  // empty: RegisterOptions' default
+    std::vector<double> mapReach;      // empty: RegisterOptions' default
     int maxIterations = 12, reportSamples = 6, step = 1;
     std::size_t maxFrames = 0;
     double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
@@ -144,6 +145,12 @@ void run(const RegisterArgs& a, const Global& g) {
                              "the map off");
         o.mapAgreementMm = a.mapAgreement[0];
         o.mapAgreementDegrees = a.mapAgreement[1];
+    }
+    if (!a.mapReach.empty()) {
+        if (a.noAlbedoMap)
+            throw InputError("--map-reach", "", "limits the albedo map's step, and --no-albedo-map turns the map off");
+        o.mapReachMm = a.mapReach[0];
+        o.mapReachDegrees = a.mapReach[1];
     }
     o.threads = g.threads;
     const fs::path out = a.out;
@@ -392,6 +399,12 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                   fmt::format("MM DEG: a frame the method converges on farther than this from the albedo map's "
                               "converged pose is flagged (neither painted nor fitted) [{} {}; 0 0 = off]",
                               fit::RegisterOptions{}.mapAgreementMm, fit::RegisterOptions{}.mapAgreementDegrees))
+        ->expected(2)
+        ->check(CLI::Range(0.0, 1000.0));
+    c->add_option("--map-reach", a->mapReach,
+                  fmt::format("MM DEG: the albedo map's step counts only within this of where the frame started "
+                              "(farther, it found another wall alike) [{} {}; 0 0 = off]",
+                              fit::RegisterOptions{}.mapReachMm, fit::RegisterOptions{}.mapReachDegrees))
         ->expected(2)
         ->check(CLI::Range(0.0, 1000.0));
     c->add_option("--roll-prior", a->rollPrior,

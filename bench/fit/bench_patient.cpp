@@ -26,8 +26,12 @@
 // MUCOSA_KEEP_MAP_POSE=0|1 sets RegisterOptions::keepMapPose,
 // MUCOSA_PAINT_MIN=S sets RegisterOptions::minPaintSimilarity,
 // MUCOSA_MAP_AGREEMENT=MM,DEG sets RegisterOptions::mapAgreementMm and
-// mapAgreementDegrees (0,0: off); MUCOSA_ANCHOR=0|1 sets
+// mapAgreementDegrees (0,0: off); MUCOSA_MAP_REACH=MM,DEG sets
+// RegisterOptions::mapReachMm and mapReachDegrees (0,0: off); MUCOSA_ANCHOR=0|1 sets
 // Tracker::anchorOnMap;
+// MUCOSA_DUMP=DIR with MUCOSA_DUMP_FRAMES=a,b,... writes those frames'
+// fields at the finest level as raw float32 (the video's luminance and pq
+// field, the model's at the true and the estimated pose; see below);
 // MUCOSA_KEEP_PATIENT=1 keeps the synthetic patient's folder (its video,
 // truth, mesh and camera: what `mucosa register` takes) and prints its path;
 // MUCOSA_TRACE=FILE writes one line per frame and method: frame, position
@@ -155,6 +159,8 @@ int main(int argc, char** argv) {
         if (const char* k = std::getenv("MUCOSA_PAINT_MIN")) o.minPaintSimilarity = std::atof(k);
         if (const char* k = std::getenv("MUCOSA_MAP_AGREEMENT"))
             std::sscanf(k, "%lf,%lf", &o.mapAgreementMm, &o.mapAgreementDegrees);
+        if (const char* k = std::getenv("MUCOSA_MAP_REACH"))
+            std::sscanf(k, "%lf,%lf", &o.mapReachMm, &o.mapReachDegrees);
         return o;
     };
     FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;
@@ -209,7 +215,8 @@ int main(int argc, char** argv) {
                 // And at two wrong poses: the truth moved 5 mm sideways, and turned 10 degrees.
                 const double offSimilarity[2] = {
                     fit::registerFrame(patient.mesh, vf, fit::perturbPose(b, {5, 0, 0}, {0, 0, 0}), atTruth).similarity,
-                    fit::registerFrame(patient.mesh, vf, fit::perturbPose(b, {0, 0, 0}, {0, 10 * M_PI / 180, 0}), atTruth)
+                    fit::registerFrame(patient.mesh, vf, fit::perturbPose(b, {0, 0, 0}, {0, 10 * M_PI / 180, 0}),
+                                       atTruth)
                         .similarity};
                 // The position's error in the true camera's axes (x right, y down, z forward).
                 double off[3] = {0, 0, 0};
@@ -217,19 +224,24 @@ int main(int argc, char** argv) {
                     for (int k = 0; k < 3; ++k) off[c] += b[k][c] * (a[k][3] - b[k][3]);
                 std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f %.3f %.3f %.3f %.4f %.4f\n", label, i,
                              e.position, e.degrees, r.similarity, r.converged ? 1 : 0,
-                             std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI, m.position, m.degrees,
-                             truthSimilarity, off[0], off[1], off[2], offSimilarity[0], offSimilarity[1]);
+                             std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI, m.position, m.degrees, truthSimilarity,
+                             off[0], off[1], off[2], offSimilarity[0], offSimilarity[1]);
             }
             if (const char* dumpDir = std::getenv("MUCOSA_DUMP")) {
                 // MUCOSA_DUMP=DIR with MUCOSA_DUMP_FRAMES=a,b,...: the finest
                 // level's fields of those frames as raw float32 files (width
                 // x height, row-major): the video's luminance, p, q, weight;
                 // the model's p, q, weight at the true and at the estimated pose.
-                const std::string list = std::string(",") + (std::getenv("MUCOSA_DUMP_FRAMES") ? std::getenv("MUCOSA_DUMP_FRAMES") : "") + ",";
+                const std::string list = std::string(",") +
+                                         (std::getenv("MUCOSA_DUMP_FRAMES") ? std::getenv("MUCOSA_DUMP_FRAMES") : "") +
+                                         ",";
                 if (list.find("," + std::to_string(i) + ",") != std::string::npos && !vf.levels.empty()) {
                     const fit::VideoFrame::Level& lv = vf.levels.back();
                     auto raw = [&](const std::string& name, const float* v, std::size_t n) {
-                        FILE* f = std::fopen((fs::path(dumpDir) / (label + std::string("_") + std::to_string(i) + "_" + name + ".f32")).c_str(), "wb");
+                        FILE* f = std::fopen(
+                            (fs::path(dumpDir) / (label + std::string("_") + std::to_string(i) + "_" + name + ".f32"))
+                                .c_str(),
+                            "wb");
                         if (f) std::fwrite(v, sizeof(float), n, f), std::fclose(f);
                     };
                     const std::size_t n = static_cast<std::size_t>(lv.K.width) * lv.K.height;
@@ -240,10 +252,14 @@ int main(int argc, char** argv) {
                     const fit::Mat4* poses[2] = {&truth.frames[i].cameraToWorld, &r.cameraToWorld};
                     const char* names[2] = {"t", "e"};
                     for (int k = 0; k < 2; ++k) {
-                        const fit::ModelView mv = fit::renderModel(patient.mesh, lv.K, *poses[k], o.lightOffset, 2, o.supersample, o.lamp, o.brdf ? &*o.brdf : nullptr, o.texture.get());
+                        const fit::ModelView mv =
+                            fit::renderModel(patient.mesh, lv.K, *poses[k], o.lightOffset, 2, o.supersample, o.lamp,
+                                             o.brdf ? &*o.brdf : nullptr, o.texture.get());
                         const fit::PqField m = fit::pqFromModel(mv, lv.K, lv.pqOptions, &lv.pq.usable);
-                        raw(std::string(names[k]) + "p", m.p.data(), n), raw(std::string(names[k]) + "q", m.q.data(), n);
-                        raw(std::string(names[k]) + "w", m.weight.data(), n), raw(std::string(names[k]) + "s", mv.shading.data(), n);
+                        raw(std::string(names[k]) + "p", m.p.data(), n),
+                            raw(std::string(names[k]) + "q", m.q.data(), n);
+                        raw(std::string(names[k]) + "w", m.weight.data(), n),
+                            raw(std::string(names[k]) + "s", mv.shading.data(), n);
                     }
                     std::printf("dumped frame %zu (%dx%d)\n", i, lv.K.width, lv.K.height);
                 }

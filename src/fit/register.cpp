@@ -175,7 +175,8 @@ PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const In
             f.p[i] = static_cast<float>(a / held);
             f.q[i] = static_cast<float>(bb / held);
             const double norm = std::sqrt(a * a + bb * bb + cond * cond);
-            f.normal[i] = {static_cast<float>(a / norm), static_cast<float>(bb / norm), static_cast<float>(-cond / norm)};
+            f.normal[i] = {static_cast<float>(a / norm), static_cast<float>(bb / norm),
+                           static_cast<float>(-cond / norm)};
             // Brightness: the log-gradient's noise grows as the signal falls.
             // (The model's side, noiseless, takes weight 1 wherever it has an estimate.)
             const double e = E.data()[i];
@@ -671,8 +672,8 @@ double pqSimilarity(const PqField& video, const PqField& model) {
         sw += w;
         if (model.weight[i] <= 0) continue;
         const auto &a = video.normal[i], &b = model.normal[i];
-        sc += w * (static_cast<double>(a[0]) * b[0] + static_cast<double>(a[1]) * b[1] +
-                   static_cast<double>(a[2]) * b[2]);
+        sc += w *
+              (static_cast<double>(a[0]) * b[0] + static_cast<double>(a[1]) * b[1] + static_cast<double>(a[2]) * b[2]);
     }
     return sw > 0 ? sc / sw : 0;
 }
@@ -1008,7 +1009,10 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
             const FrameRegistration m = registerFrame(mesh, frame, trackStart, byMap);
             render += m.renderSeconds, similarity += m.similaritySeconds, optimiser += m.optimiserSeconds;
             iterations += m.iterations, evaluations += m.evaluations;
-            if (m.converged) {
+            const PoseError reach = poseError(m.cameraToWorld, trackStart);
+            const bool withinReach = (o.mapReachMm <= 0 || reach.position <= o.mapReachMm) &&
+                                     (o.mapReachDegrees <= 0 || reach.degrees <= o.mapReachDegrees);
+            if (m.converged && withinReach) {
                 start = m.cameraToWorld;
                 method.motionPrior = o.albedoPrior;
                 if (!byMapBest || m.similarity > byMapBest->similarity) byMapBest = m;

@@ -370,10 +370,11 @@ TEST(SyntheticPatient, AFirstFramesCoarseJumpIsRecheckedAtTheFinestLevel) {
     const fit::FrameRegistration rechecked = fit::registerFrame(f.patient.mesh, f.frame, f.init, re);
     const fit::PoseError ep = fit::poseError(plain.cameraToWorld, f.truth);
     const fit::PoseError er = fit::poseError(rechecked.cameraToWorld, f.truth);
-    std::printf("from the initial pose: %.2f mm %.2f deg (S %.4f, %d evaluations); rechecked %.2f mm %.2f deg "
-                "(S %.4f, %d evaluations)\n",
-                ep.position, ep.degrees, plain.similarity, plain.evaluations, er.position, er.degrees,
-                rechecked.similarity, rechecked.evaluations);
+    std::printf(
+        "from the initial pose: %.2f mm %.2f deg (S %.4f, %d evaluations); rechecked %.2f mm %.2f deg "
+        "(S %.4f, %d evaluations)\n",
+        ep.position, ep.degrees, plain.similarity, plain.evaluations, er.position, er.degrees, rechecked.similarity,
+        rechecked.evaluations);
     EXPECT_LT(ep.position, 1.0);
     EXPECT_LT(ep.degrees, 2.0);
     EXPECT_LT(er.position, 1.0);

@@ -212,6 +212,7 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     check(p.args("--keep-map-pose --no-albedo-map"), "--no-albedo-map turns the map off");
     check(p.args("--paint-min 0.8 --no-albedo-map"), "--no-albedo-map turns it off");
     check(p.args("--map-agreement 2 5 --no-albedo-map"), "--no-albedo-map turns the map off");
+    check(p.args("--map-reach 5 20 --no-albedo-map"), "--no-albedo-map turns the map off");
     check(p.args("--keep-map-pose --no-keep-map-pose"), "contradict");
     // A model shading that is not a brdf.json.
     writeText(p.dir / "brdf.json", R"({"c": [1, 0, 0], "d": [0, 0, 0], "zmin": 1, "zmax": 2})");

@@ -144,9 +144,10 @@ TEST(RegisterPq, CylinderShadingGivesTheTrueGradient) {
     std::sort(steep.begin(), steep.end());
     const double med = err[err.size() / 2], p95 = err[err.size() * 95 / 100];
     const double medSteep = steep[steep.size() / 2], p95Steep = steep[steep.size() * 95 / 100];
-    std::printf("cylinder: %zu pixels, normal error median %.3f deg, p95 %.3f deg; %zu steeper: median %.3f, "
-                "p95 %.3f\n",
-                err.size(), med, p95, steep.size(), medSteep, p95Steep);
+    std::printf(
+        "cylinder: %zu pixels, normal error median %.3f deg, p95 %.3f deg; %zu steeper: median %.3f, "
+        "p95 %.3f\n",
+        err.size(), med, p95, steep.size(), medSteep, p95Steep);
     // Curvature breaks local planarity: n.(-P) varies along a curved wall
     // seen off-axis, the more so the more steeply. This bias is the
     // estimator's, and the model side, run through the same estimator,
@@ -306,7 +307,7 @@ INSTANTIATE_TEST_SUITE_P(BothMethods, RegisterTracking,
 TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
     const double R = 5;
     const mesh::Mesh tube = test::makeTube(R, 160, 256, 320);  // along +z, normals into the lumen
-    const Intrinsics K = pinhole(80, 28);                       // 110 degrees across
+    const Intrinsics K = pinhole(80, 28);                      // 110 degrees across
     const Mat4 truth = fit::lookAtPose({1.2, -0.8, 20}, {0.3, 0.2, 120}, {0, -1, 0});
     // 1. The model's field against the cylinder's normals.
     {
@@ -334,17 +335,17 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
                 const double t = (-b + std::sqrt(b * b - 4 * a * (c[0] * c[0] + c[1] * c[1] - R * R))) / (2 * a);
                 const fit::Vec3d n = fit::transformDirection(W, {-(c[0] + t * d[0]) / R, -(c[1] + t * d[1]) / R, 0.0});
                 const auto& m = f.normal[i];
-                const double e =
-                    std::acos(std::clamp(m[0] * n[0] + m[1] * n[1] + m[2] * n[2], -1.0, 1.0)) * 180 / M_PI;
+                const double e = std::acos(std::clamp(m[0] * n[0] + m[1] * n[1] + m[2] * n[2], -1.0, 1.0)) * 180 / M_PI;
                 err.push_back(e);
                 // Steeper than |(p, q)| = 6 (the video side's mask until
                 // session 25), or turned past parallel to the optical axis.
                 if (n[2] > -1 / std::sqrt(1 + 36.0)) steepErr.push_back(e);
             }
         std::sort(err.begin(), err.end());
-        std::printf("straight tube, model side: %d of %d seen pixels kept; normal error median %.2f deg, p90 %.2f; "
-                    "%zu steeper than 6: median %.2f deg\n",
-                    kept, seen, median(err), err[err.size() * 9 / 10], steepErr.size(), median(steepErr));
+        std::printf(
+            "straight tube, model side: %d of %d seen pixels kept; normal error median %.2f deg, p90 %.2f; "
+            "%zu steeper than 6: median %.2f deg\n",
+            kept, seen, median(err), err[err.size() * 9 / 10], steepErr.size(), median(steepErr));
         // The estimator's curvature bias (as in CylinderShadingGivesTheTrueGradient's
         // steep walls; the video side shares it).
         EXPECT_GT(seen, 3000);
@@ -362,8 +363,8 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
     const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, pinhole(160, 56), ro);
     const auto& L = vf.levels.back();
     auto sim = [&](const Mat4& pose) {
-        return fit::pqSimilarity(L.pq, fit::pqFromModel(fit::renderModel(tube, L.K, pose, {0, 0, 0}, 1, 2), L.K,
-                                                        ro.pq, &L.pq.usable));
+        return fit::pqSimilarity(
+            L.pq, fit::pqFromModel(fit::renderModel(tube, L.K, pose, {0, 0, 0}, 1, 2), L.K, ro.pq, &L.pq.usable));
     };
     const double s0 = sim(truth);
     std::printf("at the truth %.4f, shifted:", s0);
@@ -1034,6 +1035,38 @@ TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
     EXPECT_LT(kept.position, 0.5);
     EXPECT_LT(kept.degrees, 2.0);
     EXPECT_LT(kept.position, own.position);
+}
+
+// The map's step counts only within RegisterOptions::mapReachMm and
+// mapReachDegrees of the track's start: farther, it has found another wall
+// alike (on the CT airway, 70 degrees off), and neither starts pq nor is
+// kept. Here the step moves the pose by hundredths of a millimetre; a reach
+// under that discards it, and a flagged frame keeps pq's own estimate.
+TEST(RegisterAlbedo, TheMapsStepCountsOnlyWithinReachOfTheStart) {
+    fit::RegisterOptions o;  // pq
+    const SmoothTubeTrack scene = smoothTubeTrack(o);
+    o.minSimilarity = 1.01;  // every frame flagged: the map's pose would be kept
+    for (const double reach : {0.0, 1e-4}) {
+        fit::RegisterOptions r = o;
+        r.mapReachMm = reach;  // 0: no limit
+        r.mapReachDegrees = 0;
+        fit::Tracker tracker(scene.poses[0]);
+        fit::AlbedoMap map(scene.model.vertexCount());
+        map.add(scene.model, scene.frames[0], scene.poses[0], r);
+        const fit::FrameRegistration f = fit::registerTracked(scene.model, scene.frames[1], tracker, r, &map);
+        std::printf("reach %g mm: the map's step %s, the map's pose %s\n", reach,
+                    f.mapConverged ? "converged" : "not counted", f.mapPoseKept ? "kept" : "not kept");
+        EXPECT_FALSE(f.converged);
+        EXPECT_EQ(f.mapConverged, reach == 0.0);
+        EXPECT_EQ(f.mapPoseKept, reach == 0.0);
+        if (reach > 0) {
+            // pq ran from the track's start, not the map's pose.
+            const fit::Tracker fresh(scene.poses[0]);
+            const fit::FrameRegistration p =
+                fit::registerFrame(scene.model, scene.frames[1], fresh.start(), fresh.options(r));
+            EXPECT_LT(fit::poseError(p.cameraToWorld, f.cameraToWorld).position, 1e-9);
+        }
+    }
 }
 
 // On the same tube pq converges 0.05-0.07 mm and 0.06-0.27 degrees from

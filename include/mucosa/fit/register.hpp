@@ -48,12 +48,12 @@ struct PqField {
 };
 
 struct PqOptions {
-    double smoothingPx = 2.0;      // Gaussian sigma of the log-intensity smoothing, working pixels
-    double darkFraction = 0.04;    // below this fraction of the frame's 99th percentile: the dark lumen
-    double saturation = 0.97;      // linear value at or above which a pixel is specular/clipped
-    int borderPx = 2;              // image border (and field-of-view edge) masked, working pixels
-    double minRayCosine = 0.1;     // the normal's cosine to the viewing ray below this: grazing, masked (video side)
-    int albedoFilterPx = 0;        // opening + closing radius removing vessels and glints, both sides (0: off)
+    double smoothingPx = 2.0;    // Gaussian sigma of the log-intensity smoothing, working pixels
+    double darkFraction = 0.04;  // below this fraction of the frame's 99th percentile: the dark lumen
+    double saturation = 0.97;    // linear value at or above which a pixel is specular/clipped
+    int borderPx = 2;            // image border (and field-of-view edge) masked, working pixels
+    double minRayCosine = 0.1;   // the normal's cosine to the viewing ray below this: grazing, masked (video side)
+    int albedoFilterPx = 0;      // opening + closing radius removing vessels and glints, both sides (0: off)
 };
 
 // Video side: `linear` is the frame's linear luminance (1 channel) resampled to
@@ -197,6 +197,13 @@ struct RegisterOptions {
     // shape and the wall's own albedo disagree, and one of them is wrong; on
     // the phantom it was the shape, 5 mm off at S 0.82. 0 turns a test off.
     double mapAgreementMm = 2.0, mapAgreementDegrees = 5.0;
+    // With an albedo map: the map's step counts as converged only within this
+    // many millimetres and degrees of where it started (the track's start).
+    // The step has no prior, and further than a scope moves between frames
+    // it has found another wall alike, not the frame's pose: on the CT
+    // airway it converged 70 degrees off, and pq, started there, lost the
+    // track. 0 turns a test off.
+    double mapReachMm = 5.0, mapReachDegrees = 20.0;
 };
 
 struct FrameRegistration {
