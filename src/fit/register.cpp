@@ -107,8 +107,9 @@ std::optional<std::array<double, 3>> solvePq(double gx, double gy, double xn, do
     return std::array<double, 3>{a, b, c};
 }
 
-// The video-side estimator. `E`: linear irradiance; `use`: pixels
-// that may be used; `weighted`: the video's confidence (else weight 1).
+// The estimator, both sides. `E`: linear irradiance; `use`: pixels that may
+// be used; `darkLevel`: the video's dark lumen (its weight's brightness term);
+// `grazing`: the model's side (no mask on the normal, weight 1).
 PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const Intrinsics& K, const PqOptions& o,
                  double darkLevel, bool grazing = false) {
     const int w = E.width(), h = E.height();
