@@ -90,30 +90,90 @@ struct Projected {
     int yMin = 0, yMax = -1;  // rows its bounding box spans, inside the image
 };
 
-// False when the triangle is behind the near plane or its bounding box holds
-// no pixel centre of the image.
-bool project(const std::vector<Vec3d>& cam, const mesh::Mesh& mesh, std::size_t t, const Intrinsics& K, double near,
-             Projected& u) {
-    ClipVertex in[3];
-    for (int k = 0; k < 3; ++k) {
-        const Vec3d& v = cam[mesh.indices[3 * t + k]];
-        in[k] = {v[0], v[1], v[2], k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0};
+// Which of the view volume's planes a camera-space point lies outside of:
+// behind the near plane, or more than a pixel past an edge of the image
+// (sx < -1, sx > width, sy < -1, sy > height, written as half-spaces so they
+// hold for points behind the camera too). A triangle whose three corners are
+// all outside one plane lies wholly outside it, so no point of it projects
+// into the image: the clip-and-project below would refuse it, and the
+// pixel's margin keeps that true through rounding.
+constexpr std::uint8_t kBehind = 1;
+
+std::uint8_t outcode(const Vec3d& v, const Intrinsics& K, double near) {
+    const double x = v[0], y = v[1], z = v[2];
+    std::uint8_t c = 0;
+    if (z < near) c |= kBehind;
+    if (!(K.fx > 0 && K.fy > 0)) return c;  // the side planes as written assume the usual axes
+    if (K.fx * x + (K.cx + 1) * z < 0) c |= 2;
+    if (K.fx * x + (K.cx - K.width) * z > 0) c |= 4;
+    if (K.fy * y + (K.cy + 1) * z < 0) c |= 8;
+    if (K.fy * y + (K.cy - K.height) * z > 0) c |= 16;
+    return c;
+}
+
+// The mesh's vertices seen from the camera, once per pass: camera space,
+// outcode, and (in front of the near plane) the projection, which the ~6
+// triangles sharing a vertex then read instead of each dividing again.
+struct Screen {
+    double sx, sy, invz;
+};
+struct Vertices {
+    std::vector<Vec3d> cam;
+    std::vector<std::uint8_t> code;
+    std::vector<Screen> screen;
+
+    explicit Vertices(std::size_t n) : cam(n), code(n), screen(n) {}
+    void set(std::size_t i, const Vec3d& c, const Intrinsics& K, double near) {
+        cam[i] = c;
+        code[i] = outcode(c, K, near);
+        if (code[i] & kBehind) return;
+        const double iz = 1.0 / c[2];
+        screen[i] = {K.fx * c[0] * iz + K.cx, K.fy * c[1] * iz + K.cy, iz};
     }
-    if (in[0].z < near && in[1].z < near && in[2].z < near) return false;
-    ClipVertex poly[4];
-    const int m = clipNear(in, near, poly);
-    if (m < 3) return false;
-    double minX = std::numeric_limits<double>::infinity(), maxX = -minX, minY = minX, maxY = -minX;
-    for (int k = 0; k < m; ++k) {
-        const double iz = 1.0 / poly[k].z;
-        u.s[k] = {K.fx * poly[k].x * iz + K.cx, K.fy * poly[k].y * iz + K.cy, iz, poly[k].b1 * iz, poly[k].b2 * iz};
+};
+constexpr std::size_t kBytesPerVertex = sizeof(Vec3d) + 1 + sizeof(Screen);
+
+// False when the triangle is wholly outside the view or its bounding box holds
+// no pixel centre of the image. A triangle with no corner behind the near
+// plane takes its corners' projections as they are (the same numbers the
+// clip would give: it copies such corners unchanged); one that straddles the
+// plane is clipped first.
+bool project(const Vertices& vs, const mesh::Mesh& mesh, std::size_t t, const Intrinsics& K, double near,
+             Projected& u) {
+    const std::uint32_t* idx = &mesh.indices[3 * t];
+    const std::uint8_t c0 = vs.code[idx[0]], c1 = vs.code[idx[1]], c2 = vs.code[idx[2]];
+    if (c0 & c1 & c2) return false;
+    int m = 3;
+    if (((c0 | c1 | c2) & kBehind) == 0) {
+        for (int k = 0; k < 3; ++k) {
+            const Screen& p = vs.screen[idx[k]];
+            u.s[k] = {p.sx, p.sy, p.invz, k == 1 ? p.invz : 0.0, k == 2 ? p.invz : 0.0};
+        }
+    } else {
+        ClipVertex in[3];
+        for (int k = 0; k < 3; ++k) {
+            const Vec3d& v = vs.cam[idx[k]];
+            in[k] = {v[0], v[1], v[2], k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0};
+        }
+        ClipVertex poly[4];
+        m = clipNear(in, near, poly);
+        if (m < 3) return false;
+        for (int k = 0; k < m; ++k) {
+            const double iz = 1.0 / poly[k].z;
+            u.s[k] = {K.fx * poly[k].x * iz + K.cx, K.fy * poly[k].y * iz + K.cy, iz, poly[k].b1 * iz, poly[k].b2 * iz};
+        }
+    }
+    double minX = u.s[0].sx, maxX = minX, minY = u.s[0].sy, maxY = minY;
+    for (int k = 1; k < m; ++k) {
         minX = std::min(minX, u.s[k].sx), maxX = std::max(maxX, u.s[k].sx);
         minY = std::min(minY, u.s[k].sy), maxY = std::max(maxY, u.s[k].sy);
     }
     if (!(maxX >= 0 && minX <= K.width - 1 && maxY >= 0 && minY <= K.height - 1)) return false;
+    // No pixel centre inside the box: most triangles of a fine mesh on a
+    // coarse level of the registration's pyramid. (Clamped to the image
+    // before the conversion: a projection near the near plane can be huge.)
+    if (std::ceil(std::max(minX, 0.0)) > std::floor(std::min(maxX, K.width - 1.0))) return false;
     u.corners = m;
-    // Clamped to the image before the conversion (a projection near the near
-    // plane can be huge).
     u.yMin = static_cast<int>(std::ceil(std::max(minY, 0.0)));
     u.yMax = static_cast<int>(std::floor(std::min(maxY, K.height - 1.0)));
     return u.yMin <= u.yMax;
@@ -139,7 +199,7 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
     const std::size_t triangles = mesh.triangleCount();
     const int workers = resolveThreads(threads);
     // The z-buffer, the vertices in camera space, the kept triangles.
-    requireMemory(saturatingMul(n, 16) + saturatingMul(mesh.vertexCount(), 24) +
+    requireMemory(saturatingMul(n, 16) + saturatingMul(mesh.vertexCount(), kBytesPerVertex) +
                       (workers == 1 ? 0 : saturatingMul(triangles, sizeof(Kept))),
                   "a depth pass");
     g.triangle.assign(n, -1);
@@ -147,18 +207,18 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
     g.b2.assign(n, 0.f);
     g.depth.assign(n, std::numeric_limits<float>::infinity());
 
-    std::vector<Vec3d> cam(mesh.vertexCount());
+    Vertices vs(mesh.vertexCount());
     const auto toCamera = [&](std::size_t i) {
         const auto& p = mesh.positions[i];
-        cam[i] = transformPoint(W, {p[0], p[1], p[2]});
+        vs.set(i, transformPoint(W, {p[0], p[1], p[2]}), K, near);
     };
     if (workers == 1) {
         // One pass, nothing stored: the registration calls this thousands of
         // times on small images from inside its own parallel loops.
-        for (std::size_t i = 0; i < cam.size(); ++i) toCamera(i);
+        for (std::size_t i = 0; i < mesh.vertexCount(); ++i) toCamera(i);
         Projected u;
         for (std::size_t t = 0; t < triangles; ++t)
-            if (project(cam, mesh, t, K, near, u)) rasterProjected(u, static_cast<std::int32_t>(t), 0, K.height, g);
+            if (project(vs, mesh, t, K, near, u)) rasterProjected(u, static_cast<std::int32_t>(t), 0, K.height, g);
         return g;
     }
     // Each triangle is culled once (in chunks of triangles, in parallel) and
@@ -174,7 +234,7 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
     std::vector<std::vector<Kept>> kept(chunks);
     tbb::task_arena arena(workers);
     arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cam.size(), 4096), [&](const auto& r) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.vertexCount(), 4096), [&](const auto& r) {
             for (std::size_t i = r.begin(); i < r.end(); ++i) toCamera(i);
         });
         tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
@@ -182,7 +242,7 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
             const std::size_t end = std::min(triangles, (c + 1) * kChunk);
             Projected u;
             for (std::size_t t = c * kChunk; t < end; ++t)
-                if (project(cam, mesh, t, K, near, u)) out.push_back({static_cast<std::int32_t>(t), u.yMin, u.yMax});
+                if (project(vs, mesh, t, K, near, u)) out.push_back({static_cast<std::int32_t>(t), u.yMin, u.yMax});
         });
         const int bands = std::max(1, std::min(K.height, 4 * workers));
         tbb::parallel_for(0, bands, [&](int band) {
@@ -191,7 +251,7 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
             for (const std::vector<Kept>& chunk : kept)
                 for (const Kept& k : chunk) {
                     if (k.yMax < yBegin || k.yMin >= yEnd) continue;
-                    project(cam, mesh, static_cast<std::size_t>(k.tri), K, near, u);
+                    project(vs, mesh, static_cast<std::size_t>(k.tri), K, near, u);
                     rasterProjected(u, k.tri, yBegin, yEnd, g);
                 }
         });

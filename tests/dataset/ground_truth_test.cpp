@@ -275,6 +275,51 @@ TEST(GroundTruth, TheZBufferSeesWhatRaysSeeWhateverTheThreads) {
     EXPECT_GE(sameDepth, seen * 999 / 1000);
 }
 
+TEST(GroundTruth, TheZBufferCullsOnlyTrianglesWhollyOutsideTheView) {
+    // The z-buffer drops a triangle when its three corners all lie past one
+    // plane of the view (behind the near plane, or a pixel beyond an edge of
+    // the image). Triangles that must survive: corners outside the image on
+    // three different sides around its middle; corners behind the camera and
+    // in front of it; a sliver crossing one corner of the image. Triangles
+    // that may go: wholly left, right, above, below, behind. Every pixel's
+    // face and depth against a ray per pixel.
+    const fit::Intrinsics K = camera(64, 48, 60);
+    Mat4 c2w{};
+    for (int i = 0; i < 4; ++i) c2w[i][i] = 1;
+    mesh::Mesh m;
+    auto tri = [&](mesh::Vec3 a, mesh::Vec3 b, mesh::Vec3 c) {
+        const auto base = static_cast<std::uint32_t>(m.positions.size());
+        m.positions.insert(m.positions.end(), {a, b, c});
+        m.indices.insert(m.indices.end(), {base, base + 1, base + 2});
+    };
+    const float z = 20;
+    tri({-200, -100, z}, {200, -100, z}, {0, 200, z});  // 0: corners beyond three edges, covers all
+    tri({-3, -3, 10}, {3, -3, 10}, {0, 6, -10});        // 1: from in front to behind the camera
+    tri({-30, -30, 12}, {20, -30, 12}, {-30, 20, 12});  // 2: beyond three edges, across the top-left corner
+    tri({-100, -5, 10}, {-60, 5, 10}, {-80, 0, 15});    // 3: wholly left of the image
+    tri({60, -5, 10}, {100, 5, 10}, {80, 0, 15});       // 4: wholly right
+    tri({-5, -100, 10}, {5, -60, 10}, {0, -80, 15});    // 5: wholly above
+    tri({-5, 60, 10}, {5, 100, 10}, {0, 80, 15});       // 6: wholly below
+    tri({-50, -50, -1}, {50, -50, -1}, {0, 50, -1});    // 7: behind the camera
+    const double near = 0.5;
+    const dataset::GroundTruth zb = dataset::groundTruth(m, K, c2w, near, 1);
+    const dataset::GroundTruth zb2 = dataset::groundTruth(m, K, c2w, near, 2);
+    EXPECT_EQ(zb2.face, zb.face);
+    const dataset::GroundTruth rays = dataset::groundTruth(m, dataset::fromIntrinsics(K), c2w, near);
+    std::array<int, 8> seen{};
+    for (std::size_t i = 0; i < zb.face.size(); ++i) {
+        ASSERT_GE(zb.face[i], 0) << "pixel " << i;  // triangle 0 covers the image
+        EXPECT_EQ(zb.face[i], rays.face[i]) << "pixel " << i;
+        const int x = static_cast<int>(i % K.width), y = static_cast<int>(i / K.width);
+        EXPECT_NEAR(zb.depth.at(x, y), rays.depth.at(x, y), 1e-4 * rays.depth.at(x, y)) << "pixel " << i;
+        ++seen[static_cast<std::size_t>(zb.face[i])];
+    }
+    EXPECT_GT(seen[0], 0);
+    EXPECT_GT(seen[1], 20);
+    EXPECT_GT(seen[2], 0);
+    for (int t = 3; t < 8; ++t) EXPECT_EQ(seen[static_cast<std::size_t>(t)], 0) << t;
+}
+
 TEST(GroundTruth, InsideASphereDepthAndNormalsAreItsClosedForm) {
     const double r = 20;
     const mesh::Mesh sphere = mesh::makeSphere(static_cast<float>(r), 360, 180);
