@@ -147,6 +147,7 @@ PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const In
     for (auto& m : mom) gaussianBlur(m, w, h, std::max(0.5, o.smoothingPx));
     const double fullMass = 1.0;  // the kernel is normalised
     const int b = std::max(1, o.borderPx);
+    const double smoothing4 = std::pow(o.smoothingPx, 4);
     for (int y = b; y < h - b; ++y)
         for (int x = b; x < w - b; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * w + x;
@@ -161,14 +162,17 @@ PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const In
             const double sl = mom[ML][i];
             const double slx = mom[MLX][i] - x * sl, sly = mom[MLY][i] - y * sl;
             // Normal equations of L ~ c + gu du + gv dv with du = u - x, dv = v - y.
-            Eigen::Matrix3d A;
-            A << s1, s1 * mx, s1 * my, s1 * mx, sxx, sxy, s1 * my, sxy, syy;
-            const Eigen::Vector3d rhs(sl, slx, sly);
+            // The symmetric 3x3 system solved by its cofactors (c_ij), which
+            // the determinant's test below needs anyway.
+            const double a11 = s1, a12 = s1 * mx, a13 = s1 * my, a22 = sxx, a23 = sxy, a33 = syy;
+            const double c11 = a22 * a33 - a23 * a23, c12 = a13 * a23 - a12 * a33, c13 = a12 * a23 - a13 * a22;
+            const double det = a11 * c11 + a12 * c12 + a13 * c13;
             // A window cut to a line cannot give a 2D slope.
-            if (std::abs(A.determinant()) < 1e-3 * s1 * s1 * s1 * std::pow(o.smoothingPx, 4)) continue;
-            const Eigen::Vector3d sol = A.ldlt().solve(rhs);
+            if (std::abs(det) < 1e-3 * s1 * s1 * s1 * smoothing4) continue;
+            const double c22 = a11 * a33 - a13 * a13, c23 = a12 * a13 - a11 * a23, c33 = a11 * a22 - a12 * a12;
+            const double g1 = (c12 * sl + c22 * slx + c23 * sly) / det, g2 = (c13 * sl + c23 * slx + c33 * sly) / det;
             // d lnE / d(normalised x) = d lnE / du * fx.
-            const double gx = sol[1] * K.fx, gy = sol[2] * K.fy;
+            const double gx = g1 * K.fx, gy = g2 * K.fy;
             const auto abc = solvePq(gx, gy, (x - K.cx) / K.fx, (y - K.cy) / K.fy, o, grazing);
             if (!abc) continue;
             const auto [a, bb, cond] = *abc;
@@ -435,14 +439,25 @@ ModelTexture modelTexture(const image::ImageF& rgb, std::array<float, 2> uvMin, 
 namespace {
 
 // The interpolated vertex normal of triangle t at barycentrics bs, in the
-// camera's axes (R: world to camera), unit.
-Eigen::Vector3d cameraNormal(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Mat3& R) {
-    Eigen::Vector3d nw = Eigen::Vector3d::Zero();
+// camera's axes (R: world to camera), unit. (Plain arithmetic: these run per
+// sample, and Eigen's 3-vectors were a fifth of a registration's time in the
+// sanitized build, where they are not inlined.)
+Vec3d cameraNormal(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Mat3& R) {
+    double nw[3] = {0, 0, 0};
     for (int k = 0; k < 3; ++k) {
         const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
-        nw += bs[k] * Eigen::Vector3d(nn[0], nn[1], nn[2]);
+        for (int c = 0; c < 3; ++c) nw[c] += bs[k] * nn[c];
     }
-    return (R * nw).normalized();
+    const double* r = R.data();  // column-major
+    const double n[3] = {r[0] * nw[0] + r[3] * nw[1] + r[6] * nw[2], r[1] * nw[0] + r[4] * nw[1] + r[7] * nw[2],
+                         r[2] * nw[0] + r[5] * nw[1] + r[8] * nw[2]};
+    const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    return {n[0] / len, n[1] / len, n[2] / len};
+}
+
+double dot3(const Vec3d& a, const Eigen::Vector3d& b) {
+    const double* v = b.data();
+    return a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
 }
 
 // What the model shows at one rasterised sample: the lamp (or the fitted
@@ -451,22 +466,23 @@ Eigen::Vector3d cameraNormal(const mesh::Mesh& mesh, std::int32_t t, const doubl
 double shadeSample(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Eigen::Vector3d& P,
                    const Mat3& R, const Vec3d& L, const LampProfile& lamp, const shading::BrdfParams* brdf,
                    double albedo, bool& lit) {
-    const Eigen::Vector3d nc = cameraNormal(mesh, t, bs, R);
+    const Vec3d nc = cameraNormal(mesh, t, bs, R);
+    const double* p = P.data();
     lit = false;
     if (brdf) {
         // The fitted model: lit from the viewpoint.
-        const double z = P.norm(), gamma = -nc.dot(P) / z;
+        const double z = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]), gamma = -dot3(nc, P) / z;
         if (gamma <= 0) return 0.0;
         lit = true;
         return albedo * fittedShading(*brdf, gamma, z);
     }
     // The walls' back-scatter: the renderer's ambient, k_a x the lamp at 10 mm.
     double sum = albedo * lamp.ambient / 100.0;
-    const Eigen::Vector3d l = Eigen::Vector3d(L[0], L[1], L[2]) - P;
-    const double d = l.norm();
-    const double cosine = nc.dot(l) / d;
+    const double l[3] = {L[0] - p[0], L[1] - p[1], L[2] - p[2]};
+    const double d = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+    const double cosine = (nc[0] * l[0] + nc[1] * l[1] + nc[2] * l[2]) / d;
     // The lamp's profile: theta from its axis (the optical axis).
-    const double profile = lamp.spread == 0 ? 1.0 : std::exp(-lamp.spread * (1.0 + l.z() / d));
+    const double profile = lamp.spread == 0 ? 1.0 : std::exp(-lamp.spread * (1.0 + l[2] / d));
     if (cosine > 0) {
         sum += albedo * cosine * profile / (d * d + lamp.radiusMm * lamp.radiusMm);
         lit = true;
@@ -592,7 +608,7 @@ std::size_t AlbedoMap::add(const mesh::Mesh& fullMesh, const VideoFrame& frame, 
             const double shade =
                 shadeSample(mesh, t, bs, P, R, o.lightOffset, o.lamp, o.brdf ? &*o.brdf : nullptr, 1.0, lit);
             if (!lit || shade <= 0) continue;
-            const double d = P.norm(), gamma = -cameraNormal(mesh, t, bs, R).dot(P) / d;
+            const double d = P.norm(), gamma = -dot3(cameraNormal(mesh, t, bs, R), P) / d;
             if (gamma <= 0.1) continue;  // grazing: the normal's error dominates the shading
             obs.push_back({t, {bs[0], bs[1], bs[2]}, e / shade, gamma * gamma / (d * d)});
         }
