@@ -3,7 +3,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
@@ -40,7 +42,8 @@ struct RegisterArgs {
     double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
            rollPrior = fit::RegisterOptions{}.rollPrior, albedoPrior = fit::RegisterOptions{}.albedoPrior,
-           paintMin = -1;  // -1: not given (RegisterOptions' default)
+           paintMin = -1,    // -1: not given (RegisterOptions' default)
+        minSimilarity = -1;  // -1: not given (the method's default)
     bool restart = false, noAlbedoMap = false, keepMapPose = false, noKeepMapPose = false;
 };
 
@@ -132,6 +135,8 @@ void run(const RegisterArgs& a, const Global& g) {
     if (a.keepMapPose && a.noKeepMapPose)
         throw InputError("--keep-map-pose", "", "and --no-keep-map-pose contradict each other");
     if (a.noKeepMapPose) o.keepMapPose = false;
+    if (a.minSimilarity >= 0)
+        (o.method == fit::RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation) = a.minSimilarity;
     if (a.paintMin >= 0) {
         if (a.noAlbedoMap)
             throw InputError("--paint-min", "",
@@ -259,7 +264,7 @@ void run(const RegisterArgs& a, const Global& g) {
         // Each kept frame is read and prepared again (tens of ms a frame).
         info(g, fmt::format("albedo map: repainting from the {} kept", count(first, "frame")));
         for (std::size_t i = 0; i < first; ++i)
-            if (run.frames[i].r.converged && run.frames[i].r.similarity >= o.minPaintSimilarity)
+            if (fit::paintsAlbedoMap(run.frames[i].r, o))
                 map.add(m, prepare(run.frames[i].image), run.frames[i].r.cameraToWorld, o);
         info(g, fmt::format("albedo map: rebuilt from {} ({:.0f} % of the mesh's vertices seen)",
                             count(map.frames(), "registered frame"), 100 * map.seenFraction()));
@@ -323,6 +328,24 @@ void run(const RegisterArgs& a, const Global& g) {
         info(g, fmt::format("per frame: {:.2f} s rendering, {:.2f} s similarity, {:.2f} s optimiser",
                             render / static_cast<double>(done), similarity / static_cast<double>(done),
                             optimiser / static_cast<double>(done)));
+    {
+        // The pose's standard deviations (registration.pose_sd): the median
+        // per axis over the frames that have one.
+        std::array<std::vector<double>, 6> sd;
+        for (const auto& f : run.frames)
+            for (std::size_t k = 0; k < 6; ++k)
+                if (!std::isnan(f.r.poseSd[k])) sd[k].push_back(f.r.poseSd[k]);
+        if (!sd[0].empty()) {
+            std::array<double, 6> med{};
+            for (std::size_t k = 0; k < 6; ++k) {
+                std::sort(sd[k].begin(), sd[k].end());
+                med[k] = sd[k][sd[k].size() / 2];
+            }
+            info(g, fmt::format("pose sd, median over frames (camera axes x, y, z): {:.2f}, {:.2f}, {:.2f} mm; "
+                                "{:.2f}, {:.2f}, {:.2f} deg (z: the roll)",
+                                med[0], med[1], med[2], med[3], med[4], med[5]));
+        }
+    }
     if (converged < total)
         warn(fmt::format("{} not converged: flagged in {} (registration.converged false); mucosa fit skips them",
                          count(total - converged, "frame"), a.out));
@@ -390,6 +413,11 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                 "its estimate, still flagged, and the next frame starts there [on]");
     c->add_flag("--no-keep-map-pose", a->noKeepMapPose,
                 "A frame the method does not converge on keeps where the method's own iterations ended");
+    c->add_option("--min-similarity", a->minSimilarity,
+                  fmt::format("A frame whose similarity at the end is below this is flagged not converged [pq {:.2f}, "
+                              "intensity {:.2f}]",
+                              fit::RegisterOptions{}.minSimilarity, fit::RegisterOptions{}.minCorrelation))
+        ->check(CLI::Range(0.0, 1.0));
     c->add_option("--paint-min", a->paintMin,
                   fmt::format("A converged frame paints the albedo map only if its similarity is at least this "
                               "[{:.2f}; 0 = every converged frame]",

@@ -25,6 +25,7 @@
 // MUCOSA_ALBEDO_PRIOR=K sets RegisterOptions::albedoPrior,
 // MUCOSA_KEEP_MAP_POSE=0|1 sets RegisterOptions::keepMapPose,
 // MUCOSA_PAINT_MIN=S sets RegisterOptions::minPaintSimilarity,
+// MUCOSA_MIN_SIMILARITY=S sets RegisterOptions::minSimilarity,
 // MUCOSA_MAP_AGREEMENT=MM,DEG sets RegisterOptions::mapAgreementMm and
 // mapAgreementDegrees (0,0: off); MUCOSA_MAP_REACH=MM,DEG sets
 // RegisterOptions::mapReachMm and mapReachDegrees (0,0: off); MUCOSA_ANCHOR=0|1 sets
@@ -42,7 +43,9 @@
 // it: the objective itself prefers the wrong pose), the position's error in
 // the true camera's axes (x, y, z), and the similarity at the truth moved
 // 5 mm along its x axis and at the truth turned 10 degrees about its y axis
-// (what a wrong pose scores: the flag threshold's other side).
+// (what a wrong pose scores: the flag threshold's other side), the rotation's
+// error about the true camera's x, y and z axes (degrees, z the roll), and
+// the estimate's FrameRegistration::poseSd (x, y, z mm; x, y, z degrees).
 // Prints per method: median and p95 position (mm) and orientation (degrees)
 // error, losses (> 5 mm or > 10 degrees for more than 10 frames), frames
 // flagged, seconds per frame split into renders, similarity and optimiser;
@@ -70,6 +73,23 @@ using namespace mucosa;
 namespace fs = std::filesystem;
 
 namespace {
+
+// The rotation taking b's camera axes to a's, as a rotation vector in b's
+// camera axes (degrees).
+std::array<double, 3> rotationBetween(const fit::Mat4& a, const fit::Mat4& b) {
+    double R[3][3];  // b^T a
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            R[i][j] = 0;
+            for (int k = 0; k < 3; ++k) R[i][j] += b[k][i] * a[k][j];
+        }
+    const double angle = std::acos(std::clamp((R[0][0] + R[1][1] + R[2][2] - 1) / 2, -1.0, 1.0));
+    const double v[3] = {R[2][1] - R[1][2], R[0][2] - R[2][0], R[1][0] - R[0][1]};
+    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (n < 1e-12) return {0, 0, 0};
+    const double s = angle * 180 / M_PI / n;
+    return {v[0] * s, v[1] * s, v[2] * s};
+}
 
 double quantile(std::vector<double> v, double q) {
     std::sort(v.begin(), v.end());
@@ -157,6 +177,7 @@ int main(int argc, char** argv) {
         if (const char* k = std::getenv("MUCOSA_ALBEDO_PRIOR")) o.albedoPrior = std::atof(k);
         if (const char* k = std::getenv("MUCOSA_KEEP_MAP_POSE")) o.keepMapPose = std::atoi(k) != 0;
         if (const char* k = std::getenv("MUCOSA_PAINT_MIN")) o.minPaintSimilarity = std::atof(k);
+        if (const char* k = std::getenv("MUCOSA_MIN_SIMILARITY")) o.minSimilarity = std::atof(k);
         if (const char* k = std::getenv("MUCOSA_MAP_AGREEMENT"))
             std::sscanf(k, "%lf,%lf", &o.mapAgreementMm, &o.mapAgreementDegrees);
         if (const char* k = std::getenv("MUCOSA_MAP_REACH"))
@@ -222,10 +243,17 @@ int main(int argc, char** argv) {
                 double off[3] = {0, 0, 0};
                 for (int c = 0; c < 3; ++c)
                     for (int k = 0; k < 3; ++k) off[c] += b[k][c] * (a[k][3] - b[k][3]);
-                std::fprintf(trace, "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f %.3f %.3f %.3f %.4f %.4f\n", label, i,
-                             e.position, e.degrees, r.similarity, r.converged ? 1 : 0,
-                             std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI, m.position, m.degrees, truthSimilarity,
-                             off[0], off[1], off[2], offSimilarity[0], offSimilarity[1]);
+                // The rotation's error about the true camera's axes (a small-angle
+                // rotation vector, degrees; the last is the roll).
+                const std::array<double, 3> w = rotationBetween(a, b);
+                std::fprintf(
+                    trace,
+                    "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f %.3f %.3f %.3f %.4f %.4f %.3f %.3f %.3f %.3f "
+                    "%.3f %.3f %.3f %.3f %.3f\n",
+                    label, i, e.position, e.degrees, r.similarity, r.converged ? 1 : 0,
+                    std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI, m.position, m.degrees, truthSimilarity, off[0],
+                    off[1], off[2], offSimilarity[0], offSimilarity[1], w[0], w[1], w[2], r.poseSd[0], r.poseSd[1],
+                    r.poseSd[2], r.poseSd[3], r.poseSd[4], r.poseSd[5]);
             }
             if (const char* dumpDir = std::getenv("MUCOSA_DUMP")) {
                 // MUCOSA_DUMP=DIR with MUCOSA_DUMP_FRAMES=a,b,...: the finest

@@ -795,6 +795,82 @@ std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& m, const Vec3d& c, do
 namespace {
 
 // registerFrame's coarse-to-fine optimisation, from `firstLevel` on.
+// The area, in pixels, over which the weighted residuals r = sqrt(w) d of
+// a level are correlated: the sum of their normalised autocorrelation over
+// the lags within `radius` pixels (those that at least a quarter of the
+// pixels pair across), at least 1. Independent residuals give 1; the pq
+// estimator's smoothing, a model's blur or an albedo the model lacks give
+// more, and about one residual in that many is independent.
+double correlationArea(const std::vector<double>& d, int b, const std::vector<double>& w,
+                       const std::vector<std::size_t>& pixels, int width, int height, int radius) {
+    const std::size_t n = static_cast<std::size_t>(width) * height;
+    std::vector<double> r(n * static_cast<std::size_t>(b), 0.0);
+    std::vector<std::uint8_t> used(n, 0);
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < pixels.size(); ++k) {
+        if (!(w[k] > 0)) continue;
+        const double s = std::sqrt(w[k]);
+        for (int j = 0; j < b; ++j) r[pixels[k] * b + j] = s * d[k * b + j];
+        used[pixels[k]] = 1;
+        ++count;
+    }
+    double c0 = 0;
+    for (std::size_t i = 0; i < n * b; ++i) c0 += r[i] * r[i];
+    if (count == 0 || !(c0 > 0)) return 1.0;
+    c0 /= static_cast<double>(count);
+    double area = 0;
+    for (int dy = -radius; dy <= radius; ++dy)
+        for (int dx = -radius; dx <= radius; ++dx) {
+            double c = 0;
+            std::size_t pairs = 0;
+            for (int y = std::max(0, -dy); y < std::min(height, height - dy); ++y)
+                for (int x = std::max(0, -dx); x < std::min(width, width - dx); ++x) {
+                    const std::size_t i = static_cast<std::size_t>(y) * width + x;
+                    const std::size_t k = static_cast<std::size_t>(y + dy) * width + (x + dx);
+                    if (!used[i] || !used[k]) continue;
+                    for (int j = 0; j < b; ++j) c += r[i * b + j] * r[k * b + j];
+                    ++pairs;
+                }
+            if (pairs * 4 < count) continue;
+            area += c / static_cast<double>(pairs) / c0;
+        }
+    return std::max(1.0, area);
+}
+
+// The pose's standard deviations (FrameRegistration::poseSd) from the
+// data's Gauss-Newton matrix A (parameters in units of the steps h), the
+// residuals' variance s2 per degree of freedom, and the area kappa over
+// which they are correlated (correlationArea): of n residuals about n /
+// kappa are independent, so the covariance is kappa s2 A^-1. The marginal
+// deviations (the inverse's diagonal), so an axis traded against another (a
+// lateral shift against the viewing direction) shows as uncertain on both.
+std::array<double, 6> poseDeviation(const Eigen::Matrix<double, 6, 6>& A, double s2,
+                                    const Eigen::Matrix<double, 6, 1>& h, double kappa) {
+    std::array<double, 6> sd;
+    sd.fill(std::numeric_limits<double>::infinity());
+    // A rank-deficient A (an axis no pixel responds to): that axis, and any
+    // traded against it, is undetermined.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(A);
+    if (eig.info() != Eigen::Success) return sd;
+    const Eigen::Matrix<double, 6, 1> lambda = eig.eigenvalues();
+    const double top = lambda.maxCoeff();
+    if (!(top > 0)) return sd;
+    Eigen::Matrix<double, 6, 6> inverse = Eigen::Matrix<double, 6, 6>::Zero();
+    for (int i = 0; i < 6; ++i) {
+        if (!(lambda[i] > 1e-12 * top)) continue;
+        inverse += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose() / lambda[i];
+    }
+    for (int a = 0; a < 6; ++a) {
+        bool determined = true;
+        for (int i = 0; i < 6; ++i)
+            if (!(lambda[i] > 1e-12 * top) && std::abs(eig.eigenvectors()(a, i)) > 1e-6) determined = false;
+        if (!determined) continue;
+        const double v = std::sqrt(std::max(0.0, inverse(a, a) * s2 * kappa)) * h[a];
+        sd[static_cast<std::size_t>(a)] = a < 3 ? v : v * 180 / M_PI;
+    }
+    return sd;
+}
+
 FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& o, const VideoFrame& frame,
                                  const Mat4& initial, std::size_t firstLevel, Clock::time_point start) {
     FrameRegistration r;
@@ -861,6 +937,11 @@ FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& 
         atMinimum = false;
         lastStep = 0;
         const int b = obj.block();
+        // The finest level's data-only normal equations at the last
+        // iteration, and the residuals there: the pose's uncertainty.
+        const bool finestLevel = li + 1 == frame.levels.size();
+        Eigen::Matrix<double, 6, 6> dataA = Eigen::Matrix<double, 6, 6>::Zero();
+        double residual2 = 0, residualDof = 0, kappa = 1;
         for (int it = 0; it < o.maxIterations; ++it) {
             ++r.iterations;
             // IRLS weights of the Cauchy loss at the current pose.
@@ -915,6 +996,23 @@ FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& 
             }
             for (int a = 0; a < 6; ++a)
                 for (int c = 0; c < a; ++c) A(a, c) = A(c, a);
+            if (finestLevel) {
+                dataA = A;
+                residual2 = residualDof = 0;
+                // Degrees of freedom per pixel: a unit normal's difference has
+                // two to first order, an intensity one.
+                const double dofPerPixel = o.method == RegistrationMethod::PqSpace ? 2 : 1;
+                for (std::size_t k = 0; k < obj.pixels.size(); ++k) {
+                    if (!(wrow[k] > 0)) continue;
+                    double e2 = 0;
+                    for (int j = 0; j < b; ++j) e2 += d[b * k + j] * d[b * k + j];
+                    residual2 += wrow[k] * e2;
+                    residualDof += dofPerPixel;
+                }
+                // Out to a tenth of the view (8 pixels at the default 80 across).
+                kappa = correlationArea(d, b, wrow, obj.pixels, level.K.width, level.K.height,
+                                        std::max(2, (level.K.width + 5) / 10));
+            }
             if (priorWeight > 0)
                 for (int a = 0; a < 6; ++a) {
                     const double ja = h[a] / sigma[a];  // d residual / d x
@@ -962,6 +1060,7 @@ FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& 
         }
         r.cameraToWorld = poseAt(x);
         r.similarity = sim;
+        if (finestLevel && residualDof > 6) r.poseSd = poseDeviation(dataA, residual2 / (residualDof - 6), h, kappa);
     }
     // Converged: the optimiser stopped at a minimum, or its last step moved
     // the pose by less than half a finite-difference step (the iteration cap
@@ -1058,6 +1157,7 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
         render += s.renderSeconds, similarity += s.similaritySeconds, evaluations += s.evaluations;
         best.cameraToWorld = byMapBest->cameraToWorld;
         best.similarity = s.similarity;
+        best.poseSd = byMapBest->poseSd;
         best.mapPoseKept = true;
     }
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
@@ -1065,7 +1165,7 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
     best.mapConverged = byMapBest.has_value();
     if (byMapBest) best.mapCameraToWorld = byMapBest->cameraToWorld;
     tracker.update(best);
-    if (map && best.converged && best.similarity >= o.minPaintSimilarity) map->add(mesh, frame, best.cameraToWorld, o);
+    if (map && paintsAlbedoMap(best, o)) map->add(mesh, frame, best.cameraToWorld, o);
     return best;
 }
 
@@ -1153,6 +1253,10 @@ FrameRegistration registerInitial(const mesh::Mesh& fullMesh, const VideoFrame& 
     best.iterations = total.iterations, best.evaluations = total.evaluations;
     best.optimiserSeconds = std::max(0.0, secondsSince(start) - best.renderSeconds - best.similaritySeconds);
     return best;
+}
+
+bool paintsAlbedoMap(const FrameRegistration& r, const RegisterOptions& o) noexcept {
+    return r.converged && r.similarity >= o.minPaintSimilarity;
 }
 
 Mat4 predictPose(const Mat4& before, const Mat4& last, double damping) noexcept {

@@ -42,23 +42,33 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
                                                 [](const RegisteredFrame& f) { return f.r.converged; })}}},
            {"frames", json::array()}};
     writeResponse(j, run.camera.response);
+    // A deviation that is not a finite number (not computed, or an axis the
+    // frame does not constrain at all) is written as null.
+    auto deviations = [](const FrameRegistration& r, std::size_t first) {
+        json a = json::array();
+        for (std::size_t axis = first; axis < first + 3; ++axis)
+            a.push_back(std::isfinite(r.poseSd[axis]) ? json(r.poseSd[axis]) : json(nullptr));
+        return a;
+    };
     for (const RegisteredFrame& f : run.frames) {
         json m = json::array();
         for (const auto& row : f.r.cameraToWorld) m.push_back(row);
-        j["frames"].push_back(json{{"image", relativePath(f.image, folder)},
-                                   {"intrinsics", k},
-                                   {"camera_to_world", m},
-                                   {"registration",
-                                    {{"similarity", f.r.similarity},
-                                     {"iterations", f.r.iterations},
-                                     {"renders", f.r.evaluations},
-                                     {"converged", f.r.converged},
-                                     {"map_disagreed", f.r.mapDisagreed},
-                                     {"map_pose_kept", f.r.mapPoseKept},
-                                     {"seconds",
-                                      {{"render", f.r.renderSeconds},
-                                       {"similarity", f.r.similaritySeconds},
-                                       {"optimiser", f.r.optimiserSeconds}}}}}});
+        j["frames"].push_back(
+            json{{"image", relativePath(f.image, folder)},
+                 {"intrinsics", k},
+                 {"camera_to_world", m},
+                 {"registration",
+                  {{"similarity", f.r.similarity},
+                   {"iterations", f.r.iterations},
+                   {"renders", f.r.evaluations},
+                   {"converged", f.r.converged},
+                   {"map_disagreed", f.r.mapDisagreed},
+                   {"map_pose_kept", f.r.mapPoseKept},
+                   {"pose_sd", {{"position_mm", deviations(f.r, 0)}, {"rotation_deg", deviations(f.r, 3)}}},
+                   {"seconds",
+                    {{"render", f.r.renderSeconds},
+                     {"similarity", f.r.similaritySeconds},
+                     {"optimiser", f.r.optimiserSeconds}}}}}});
     }
     writeFileAtomic(path, j.dump(1) + "\n");
 }
@@ -95,6 +105,15 @@ RegistrationRun readRegistration(const fs::path& path) {
             if (r.contains("renders") && r["renders"].is_number_integer()) f.r.evaluations = r["renders"].get<int>();
             if (r.contains("map_disagreed") && r["map_disagreed"].is_boolean())
                 f.r.mapDisagreed = r["map_disagreed"].get<bool>();
+            if (r.contains("pose_sd") && r["pose_sd"].is_object()) {
+                const char* keys[2] = {"position_mm", "rotation_deg"};
+                for (std::size_t part = 0; part < 2; ++part) {
+                    const json& a = r["pose_sd"].value(keys[part], json());
+                    if (!a.is_array() || a.size() != 3) continue;
+                    for (std::size_t k = 0; k < 3; ++k)
+                        if (a[k].is_number()) f.r.poseSd[3 * part + k] = a[k].get<double>();
+                }
+            }
             // The tracker resumes from it as it went on (Tracker::anchorOnMap).
             if (r.contains("map_pose_kept") && r["map_pose_kept"].is_boolean())
                 f.r.mapPoseKept = r["map_pose_kept"].get<bool>() && !f.r.converged;
@@ -266,14 +285,20 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
         image::writePng(dir / (stem + "_overlay.png"), upscale(over, up));
         image::writePng(dir / (stem + "_pq_video.png"), upscale(pqImage(L.pq), up));
         image::writePng(dir / (stem + "_pq_model.png"), upscale(pqImage(model), up));
+        // The pose's standard deviations (camera axes; "-": none, or undetermined).
+        auto sd = [&](std::size_t k, int digits) {
+            return std::isfinite(f.r.poseSd[k]) ? fmt::format("{:.{}f}", f.r.poseSd[k], digits) : std::string("-");
+        };
         rows += fmt::format(
-            "<tr><td>{}<br>{}<br>similarity {:.3f}<br>{}</td><td><img src=\"{}_overlay.png\"></td>"
+            "<tr><td>{}<br>{}<br>similarity {:.3f}<br>{}<br>sd along x, y, z: {}, {}, {} mm; about x, y, z (the roll): "
+            "{}, {}, {}&deg;</td>"
+            "<td><img src=\"{}_overlay.png\"></td>"
             "<td><img src=\"{}_pq_video.png\"></td><td><img src=\"{}_pq_model.png\"></td></tr>\n",
             i, escapeXml(f.image.filename().string()), f.r.similarity,
             f.r.converged      ? "converged"
             : f.r.mapDisagreed ? "<b>NOT converged</b> (the albedo map's pose disagrees)"
                                : "<b>NOT converged</b>",
-            stem, stem, stem);
+            sd(0, 2), sd(1, 2), sd(2, 2), sd(3, 1), sd(4, 1), sd(5, 1), stem, stem, stem);
     }
     const std::size_t converged = static_cast<std::size_t>(
         std::count_if(run.frames.begin(), run.frames.end(), [](const RegisteredFrame& f) { return f.r.converged; }));

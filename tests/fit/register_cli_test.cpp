@@ -107,6 +107,7 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     const test::RunResult r = test::runCli(p.args("--report '" + (p.dir / "report").string() + "' --report-frames 2"));
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("registered 5 frames (5 converged) with method pq"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("pose sd, median over frames"), std::string::npos) << r.out;
     // The frames file mucosa fit reads, with the registration per frame.
     const fit::FrameSet set = fit::readFrames(p.dir / "out" / "frames.json");
     ASSERT_EQ(set.frames.size(), 5u);
@@ -123,8 +124,31 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     EXPECT_EQ(j["frames"][0]["image"], "../video/000.png");  // relative to the frames file
     EXPECT_GT(j["frames"][4]["registration"]["similarity"].get<double>(), 0.85);
     EXPECT_GT(j["frames"][4]["registration"]["renders"].get<int>(), 10);
+    // The pose's standard deviations per frame (camera axes): finite and
+    // small on this bumpy airway, and the frame's error within a few of them.
+    for (std::size_t i = 0; i < 5; ++i) {
+        const json& sd = j["frames"][i]["registration"]["pose_sd"];
+        ASSERT_TRUE(sd["position_mm"].is_array() && sd["position_mm"].size() == 3u) << sd.dump();
+        ASSERT_TRUE(sd["rotation_deg"].is_array() && sd["rotation_deg"].size() == 3u) << sd.dump();
+        for (std::size_t k = 0; k < 3; ++k) {
+            ASSERT_TRUE(sd["position_mm"][k].is_number() && sd["rotation_deg"][k].is_number()) << i << sd.dump();
+            EXPECT_GT(sd["position_mm"][k].get<double>(), 0.0);
+            EXPECT_LT(sd["position_mm"][k].get<double>(), 1.0);
+            EXPECT_GT(sd["rotation_deg"][k].get<double>(), 0.0);
+            EXPECT_LT(sd["rotation_deg"][k].get<double>(), 3.0);
+        }
+        const fit::PoseError e = fit::poseError(set.frames[i].cameraToWorld, p.scene.poses[i]);
+        const double sdMm = std::hypot(sd["position_mm"][0].get<double>(), sd["position_mm"][1].get<double>(),
+                                       sd["position_mm"][2].get<double>());
+        EXPECT_LT(e.position, 5 * sdMm + 0.1) << i;
+    }
+    // Read back as written (a resumed run keeps them).
+    const fit::RegistrationRun back = fit::readRegistration(p.dir / "out" / "frames.json");
+    EXPECT_NEAR(back.frames[3].r.poseSd[5], j["frames"][3]["registration"]["pose_sd"]["rotation_deg"][2].get<double>(),
+                1e-12);
     // The report: the trace and the sampled frames' overlays.
     const std::string html = test::readBytes(p.dir / "report" / "index.html");
+    EXPECT_NE(html.find("sd along x, y, z:"), std::string::npos);
     EXPECT_NE(html.find("<polyline"), std::string::npos);
     EXPECT_TRUE(fs::exists(p.dir / "report" / "frame00000_overlay.png"));
     EXPECT_TRUE(fs::exists(p.dir / "report" / "frame00004_pq_model.png"));
@@ -154,9 +178,14 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     const test::RunResult other = test::runCli(p.args("--method intensity"));
     expectOneErrorLine(other, "--restart");
     expectOneErrorLine(test::runCli(p.args("--no-albedo-map")), "--restart");
-    const test::RunResult restart = test::runCli(p.args("--method intensity --restart"));
+    // --min-similarity sets the method's flag threshold: over any NCC here,
+    // so every frame is flagged and says so.
+    const test::RunResult restart = test::runCli(p.args("--method intensity --restart --min-similarity 0.9999"));
     ASSERT_EQ(restart.exitCode, 0) << restart.err;
-    EXPECT_EQ(json::parse(test::readBytes(p.dir / "out" / "frames.json"))["registration"]["method"], "intensity");
+    EXPECT_NE(restart.err.find("5 frames not converged"), std::string::npos) << restart.err;
+    const json flagged = json::parse(test::readBytes(p.dir / "out" / "frames.json"));
+    EXPECT_EQ(flagged["registration"]["method"], "intensity");
+    for (const json& f : flagged["frames"]) EXPECT_FALSE(f["registration"]["converged"].get<bool>());
 }
 
 TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {

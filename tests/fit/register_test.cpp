@@ -532,6 +532,69 @@ TEST(RegisterPose, RollPriorHoldsOnlyTheRoll) {
     EXPECT_LT(eFree.position, 0.5);
 }
 
+// FrameRegistration::poseSd, the pose's standard deviation per axis from
+// the finest level's normal equations. On the bumpy airway every axis is
+// fixed: each deviation is finite and small, the estimate from an off start
+// lies within a few of them of the truth. Looking down a round tube of
+// uniform albedo, the roll and the position along the tube are its
+// symmetries: their deviations are the largest by far (the frames of a
+// featureless stretch a user should not trust for them), while the walls
+// still fix the lateral position and the viewing direction.
+TEST(RegisterPose, TheFramesUncertaintyShowsTheAxesItDoesNotFix) {
+    const OffStart off;
+    const Mat4& truth = off.scene.poses[0];
+    const fit::FrameRegistration r = fit::registerFrame(off.scene.mesh, off.vf, off.start, fit::RegisterOptions{});
+    // The estimate's error in the true camera's axes: position (mm), then the
+    // small rotation about x, y, z (degrees).
+    double err[6] = {0, 0, 0, 0, 0, 0};
+    for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < 3; ++k) err[c] += truth[k][c] * (r.cameraToWorld[k][3] - truth[k][3]);
+    double Rd[3][3];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            Rd[i][j] = 0;
+            for (int k = 0; k < 3; ++k) Rd[i][j] += truth[k][i] * r.cameraToWorld[k][j];
+        }
+    err[3] = (Rd[2][1] - Rd[1][2]) / 2 * 180 / M_PI;
+    err[4] = (Rd[0][2] - Rd[2][0]) / 2 * 180 / M_PI;
+    err[5] = (Rd[1][0] - Rd[0][1]) / 2 * 180 / M_PI;
+    std::printf("bumpy airway: converged %d; error / sd per axis:", r.converged);
+    for (int a = 0; a < 6; ++a) std::printf(" %.3f / %.3f", err[a], r.poseSd[static_cast<std::size_t>(a)]);
+    std::printf("\n");
+    ASSERT_TRUE(r.converged);
+    for (int a = 0; a < 6; ++a) {
+        const double sd = r.poseSd[static_cast<std::size_t>(a)];
+        ASSERT_TRUE(std::isfinite(sd)) << "axis " << a;
+        EXPECT_GT(sd, 0.0) << "axis " << a;
+        EXPECT_LT(sd, a < 3 ? 0.5 : 1.0) << "axis " << a;
+        EXPECT_LT(std::abs(err[a]), 5 * sd + (a < 3 ? 0.05 : 0.1)) << "axis " << a;
+    }
+    // Down a round tube of uniform albedo, on its axis.
+    {
+        const mesh::Mesh tube = test::makeTube(5, 160, 256, 320);
+        const Intrinsics K = pinhole(160, 56);
+        const Mat4 pose = fit::lookAtPose({0, 0, 20}, {0, 0, 120}, {0, -1, 0});
+        test::VideoOptions plain;
+        plain.albedoContrast = 0;
+        image::Image8 sat;
+        const image::ImageF frame = test::renderVideoFrame(tube, K, pose, plain, 1, &sat);
+        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, fit::RegisterOptions{});
+        const fit::FrameRegistration t = fit::registerFrame(tube, vf, pose, fit::RegisterOptions{});
+        std::printf("round tube: sd");
+        for (double sd : t.poseSd) std::printf(" %.3f", sd);
+        std::printf("\n");
+        EXPECT_GT(t.poseSd[5], 5.0);               // the roll: degrees, or undetermined (infinite)
+        EXPECT_GT(t.poseSd[5], 10 * r.poseSd[5]);  // against the bumpy airway's
+        EXPECT_GT(t.poseSd[5], 50 * t.poseSd[3]);  // and the tube's own pitch and yaw
+        EXPECT_GT(t.poseSd[5], 50 * t.poseSd[4]);
+        EXPECT_GT(t.poseSd[2], 10.0);  // along the tube: millimetres, or undetermined
+        for (std::size_t a : {0u, 1u, 3u, 4u}) {
+            EXPECT_TRUE(std::isfinite(t.poseSd[a])) << "axis " << a;  // fixed by the walls
+            EXPECT_LT(t.poseSd[a], 0.5) << "axis " << a;
+        }
+    }
+}
+
 // After a flagged frame the tracker offers two starts: where the track last
 // was and where the flagged frame ended (the scope moves on while frames
 // score just under the threshold). registerTracked keeps the better: here the
