@@ -941,7 +941,7 @@ FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& 
         // iteration, and the residuals there: the pose's uncertainty.
         const bool finestLevel = li + 1 == frame.levels.size();
         Eigen::Matrix<double, 6, 6> dataA = Eigen::Matrix<double, 6, 6>::Zero();
-        double residual2 = 0, residualDof = 0, kappa = 1;
+        double residual2 = 0, residualDof = 0;
         for (int it = 0; it < o.maxIterations; ++it) {
             ++r.iterations;
             // IRLS weights of the Cauchy loss at the current pose.
@@ -1009,9 +1009,6 @@ FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& 
                     residual2 += wrow[k] * e2;
                     residualDof += dofPerPixel;
                 }
-                // Out to a tenth of the view (8 pixels at the default 80 across).
-                kappa = correlationArea(d, b, wrow, obj.pixels, level.K.width, level.K.height,
-                                        std::max(2, (level.K.width + 5) / 10));
             }
             if (priorWeight > 0)
                 for (int a = 0; a < 6; ++a) {
@@ -1060,7 +1057,20 @@ FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& 
         }
         r.cameraToWorld = poseAt(x);
         r.similarity = sim;
-        if (finestLevel && residualDof > 6) r.poseSd = poseDeviation(dataA, residual2 / (residualDof - 6), h, kappa);
+        if (finestLevel && residualDof > 6) {
+            // The residuals' correlation at the estimate (once: it changes
+            // little over the last steps), out to a tenth of the view (8
+            // pixels at the default 80 across).
+            std::vector<double> wEnd(obj.pixels.size());
+            for (std::size_t k = 0; k < obj.pixels.size(); ++k) {
+                double e2 = 0;
+                for (int j = 0; j < b; ++j) e2 += d[b * k + j] * d[b * k + j];
+                wEnd[k] = o.method == RegistrationMethod::PqSpace ? obj.weight(k) / (1 + e2 / obj.cauchy2) : 1.0;
+            }
+            const double kappa = correlationArea(d, b, wEnd, obj.pixels, level.K.width, level.K.height,
+                                                 std::max(2, (level.K.width + 5) / 10));
+            r.poseSd = poseDeviation(dataA, residual2 / (residualDof - 6), h, kappa);
+        }
     }
     // Converged: the optimiser stopped at a minimum, or its last step moved
     // the pose by less than half a finite-difference step (the iteration cap
