@@ -225,9 +225,10 @@ struct FrameRegistration {
     // (x right, y down, z forward): position in mm, then rotation about x,
     // y and z (the roll) in degrees. From the finest level's Gauss-Newton
     // normal equations at the last iteration, the residuals' variance and
-    // their correlation over the estimator's smoothing (docs/theory.md,
-    // "How well a frame fixes its pose"): large on an axis the frame does
-    // not constrain (the roll down a round, featureless tube). NaN where no
+    // the area over which they are correlated, measured from their
+    // autocorrelation (docs/theory.md, "How well a frame fixes its pose"):
+    // large on an axis the frame does not constrain (the roll down a round,
+    // featureless tube), infinite on one no pixel responds to. NaN where no
     // iteration ran (an evaluation only).
     std::array<double, 6> poseSd{NAN, NAN, NAN, NAN, NAN, NAN};
     double renderSeconds = 0, similaritySeconds = 0, optimiserSeconds = 0;
@@ -343,6 +344,10 @@ private:
     bool haveBefore_ = false, started_ = false, fresh_ = true;
 };
 
+// Whether a registered frame paints the albedo map: converged, and scoring
+// at least RegisterOptions::minPaintSimilarity.
+bool paintsAlbedoMap(const FrameRegistration& r, const RegisterOptions& o) noexcept;
+
 // An albedo per vertex of the airway mesh, learnt from the frames as the
 // track goes (photometric mapping, as direct visual SLAM keeps a map): the
 // wall's vessels and blotches fix the axial position and roll that a smooth
@@ -355,10 +360,6 @@ private:
 // and by cos^2 / z^2 (a near, square view resolves the wall finest).
 // Vertices never seen take the mean of the seen ones. See docs/theory.md,
 // "An albedo learnt along the track".
-// Whether a registered frame paints the albedo map: converged, and scoring
-// at least RegisterOptions::minPaintSimilarity.
-bool paintsAlbedoMap(const FrameRegistration& r, const RegisterOptions& o) noexcept;
-
 class AlbedoMap {
 public:
     explicit AlbedoMap(std::size_t vertices) : sum_(vertices, 0.0), weight_(vertices, 0.0) {}
