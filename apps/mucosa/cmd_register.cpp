@@ -43,7 +43,8 @@ struct RegisterArgs {
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
            rollPrior = fit::RegisterOptions{}.rollPrior, albedoPrior = fit::RegisterOptions{}.albedoPrior,
            paintMin = -1,    // -1: not given (RegisterOptions' default)
-        minSimilarity = -1;  // -1: not given (the method's default)
+        minSimilarity = -1,  // -1: not given (the method's default)
+        minDepthRange = fit::RegisterOptions{}.minDepthRange;
     bool restart = false, noAlbedoMap = false, keepMapPose = false, noKeepMapPose = false;
 };
 
@@ -137,6 +138,7 @@ void run(const RegisterArgs& a, const Global& g) {
     if (a.noKeepMapPose) o.keepMapPose = false;
     if (a.minSimilarity >= 0)
         (o.method == fit::RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation) = a.minSimilarity;
+    o.minDepthRange = a.minDepthRange;
     if (a.paintMin >= 0) {
         if (a.noAlbedoMap)
             throw InputError("--paint-min", "",
@@ -300,7 +302,10 @@ void run(const RegisterArgs& a, const Global& g) {
                 "[register {}/{}{} {:.0f}%] {}: similarity {:.3f}{}, {:.2f} s/frame, ETA {}", i + 1,
                 source.isVideo() ? "~" : "", total, 100.0 * static_cast<double>(i + 1) / static_cast<double>(total),
                 name->filename().string(), r.similarity,
-                r.converged ? "" : (r.mapDisagreed ? " NOT CONVERGED (the albedo map disagrees)" : " NOT CONVERGED"),
+                r.converged      ? ""
+                : r.noLumen      ? " NOT CONVERGED (no lumen in view)"
+                : r.mapDisagreed ? " NOT CONVERGED (the albedo map disagrees)"
+                                 : " NOT CONVERGED",
                 per, formatDuration(per * static_cast<double>(total - i - 1)));
             if (tty)
                 std::fprintf(stderr, "\r%s\x1b[K", line.c_str());
@@ -346,9 +351,13 @@ void run(const RegisterArgs& a, const Global& g) {
                                 med[0], med[1], med[2], med[3], med[4], med[5]));
         }
     }
-    if (converged < total)
-        warn(fmt::format("{} not converged: flagged in {} (registration.converged false); mucosa fit skips them",
-                         count(total - converged, "frame"), a.out));
+    if (converged < total) {
+        const auto walls = static_cast<std::size_t>(
+            std::count_if(run.frames.begin(), run.frames.end(), [](const auto& f) { return f.r.noLumen; }));
+        warn(fmt::format("{} not converged{}: flagged in {} (registration.converged false); mucosa fit skips them",
+                         count(total - converged, "frame"),
+                         walls > 0 ? fmt::format(" ({} with no lumen in view)", walls) : std::string(), a.out));
+    }
     if (!a.report.empty()) {
         fit::writeRegistrationReport(a.report, run, m, o, a.reportSamples);
         info(g, "wrote " + joinPath(a.report, "index.html"));
@@ -418,6 +427,13 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                               "intensity {:.2f}]",
                               fit::RegisterOptions{}.minSimilarity, fit::RegisterOptions{}.minCorrelation))
         ->check(CLI::Range(0.0, 1.0));
+    c->add_option("--min-depth-range", a->minDepthRange,
+                  "A frame whose view at the estimate reaches no farther than this many times its median depth "
+                  "(the model's 99th depth percentile over its median: 5-20 down a bronchus) is flagged not "
+                  "converged: it faces the wall with no lumen in view, where the shape fixes the pose least "
+                  "[0 = off]")
+        ->check(CLI::Range(0.0, 1000.0))
+        ->capture_default_str();
     c->add_option("--paint-min", a->paintMin,
                   fmt::format("A converged frame paints the albedo map only if its similarity is at least this "
                               "[{:.2f}; 0 = every converged frame]",

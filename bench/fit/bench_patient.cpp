@@ -76,6 +76,24 @@ namespace {
 
 // The rotation taking b's camera axes to a's, as a rotation vector in b's
 // camera axes (degrees).
+// The model's depth over a frame's field of view at a pose (finest level):
+// its 5th, 50th, 95th and 99th percentiles, mm (pixels beyond the rendered
+// neighbourhood count at farMm). A view down a lumen spans a wide range, a
+// wall seen face on a narrow one.
+std::array<double, 4> viewDepths(const mesh::Mesh& m, const fit::VideoFrame::Level& lv, const fit::Mat4& pose,
+                                 const fit::RegisterOptions& o) {
+    const fit::ModelView v = fit::renderModel(m, lv.K, pose, o.lightOffset, 2, 1, o.lamp);
+    std::vector<double> z;
+    for (std::size_t i = 0; i < lv.valid.size(); ++i)
+        if (lv.valid[i]) z.push_back(std::min<double>(v.depth.data()[i], o.farMm));  // inf: nothing hit
+    std::array<double, 4> out{NAN, NAN, NAN, NAN};
+    if (z.empty()) return out;
+    std::sort(z.begin(), z.end());
+    const double q[4] = {0.05, 0.5, 0.95, 0.99};
+    for (int k = 0; k < 4; ++k) out[static_cast<std::size_t>(k)] = z[static_cast<std::size_t>(q[k] * (z.size() - 1))];
+    return out;
+}
+
 std::array<double, 3> rotationBetween(const fit::Mat4& a, const fit::Mat4& b) {
     double R[3][3];  // b^T a
     for (int i = 0; i < 3; ++i)
@@ -246,14 +264,18 @@ int main(int argc, char** argv) {
                 // The rotation's error about the true camera's axes (a small-angle
                 // rotation vector, degrees; the last is the roll).
                 const std::array<double, 3> w = rotationBetween(a, b);
+                // The view's depths at the estimate and at the truth (columns 25-28, 29-32).
+                const std::array<double, 4> de = viewDepths(patient.mesh, vf.levels.back(), a, o);
+                const std::array<double, 4> dt = viewDepths(patient.mesh, vf.levels.back(), b, o);
                 std::fprintf(
                     trace,
                     "%s %zu %.3f %.3f %.4f %d %.3f %.3f %.3f %.4f %.3f %.3f %.3f %.4f %.4f %.3f %.3f %.3f %.3f "
-                    "%.3f %.3f %.3f %.3f %.3f\n",
+                    "%.3f %.3f %.3f %.3f %.3f %.2f %.2f %.2f %.2f %.2f %.2f %.2f %.2f\n",
                     label, i, e.position, e.degrees, r.similarity, r.converged ? 1 : 0,
                     std::acos(std::clamp(dot, -1.0, 1.0)) * 180 / M_PI, m.position, m.degrees, truthSimilarity, off[0],
                     off[1], off[2], offSimilarity[0], offSimilarity[1], w[0], w[1], w[2], r.poseSd[0], r.poseSd[1],
-                    r.poseSd[2], r.poseSd[3], r.poseSd[4], r.poseSd[5]);
+                    r.poseSd[2], r.poseSd[3], r.poseSd[4], r.poseSd[5], de[0], de[1], de[2], de[3], dt[0], dt[1], dt[2],
+                    dt[3]);
             }
             if (const char* dumpDir = std::getenv("MUCOSA_DUMP")) {
                 // MUCOSA_DUMP=DIR with MUCOSA_DUMP_FRAMES=a,b,...: the finest

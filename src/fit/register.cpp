@@ -1113,6 +1113,23 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
         if ((f.converged && !r.converged) || (f.converged == r.converged && f.similarity > r.similarity)) r = f;
         r.optimiserSeconds = std::max(0.0, secondsSince(start) - r.renderSeconds - r.similaritySeconds);
     }
+    // The view's depth at the estimate: down a lumen its farthest part lies
+    // many times beyond the median wall, facing a wall nothing does.
+    {
+        const VideoFrame::Level& fin = frame.levels.back();
+        const auto t0 = Clock::now();
+        const ModelView v = renderModel(near.mesh, fin.K, r.cameraToWorld, options.lightOffset, 1, 1, options.lamp);
+        r.renderSeconds += secondsSince(t0);
+        ++r.evaluations;
+        std::vector<float> z;
+        for (std::size_t i = 0; i < fin.valid.size(); ++i)
+            if (fin.valid[i]) {
+                const float d = v.depth.data()[i];
+                z.push_back(std::isfinite(d) ? d : static_cast<float>(options.farMm));  // beyond the neighbourhood
+            }
+        if (z.size() >= 50) r.depthRange = percentile(z, 0.99) / std::max(1e-6, percentile(z, 0.5));
+    }
+    if (std::isfinite(r.depthRange) && r.depthRange < options.minDepthRange) r.converged = false, r.noLumen = true;
     return r;
 }
 
@@ -1126,6 +1143,9 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
         byMap.method = RegistrationMethod::Intensity;
         byMap.texture = map->texture();
         byMap.motionPrior = byMap.rollPrior = 0;
+        // The wall's albedo is the evidence a frame with no lumen in view
+        // has left: the map's step is not flagged for it.
+        byMap.minDepthRange = 0;
     }
     FrameRegistration best;
     bool have = false;
@@ -1174,6 +1194,8 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
         best.cameraToWorld = byMapBest->cameraToWorld;
         best.similarity = s.similarity;
         best.poseSd = byMapBest->poseSd;
+        best.depthRange = s.depthRange;  // the kept pose's view
+        best.noLumen = best.noLumen || s.noLumen;
         best.mapPoseKept = true;
     }
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;

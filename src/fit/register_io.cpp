@@ -64,6 +64,8 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
                    {"converged", f.r.converged},
                    {"map_disagreed", f.r.mapDisagreed},
                    {"map_pose_kept", f.r.mapPoseKept},
+                   {"no_lumen", f.r.noLumen},
+                   {"depth_range", std::isfinite(f.r.depthRange) ? json(f.r.depthRange) : json()},
                    {"pose_sd", {{"position_mm", deviations(f.r, 0)}, {"rotation_deg", deviations(f.r, 3)}}},
                    {"seconds",
                     {{"render", f.r.renderSeconds},
@@ -114,6 +116,10 @@ RegistrationRun readRegistration(const fs::path& path) {
                         if (a[k].is_number()) f.r.poseSd[3 * part + k] = a[k].get<double>();
                 }
             }
+            if (r.contains("depth_range") && r["depth_range"].is_number())
+                f.r.depthRange = r["depth_range"].get<double>();
+            if (r.contains("no_lumen") && r["no_lumen"].is_boolean())
+                f.r.noLumen = r["no_lumen"].get<bool>() && !f.r.converged;
             // The tracker resumes from it as it went on (Tracker::anchorOnMap).
             if (r.contains("map_pose_kept") && r["map_pose_kept"].is_boolean())
                 f.r.mapPoseKept = r["map_pose_kept"].get<bool>() && !f.r.converged;
@@ -220,7 +226,9 @@ std::string svgTrace(const RegistrationRun& run) {
             svg += fmt::format(
                 R"(<circle cx="{:.1f}" cy="{:.1f}" r="3" fill="#d62728"><title>frame {} not converged{}</title></circle>)",
                 X(double(i)), Y(run.frames[i].r.similarity), i,
-                run.frames[i].r.mapDisagreed ? " (the albedo map's pose disagrees)" : "");
+                run.frames[i].r.noLumen        ? " (no lumen in view)"
+                : run.frames[i].r.mapDisagreed ? " (the albedo map's pose disagrees)"
+                                               : "");
     return svg + "</svg>";
 }
 
@@ -296,6 +304,7 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
             "<td><img src=\"{}_pq_video.png\"></td><td><img src=\"{}_pq_model.png\"></td></tr>\n",
             i, escapeXml(f.image.filename().string()), f.r.similarity,
             f.r.converged      ? "converged"
+            : f.r.noLumen      ? "<b>NOT converged</b> (no lumen in view)"
             : f.r.mapDisagreed ? "<b>NOT converged</b> (the albedo map's pose disagrees)"
                                : "<b>NOT converged</b>",
             sd(0, 2), sd(1, 2), sd(2, 2), sd(3, 1), sd(4, 1), sd(5, 1), stem, stem, stem);

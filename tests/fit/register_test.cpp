@@ -617,6 +617,58 @@ TEST(RegisterPose, TheFramesUncertaintyShowsTheAxesItDoesNotFix) {
     }
 }
 
+// A frame facing the wall, with no lumen in view, is flagged: its view at
+// the estimate spans a narrow range of depths (FrameRegistration::
+// depthRange), where a view down the lumen spans a wide one. The frames
+// file says so and reads it back.
+TEST(RegisterPose, AFrameFacingTheWallIsFlaggedNoLumen) {
+    const mesh::Mesh tube = test::makeTube(5, 160, 256, 320);
+    const Intrinsics K = pinhole(160, 56);
+    auto run = [&](const Mat4& pose, const fit::RegisterOptions& o) {
+        image::Image8 sat;
+        const image::ImageF frame = test::renderVideoFrame(tube, K, pose, {}, 1, &sat);
+        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, o);
+        return fit::registerFrame(tube, vf, fit::perturbPose(pose, {0.3, -0.2, 0.2}, {0.01, 0.01, 0}), o);
+    };
+    const fit::RegisterOptions o;
+    ASSERT_GT(o.minDepthRange, 1.0);
+    const Mat4 down = fit::lookAtPose({0, 0, 20}, {0, 0, 120}, {0, -1, 0});
+    const Mat4 wall = fit::lookAtPose({0, 0, 60}, {5, 0, 60}, {0, 0, 1});
+    const fit::FrameRegistration a = run(down, o);
+    const fit::FrameRegistration b = run(wall, o);
+    fit::RegisterOptions off = o;
+    off.minDepthRange = 0;
+    const fit::FrameRegistration c = run(wall, off);
+    std::printf(
+        "depth range: down the tube %.2f (converged %d), facing the wall %.2f (converged %d, no lumen %d); "
+        "check off: converged %d, similarity %.3f\n",
+        a.depthRange, a.converged, b.depthRange, b.converged, b.noLumen, c.converged, c.similarity);
+    EXPECT_GT(a.depthRange, 2 * o.minDepthRange);
+    EXPECT_TRUE(a.converged);
+    EXPECT_FALSE(a.noLumen);
+    EXPECT_LT(b.depthRange, o.minDepthRange);
+    EXPECT_FALSE(b.converged);
+    EXPECT_TRUE(b.noLumen);
+    // The check off: the same frame is judged by its similarity alone.
+    EXPECT_FALSE(c.noLumen);
+    EXPECT_EQ(c.converged, c.similarity >= o.minSimilarity);
+    EXPECT_NEAR(c.depthRange, b.depthRange, 1e-9);
+    // The frames file carries the flag and the depth range, and reads them back.
+    const test::TempDir dir;
+    fit::RegistrationRun r;
+    r.camera.K = K;
+    r.frames.push_back({dir / "wall.png", b});
+    r.frames.push_back({dir / "down.png", a});
+    fit::writeRegistration(dir / "frames.json", r);
+    const fit::RegistrationRun back = fit::readRegistration(dir / "frames.json");
+    ASSERT_EQ(back.frames.size(), 2u);
+    EXPECT_TRUE(back.frames[0].r.noLumen);
+    EXPECT_FALSE(back.frames[0].r.converged);
+    EXPECT_NEAR(back.frames[0].r.depthRange, b.depthRange, 1e-6);
+    EXPECT_FALSE(back.frames[1].r.noLumen);
+    EXPECT_TRUE(back.frames[1].r.converged);
+}
+
 // After a flagged frame the tracker offers two starts: where the track last
 // was and where the flagged frame ended (the scope moves on while frames
 // score just under the threshold). registerTracked keeps the better: here the

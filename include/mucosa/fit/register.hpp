@@ -213,6 +213,16 @@ struct RegisterOptions {
     // airway it converged 70 degrees off, and pq, started there, lost the
     // track. 0 turns a test off.
     double mapReachMm = 5.0, mapReachDegrees = 20.0;
+    // A frame whose view at the estimate reaches no farther than this many
+    // times its median depth (FrameRegistration::depthRange) is flagged,
+    // FrameRegistration::noLumen: it faces the wall with no lumen in view,
+    // where shape fixes the pose least (a wall seen face on barely changes
+    // as the scope turns about its centre of curvature). On the CT airway
+    // every frame more than 5 mm or 2 degrees off (59 of 300, all facing
+    // the wall at the path's end, up to 71 degrees off at similarities
+    // 0.88-0.98) was under 2.21, the phantom's frames all over 5
+    // (docs/theory.md, "Frames with no lumen in view"). 0: off.
+    double minDepthRange = 2.5;
 };
 
 struct FrameRegistration {
@@ -243,6 +253,14 @@ struct FrameRegistration {
     // Flagged, and the estimate is the map's step's converged pose
     // (RegisterOptions::keepMapPose), not where the method ended.
     bool mapPoseKept = false;
+    // The ratio of the 99th percentile of the model's depth over the
+    // frame's field of view, at the estimate, to its median (pixels beyond
+    // the rendered neighbourhood count at RegisterOptions::farMm): 5-20
+    // down a lumen, under 2.5 facing a wall. NaN if the model covers too
+    // little of the view.
+    double depthRange = NAN;
+    // Flagged: the frame has no lumen in view (RegisterOptions::minDepthRange).
+    bool noLumen = false;
 };
 
 // A frame prepared for registration: linear luminance at every level,
