@@ -220,7 +220,7 @@ struct RegisterOptions {
     // as the scope turns about its centre of curvature). On the CT airway
     // every frame more than 5 mm or 2 degrees off (59 of 300, all facing
     // the wall at the path's end, up to 71 degrees off at similarities
-    // 0.88-0.98) was under 2.21, the phantom's frames all over 5
+    // 0.88-0.98) was under 2.21, and all 1800 of the phantom's over 4.9
     // (docs/theory.md, "Frames with no lumen in view"). 0: off.
     double minDepthRange = 2.5;
 };
