@@ -41,6 +41,18 @@ double angleDeg(double pa, double qa, double pb, double qb) {
     return std::acos(std::clamp(c, -1.0, 1.0)) * 180 / M_PI;
 }
 
+// Registrations written to a frames file (frame_0.png, frame_1.png, ...)
+// and read back.
+fit::RegistrationRun writtenAndRead(const Intrinsics& K, const std::vector<fit::FrameRegistration>& rs) {
+    const test::TempDir dir;
+    fit::RegistrationRun run;
+    run.camera.K = K;
+    for (std::size_t i = 0; i < rs.size(); ++i)
+        run.frames.push_back({dir / ("frame_" + std::to_string(i) + ".png"), rs[i]});
+    fit::writeRegistration(dir / "frames.json", run);
+    return fit::readRegistration(dir / "frames.json");
+}
+
 }  // namespace
 
 // A plane z = c + p X + q Y lit from the optical centre: the estimator
@@ -654,13 +666,7 @@ TEST(RegisterPose, AFrameFacingTheWallIsFlaggedNoLumen) {
     EXPECT_EQ(c.converged, c.similarity >= o.minSimilarity);
     EXPECT_NEAR(c.depthRange, b.depthRange, 1e-9);
     // The frames file carries the flag and the depth range, and reads them back.
-    const test::TempDir dir;
-    fit::RegistrationRun r;
-    r.camera.K = K;
-    r.frames.push_back({dir / "wall.png", b});
-    r.frames.push_back({dir / "down.png", a});
-    fit::writeRegistration(dir / "frames.json", r);
-    const fit::RegistrationRun back = fit::readRegistration(dir / "frames.json");
+    const fit::RegistrationRun back = writtenAndRead(K, {b, a});
     ASSERT_EQ(back.frames.size(), 2u);
     EXPECT_TRUE(back.frames[0].r.noLumen);
     EXPECT_FALSE(back.frames[0].r.converged);
@@ -1247,16 +1253,11 @@ TEST(RegisterAlbedo, AFrameTheMapsPoseDisagreesWithIsFlaggedAndPaintsNothing) {
     }
     EXPECT_GE(disagreed, 1u);
     // The frames file carries the reason, and reads it back.
-    const test::TempDir dir;
-    fit::RegistrationRun run;
-    run.camera.K = scene.frames[1].levels.back().K;
     fit::FrameRegistration r;
     r.cameraToWorld = scene.poses[1];
     r.mapDisagreed = true;
     r.mapPoseKept = true;
-    run.frames.push_back({dir / "frame.png", r});
-    fit::writeRegistration(dir / "frames.json", run);
-    const fit::RegistrationRun back = fit::readRegistration(dir / "frames.json");
+    const fit::RegistrationRun back = writtenAndRead(scene.frames[1].levels.back().K, {r});
     ASSERT_EQ(back.frames.size(), 1u);
     EXPECT_TRUE(back.frames[0].r.mapDisagreed);
     EXPECT_TRUE(back.frames[0].r.mapPoseKept);
