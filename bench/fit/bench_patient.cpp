@@ -74,8 +74,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The rotation taking b's camera axes to a's, as a rotation vector in b's
-// camera axes (degrees).
 // The model's depth over a frame's field of view at a pose (finest level):
 // its 5th, 50th, 95th and 99th percentiles, mm (pixels beyond the rendered
 // neighbourhood count at farMm). A view down a lumen spans a wide range, a
@@ -94,6 +92,8 @@ std::array<double, 4> viewDepths(const mesh::Mesh& m, const fit::VideoFrame::Lev
     return out;
 }
 
+// The rotation taking b's camera axes to a's, as a rotation vector in b's
+// camera axes (degrees).
 std::array<double, 3> rotationBetween(const fit::Mat4& a, const fit::Mat4& b) {
     double R[3][3];  // b^T a
     for (int i = 0; i < 3; ++i)
