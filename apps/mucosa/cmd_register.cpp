@@ -37,7 +37,8 @@ struct RegisterArgs {
     std::vector<int> levels;
     std::vector<double> mapAgreement;  // empty: RegisterOptions' default
     std::vector<double> mapReach;      // empty: RegisterOptions' default
-    int maxIterations = 12, reportSamples = 6, step = 1;
+    int maxIterations = 12, reportSamples = 6, step = 1,
+        noLumenSearch = -1;  // -1: not given (the method's default)
     std::size_t maxFrames = 0;
     double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
     double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
@@ -139,6 +140,7 @@ void run(const RegisterArgs& a, const Global& g) {
     if (a.minSimilarity >= 0)
         (o.method == fit::RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation) = a.minSimilarity;
     o.minDepthRange = a.minDepthRange;
+    if (a.noLumenSearch >= 0) o.noLumenSearch.candidates = a.noLumenSearch;
     if (a.paintMin >= 0) {
         if (a.noAlbedoMap)
             throw InputError("--paint-min", "",
@@ -303,7 +305,8 @@ void run(const RegisterArgs& a, const Global& g) {
                 source.isVideo() ? "~" : "", total, 100.0 * static_cast<double>(i + 1) / static_cast<double>(total),
                 name->filename().string(), r.similarity,
                 r.converged      ? ""
-                : r.noLumen      ? " NOT CONVERGED (no lumen in view)"
+                : r.noLumen      ? (r.searched ? " NOT CONVERGED (no lumen in view; moved by the search)"
+                                               : " NOT CONVERGED (no lumen in view)")
                 : r.mapDisagreed ? " NOT CONVERGED (the albedo map disagrees)"
                                  : " NOT CONVERGED",
                 per, formatDuration(per * static_cast<double>(total - i - 1)));
@@ -354,9 +357,14 @@ void run(const RegisterArgs& a, const Global& g) {
     if (converged < total) {
         const auto walls = static_cast<std::size_t>(
             std::count_if(run.frames.begin(), run.frames.end(), [](const auto& f) { return f.r.noLumen; }));
-        warn(fmt::format("{} not converged{}: flagged in {} (registration.converged false); mucosa fit skips them",
-                         count(total - converged, "frame"),
-                         walls > 0 ? fmt::format(" ({} with no lumen in view)", walls) : std::string(), a.out));
+        const auto searched = static_cast<std::size_t>(std::count_if(
+            run.frames.begin(), run.frames.end(), [](const auto& f) { return f.r.noLumen && f.r.searched; }));
+        warn(fmt::format(
+            "{} not converged{}: flagged in {} (registration.converged false); mucosa fit skips them",
+            count(total - converged, "frame"),
+            walls > 0 ? fmt::format(" ({} with no lumen in view, {} of them moved by the search)", walls, searched)
+                      : std::string(),
+            a.out));
     }
     if (!a.report.empty()) {
         fit::writeRegistrationReport(a.report, run, m, o, a.reportSamples);
@@ -434,6 +442,14 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                   "[0 = off]")
         ->check(CLI::Range(0.0, 1000.0))
         ->capture_default_str();
+    c->add_option(
+         "--no-lumen-search", a->noLumenSearch,
+         fmt::format("A frame with no lumen in view is searched for around the track: this many poses "
+                     "within {:.0f} mm and {:.0f} degrees are scored, the best {} refined, and the "
+                     "best-scoring pose kept (still flagged) [pq {}, intensity 0; 0 = off]",
+                     fit::RegisterOptions{}.noLumenSearch.radiusMm, fit::RegisterOptions{}.noLumenSearch.degrees,
+                     fit::RegisterOptions{}.noLumenSearch.refine, fit::kNoLumenSearchCandidates))
+        ->check(CLI::Range(0, 100000));
     c->add_option("--paint-min", a->paintMin,
                   fmt::format("A converged frame paints the albedo map only if its similarity is at least this "
                               "[{:.2f}; 0 = every converged frame]",

@@ -30,6 +30,8 @@
 // mapAgreementDegrees (0,0: off); MUCOSA_MAP_REACH=MM,DEG sets
 // RegisterOptions::mapReachMm and mapReachDegrees (0,0: off); MUCOSA_ANCHOR=0|1 sets
 // Tracker::anchorOnMap;
+// MUCOSA_NO_LUMEN_SEARCH=N[,MM,DEG,REFINE,TIE] sets RegisterOptions::
+// noLumenSearch (candidates, radius, degrees, refined, tie; N 0: off);
 // MUCOSA_DUMP=DIR with MUCOSA_DUMP_FRAMES=a,b,... writes those frames'
 // fields at the finest level as raw float32 (the video's luminance and pq
 // field, the model's at the true and the estimated pose; see below);
@@ -200,6 +202,9 @@ int main(int argc, char** argv) {
             std::sscanf(k, "%lf,%lf", &o.mapAgreementMm, &o.mapAgreementDegrees);
         if (const char* k = std::getenv("MUCOSA_MAP_REACH"))
             std::sscanf(k, "%lf,%lf", &o.mapReachMm, &o.mapReachDegrees);
+        if (const char* k = std::getenv("MUCOSA_NO_LUMEN_SEARCH"))
+            std::sscanf(k, "%d,%lf,%lf,%d,%lf", &o.noLumenSearch.candidates, &o.noLumenSearch.radiusMm,
+                        &o.noLumenSearch.degrees, &o.noLumenSearch.refine, &o.noLumenSearch.tie);
         return o;
     };
     FILE* trace = std::getenv("MUCOSA_TRACE") ? std::fopen(std::getenv("MUCOSA_TRACE"), "w") : nullptr;

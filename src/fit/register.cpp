@@ -1198,6 +1198,22 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
         best.noLumen = best.noLumen || s.noLumen;
         best.mapPoseKept = true;
     }
+    if (best.noLumen && noLumenSearchCandidates(o) > 0) {
+        // Facing the wall, shape fixes the pose weakly and the iterations
+        // from the track stop in whatever valley they reach (on the CT
+        // airway, poses up to 46 degrees off that the truth outscored): the
+        // draws around the track's start, scored and refined as for a first
+        // frame, reach the others. The frame stays flagged either way.
+        InitialSearch search = o.noLumenSearch;
+        search.candidates = noLumenSearchCandidates(o);
+        const FrameRegistration w = registerInitial(mesh, frame, tracker.start(), options, search);
+        render += w.renderSeconds, similarity += w.similaritySeconds, optimiser += w.optimiserSeconds;
+        iterations += w.iterations, evaluations += w.evaluations;
+        if ((w.converged && !best.converged) || (w.converged == best.converged && w.similarity > best.similarity)) {
+            best = w;
+            best.searched = true;
+        }
+    }
     best.renderSeconds = render, best.similaritySeconds = similarity, best.optimiserSeconds = optimiser;
     best.iterations = iterations, best.evaluations = evaluations;
     best.mapConverged = byMapBest.has_value();
@@ -1291,6 +1307,11 @@ FrameRegistration registerInitial(const mesh::Mesh& fullMesh, const VideoFrame& 
     best.iterations = total.iterations, best.evaluations = total.evaluations;
     best.optimiserSeconds = std::max(0.0, secondsSince(start) - best.renderSeconds - best.similaritySeconds);
     return best;
+}
+
+int noLumenSearchCandidates(const RegisterOptions& o) noexcept {
+    if (o.noLumenSearch.candidates >= 0) return o.noLumenSearch.candidates;
+    return o.method == RegistrationMethod::PqSpace ? kNoLumenSearchCandidates : 0;
 }
 
 bool paintsAlbedoMap(const FrameRegistration& r, const RegisterOptions& o) noexcept {

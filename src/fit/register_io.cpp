@@ -65,6 +65,7 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
                    {"map_disagreed", f.r.mapDisagreed},
                    {"map_pose_kept", f.r.mapPoseKept},
                    {"no_lumen", f.r.noLumen},
+                   {"searched", f.r.searched},
                    {"depth_range", std::isfinite(f.r.depthRange) ? json(f.r.depthRange) : json()},
                    {"pose_sd", {{"position_mm", deviations(f.r, 0)}, {"rotation_deg", deviations(f.r, 3)}}},
                    {"seconds",
@@ -120,6 +121,8 @@ RegistrationRun readRegistration(const fs::path& path) {
                 f.r.depthRange = r["depth_range"].get<double>();
             if (r.contains("no_lumen") && r["no_lumen"].is_boolean())
                 f.r.noLumen = r["no_lumen"].get<bool>() && !f.r.converged;
+            // The tracker resumes from a searched pose too (Tracker::update).
+            if (r.contains("searched") && r["searched"].is_boolean()) f.r.searched = r["searched"].get<bool>();
             // The tracker resumes from it as it went on (Tracker::anchorOnMap).
             if (r.contains("map_pose_kept") && r["map_pose_kept"].is_boolean())
                 f.r.mapPoseKept = r["map_pose_kept"].get<bool>() && !f.r.converged;
@@ -226,7 +229,8 @@ std::string svgTrace(const RegistrationRun& run) {
             svg += fmt::format(
                 R"(<circle cx="{:.1f}" cy="{:.1f}" r="3" fill="#d62728"><title>frame {} not converged{}</title></circle>)",
                 X(double(i)), Y(run.frames[i].r.similarity), i,
-                run.frames[i].r.noLumen        ? " (no lumen in view)"
+                run.frames[i].r.noLumen
+                    ? (run.frames[i].r.searched ? " (no lumen in view; moved by the search)" : " (no lumen in view)")
                 : run.frames[i].r.mapDisagreed ? " (the albedo map's pose disagrees)"
                                                : "");
     return svg + "</svg>";
@@ -303,8 +307,10 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
             "<td><img src=\"{}_overlay.png\"></td>"
             "<td><img src=\"{}_pq_video.png\"></td><td><img src=\"{}_pq_model.png\"></td></tr>\n",
             i, escapeXml(f.image.filename().string()), f.r.similarity,
-            f.r.converged      ? "converged"
-            : f.r.noLumen      ? "<b>NOT converged</b> (no lumen in view)"
+            f.r.converged ? "converged"
+            : f.r.noLumen
+                ? (f.r.searched ? "<b>NOT converged</b> (no lumen in view; moved by the search around the track)"
+                                : "<b>NOT converged</b> (no lumen in view)")
             : f.r.mapDisagreed ? "<b>NOT converged</b> (the albedo map's pose disagrees)"
                                : "<b>NOT converged</b>",
             sd(0, 2), sd(1, 2), sd(2, 2), sd(3, 1), sd(4, 1), sd(5, 1), stem, stem, stem);

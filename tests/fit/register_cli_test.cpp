@@ -124,6 +124,13 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     EXPECT_EQ(j["frames"][0]["image"], "../video/000.png");  // relative to the frames file
     EXPECT_GT(j["frames"][4]["registration"]["similarity"].get<double>(), 0.85);
     EXPECT_GT(j["frames"][4]["registration"]["renders"].get<int>(), 10);
+    // Down this airway every frame has its lumen in view: none flagged for
+    // facing the wall, none searched for.
+    for (const json& f : j["frames"]) {
+        EXPECT_EQ(f["registration"]["no_lumen"], false);
+        EXPECT_EQ(f["registration"]["searched"], false);
+        EXPECT_GT(f["registration"]["depth_range"].get<double>(), fit::RegisterOptions{}.minDepthRange);
+    }
     // The pose's standard deviations per frame (camera axes): finite and
     // small on this bumpy airway, and the frame's error within a few of them.
     for (std::size_t i = 0; i < 5; ++i) {
@@ -243,6 +250,9 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     check(p.args("--map-agreement 2 5 --no-albedo-map"), "--no-albedo-map turns the map off");
     check(p.args("--map-reach 5 20 --no-albedo-map"), "--no-albedo-map turns the map off");
     check(p.args("--keep-map-pose --no-keep-map-pose"), "contradict");
+    // Out of range: a negative depth ratio or search size.
+    check(p.args("--min-depth-range -1"), "--min-depth-range");
+    check(p.args("--no-lumen-search -5"), "--no-lumen-search");
     // A model shading that is not a brdf.json.
     writeText(p.dir / "brdf.json", R"({"c": [1, 0, 0], "d": [0, 0, 0], "zmin": 1, "zmax": 2})");
     check(p.args("", {{"--brdf", p.dir / "brdf.json"}}), "field 'c'");
