@@ -263,7 +263,7 @@ struct RegisterOptions {
     // -1 (the default): the method's, kNoLumenSearchCandidates for pq and
     // 0 for the intensity baseline, whose NCC on a wall outscores poses far
     // from the truth (searched, it lost the CT airway's track for good).
-    InitialSearch noLumenSearch{3.0, 30.0, -1, 3, 1, 0.001};
+    InitialSearch noLumenSearch{3.0, 30.0, -1, 2, 1, 0.001};
 };
 
 struct FrameRegistration {
