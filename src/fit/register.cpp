@@ -1087,6 +1087,12 @@ FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& 
     return r;
 }
 
+// Which of two registrations of a frame to keep: a converged one over a
+// flagged one, then the higher similarity.
+bool outranks(const FrameRegistration& a, const FrameRegistration& b) noexcept {
+    return (a.converged && !b.converged) || (a.converged == b.converged && a.similarity > b.similarity);
+}
+
 }  // namespace
 
 FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& frame, const Mat4& initial,
@@ -1173,9 +1179,7 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
         FrameRegistration r = registerFrame(mesh, frame, start, method);
         render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
         iterations += r.iterations, evaluations += r.evaluations;
-        if (!have || (r.converged && !best.converged) ||
-            (r.converged == best.converged && r.similarity > best.similarity))
-            best = r, have = true;
+        if (!have || outranks(r, best)) best = r, have = true;
     }
     if (best.converged && byMapBest) {
         const PoseError apart = poseError(best.cameraToWorld, byMapBest->cameraToWorld);
@@ -1209,7 +1213,7 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
         const FrameRegistration w = registerInitial(mesh, frame, tracker.start(), options, search);
         render += w.renderSeconds, similarity += w.similaritySeconds, optimiser += w.optimiserSeconds;
         iterations += w.iterations, evaluations += w.evaluations;
-        if ((w.converged && !best.converged) || (w.converged == best.converged && w.similarity > best.similarity)) {
+        if (outranks(w, best)) {
             best = w;
             best.searched = true;
         }
@@ -1292,8 +1296,7 @@ FrameRegistration registerInitial(const mesh::Mesh& fullMesh, const VideoFrame& 
     // breaks what the frame cannot: one tracheal ring along scores the same).
     FrameRegistration best = refined.front();
     for (const FrameRegistration& r : refined)
-        if ((r.converged && !best.converged) || (r.converged == best.converged && r.similarity > best.similarity))
-            best = r;
+        if (outranks(r, best)) best = r;
     auto distance = [&](const FrameRegistration& r) {
         const PoseError e = poseError(r.cameraToWorld, initial);
         return e.position / std::max(search.radiusMm, 1e-9) + e.degrees / std::max(search.degrees, 1e-9);
