@@ -7,4 +7,4 @@ mucosa_add_test(test_dataset_export export_test.cpp)
 add_test(NAME dataset_export_opencv_crosscheck
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/opencv_export_check.py $<TARGET_FILE:mucosa_cli>
           ${CMAKE_CURRENT_BINARY_DIR}/opencv_export)
-set_tests_properties(dataset_export_opencv_crosscheck PROPERTIES TIMEOUT 120)
+set_tests_properties(dataset_export_opencv_crosscheck PROPERTIES TIMEOUT 120 LABELS dataset)

@@ -6,8 +6,8 @@ target_include_directories(test_dataset_truth PRIVATE ${PROJECT_SOURCE_DIR}/test
 add_test(NAME dataset_opencv_truth_check
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/opencv_truth_check.py $<TARGET_FILE:mucosa_cli>
           ${CMAKE_CURRENT_BINARY_DIR}/opencv_truth)
-set_tests_properties(dataset_opencv_truth_check PROPERTIES TIMEOUT 300)
+set_tests_properties(dataset_opencv_truth_check PROPERTIES TIMEOUT 300 LABELS "dataset;slow")
 add_test(NAME dataset_opencv_fisheye_truth_check
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/opencv_fisheye_truth_check.py $<TARGET_FILE:mucosa_cli>
           ${CMAKE_CURRENT_BINARY_DIR}/opencv_fisheye_truth)
-set_tests_properties(dataset_opencv_fisheye_truth_check PROPERTIES TIMEOUT 300)
+set_tests_properties(dataset_opencv_fisheye_truth_check PROPERTIES TIMEOUT 300 LABELS "dataset;slow")

@@ -13,7 +13,7 @@ add_dependencies(test_dataset_lens lens_points)
 add_test(NAME dataset_lens_opencv_crosscheck
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/opencv_lens_check.py $<TARGET_FILE:lens_points>
           ${CMAKE_CURRENT_BINARY_DIR}/opencv_lens)
-set_tests_properties(dataset_lens_opencv_crosscheck PROPERTIES TIMEOUT 120)
+set_tests_properties(dataset_lens_opencv_crosscheck PROPERTIES TIMEOUT 120 LABELS dataset)
 
 # Ground truth through a lens (lens_points --truth) against OpenCV: the mesh
 # point each pixel names projects onto it (cv2.fisheye.projectPoints,
@@ -21,4 +21,4 @@ set_tests_properties(dataset_lens_opencv_crosscheck PROPERTIES TIMEOUT 120)
 add_test(NAME dataset_lens_truth_opencv_crosscheck
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/opencv_lens_truth_check.py $<TARGET_FILE:lens_points>
           ${CMAKE_CURRENT_BINARY_DIR}/opencv_lens_truth)
-set_tests_properties(dataset_lens_truth_opencv_crosscheck PROPERTIES TIMEOUT 120)
+set_tests_properties(dataset_lens_truth_opencv_crosscheck PROPERTIES TIMEOUT 120 LABELS "dataset;slow")

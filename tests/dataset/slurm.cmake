@@ -7,4 +7,4 @@
 add_test(NAME dataset_slurm_e2e
   COMMAND /bin/bash ${CMAKE_CURRENT_LIST_DIR}/slurm_e2e.sh $<TARGET_FILE:mucosa_cli>
           ${PROJECT_SOURCE_DIR}/scripts/slurm-single-node)
-set_tests_properties(dataset_slurm_e2e PROPERTIES RESOURCE_LOCK slurm TIMEOUT 900 LABELS slurm)
+set_tests_properties(dataset_slurm_e2e PROPERTIES RESOURCE_LOCK slurm TIMEOUT 900 LABELS "dataset;slurm;slow")
