@@ -19,12 +19,12 @@ set -euo pipefail
 mucosa="$1"
 cluster="$2"
 
-# The dataset: 64 frames, 8 segments of 8 (auto-exposure warms up before
-# each), 4 shards of 16 frames. A shard renders for a few seconds when the
+# The dataset: 32 frames, 4 segments of 8 (auto-exposure warms up before
+# each), 4 shards of 8 frames. A shard renders for a second or two when the
 # four share 2 cores, so the kill below lands while the victim has frames
 # both done and to do; the test checks that it did.
-readonly FRAMES=64 SEGMENT=8 SHARDS=4 VICTIM=1
-readonly SIZE=320x240 OUTPUTS=rgb,depth
+readonly FRAMES=32 SEGMENT=8 SHARDS=4 VICTIM=1
+readonly SIZE=160x120 OUTPUTS=rgb,depth
 # Bounded waits (seconds), together well inside CTest's 900 s, so the test
 # fails itself (and stops its cluster) before CTest would kill it.
 readonly WAIT_VICTIM=180 WAIT_KILLED=60 WAIT_ARRAY=420

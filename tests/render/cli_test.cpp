@@ -114,7 +114,7 @@ TEST(RenderCli, ProceduralRenderGeneratesNoMap) {
 // frame: the first frame encoded is the estimate for the rest.
 TEST(RenderCli, FramesThatWillNotFitOnTheDiskAreRefusedBeforeWriting) {
     test::TempDir dir;
-    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [4096, 4096]})";
+    std::ofstream(dir / "tube.json") << R"({"mesh": "tube", "resolution": [1024, 1024]})";
     // 10^6 frames of >= 256 KiB is >= 244 GiB: more than this machine's disk.
     ASSERT_LT(availableDiskBytes(dir.path()), 1000000ull * (256u << 10)) << "the disk is too large for this test";
     const auto r = test::runCli("render '" + (dir / "tube.json").string() + "' -o '" + (dir / "fly.png").string() +
