@@ -35,7 +35,7 @@ set(mucosa_slow_render_tests
   "^RenderCli\\.(EveryMode|FramesThatWillNot)" "^RenderHighlights\\.Procedural")
 set(mucosa_slow_test_fit "^Falloff\\." "^FitRecovery\\." "^AtlasShape\\.")
 set(mucosa_slow_test_register
-  "^RegisterCli\\." "^RegisterAlbedo\\." "^RegisterPose\\.(TheInitialSearch|AFrameFacingTheWall|AFrameWithNoLumen|TheFramesUncertainty)"
+  "^RegisterCli\\." "^RegisterAlbedo\\." "^RegisterPose\\.(TheInitialSearch|NoPriorHolds|AFrameFacingTheWall|AFrameWithNoLumen|TheFramesUncertainty)"
   "^SyntheticPatient\\.(TheFirstFramesSearch|AFirstFramesCoarseJump)")
 set(mucosa_slow_test_tune "^Tune\\.FitRecovers")
 set(mucosa_slow_test_dataset_truth "^GroundTruthCli\\.")

@@ -180,18 +180,27 @@ TEST(RegisterCli, RegistersResumesAndReports) {
                   .position,
               0.8);
 
-    // Another method, or the albedo map set otherwise, on the same output is
-    // refused; --restart overwrites.
-    const test::RunResult other = test::runCli(p.args("--method intensity"));
+}
+
+// Another method, or the albedo map set otherwise, on an output already
+// written is refused; --restart overwrites. --min-similarity sets the
+// method's flag threshold: over any NCC here, so every frame is flagged and
+// says so. (Every second frame: the three are what the checks need.)
+TEST(RegisterCli, AnotherSettingOnTheSameOutputNeedsRestart) {
+    Patient p;
+    fs::create_directories(p.dir / "out");
+    const test::RunResult first = test::runCli(p.args("--step 2"));
+    ASSERT_EQ(first.exitCode, 0) << first.err;
+    const test::RunResult other = test::runCli(p.args("--step 2 --method intensity"));
     expectOneErrorLine(other, "--restart");
-    expectOneErrorLine(test::runCli(p.args("--no-albedo-map")), "--restart");
-    // --min-similarity sets the method's flag threshold: over any NCC here,
-    // so every frame is flagged and says so.
-    const test::RunResult restart = test::runCli(p.args("--method intensity --restart --min-similarity 0.9999"));
+    expectOneErrorLine(test::runCli(p.args("--step 2 --no-albedo-map")), "--restart");
+    const test::RunResult restart =
+        test::runCli(p.args("--step 2 --method intensity --restart --min-similarity 0.9999"));
     ASSERT_EQ(restart.exitCode, 0) << restart.err;
-    EXPECT_NE(restart.err.find("5 frames not converged"), std::string::npos) << restart.err;
+    EXPECT_NE(restart.err.find("3 frames not converged"), std::string::npos) << restart.err;
     const json flagged = json::parse(test::readBytes(p.dir / "out" / "frames.json"));
     EXPECT_EQ(flagged["registration"]["method"], "intensity");
+    ASSERT_EQ(flagged["frames"].size(), 3u);
     for (const json& f : flagged["frames"]) EXPECT_FALSE(f["registration"]["converged"].get<bool>());
 }
 
@@ -258,13 +267,15 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     check(p.args("", {{"--brdf", p.dir / "brdf.json"}}), "field 'c'");
 }
 
-TEST(RegisterCli, AVideoFileRegistersLikeItsFramesAndResumes) {
-    // The patient's frames as 8-bit RGB, once as a folder of PNGs and once
-    // as a lossless video (FFV1 in Matroska): the same poses, to the bit.
-    // (The initial pose is 0.8 mm off: the first frame's search is left out
-    // to keep the sanitized run short; RegistersResumesAndReports has it.)
-    constexpr const char* kNoSearch = "--search-radius 0 --search-degrees 0";
-    Patient p;
+namespace {
+
+// The patient's frames as 8-bit RGB, once as a folder of PNGs (png8/) and
+// once as a lossless video (FFV1 in Matroska, scope.mkv). The initial pose is
+// 0.8 mm off: the first frame's search is left out (kNoSearch) to keep the
+// runs short; RegistersResumesAndReports has it.
+constexpr const char* kNoSearch = "--search-radius 0 --search-degrees 0";
+
+void writeEightBitVideo(const Patient& p) {
     std::vector<image::Image8> frames;
     fs::create_directories(p.dir / "png8");
     for (std::size_t i = 0; i < p.scene.poses.size(); ++i) {
@@ -273,6 +284,15 @@ TEST(RegisterCli, AVideoFileRegistersLikeItsFramesAndResumes) {
     }
     test::encodeVideo(p.dir / "scope.mkv", frames);
     fs::create_directories(p.dir / "out");
+}
+
+}  // namespace
+
+// A video file registers to the same poses, to the bit, as its frames in a
+// folder, and its frames are written beside the frames file.
+TEST(RegisterCli, AVideoFileRegistersLikeItsFrames) {
+    Patient p;
+    writeEightBitVideo(p);
     const test::RunResult folder =
         test::runCli(p.args(kNoSearch, {{"--video", p.dir / "png8"}, {"-o", p.dir / "out" / "a.json"}}));
     ASSERT_EQ(folder.exitCode, 0) << folder.err;
@@ -289,31 +309,37 @@ TEST(RegisterCli, AVideoFileRegistersLikeItsFramesAndResumes) {
         EXPECT_TRUE(fs::equivalent(b.frames[i].image, png)) << b.frames[i].image;
         EXPECT_EQ(test::readBytes(png), test::readBytes(p.dir / "png8" / fmt::format("{:03d}.png", i)));
     }
+}
+
+// --step takes every Nth frame of a video; a resumed run keeps the poses
+// already registered and writes a missing frame again; another step on the
+// same output is refused, not mixed.
+TEST(RegisterCli, AVideoFileTakesEverySecondFrameAndResumes) {
+    Patient p;
+    writeEightBitVideo(p);
     // Every second frame: 0, 2, 4, named by their frame number in the video.
-    const test::RunResult step = test::runCli(p.args(
-        std::string(kNoSearch) + " --step 2", {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "c.json"}}));
-    ASSERT_EQ(step.exitCode, 0) << step.err;
+    const std::string step = std::string(kNoSearch) + " --step 2";
+    const std::map<std::string, fs::path> video{{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "c.json"}};
+    const test::RunResult first = test::runCli(p.args(step, video));
+    ASSERT_EQ(first.exitCode, 0) << first.err;
     const fit::FrameSet c = fit::readFrames(p.dir / "out" / "c.json");
     ASSERT_EQ(c.frames.size(), 3u);
     EXPECT_EQ(c.frames[2].image.filename(), "frame_000004.png");
-    // Resume: cut b to two frames and delete one of their PNGs; the rest is
+    // Resume: cut c to two frames and delete one of their PNGs; the rest is
     // registered again, the kept poses stay, the missing PNG comes back.
-    json cut = json::parse(test::readBytes(p.dir / "out" / "b.json"));
+    json cut = json::parse(test::readBytes(p.dir / "out" / "c.json"));
     cut["frames"].erase(cut["frames"].begin() + 2, cut["frames"].end());
     cut["frames"][1]["camera_to_world"][0][3] = cut["frames"][1]["camera_to_world"][0][3].get<double>() + 0.25;
-    writeText(p.dir / "out" / "b.json", cut.dump());
-    fs::remove(p.dir / "out" / "b_frames" / "frame_000001.png");
-    const test::RunResult again =
-        test::runCli(p.args(kNoSearch, {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "b.json"}}));
+    writeText(p.dir / "out" / "c.json", cut.dump());
+    fs::remove(p.dir / "out" / "c_frames" / "frame_000002.png");
+    const test::RunResult again = test::runCli(p.args(step, video));
     ASSERT_EQ(again.exitCode, 0) << again.err;
     EXPECT_NE(again.out.find("resuming: 2 frames already registered"), std::string::npos) << again.out;
-    const json k = json::parse(test::readBytes(p.dir / "out" / "b.json"));
-    ASSERT_EQ(k["frames"].size(), 5u);
+    const json k = json::parse(test::readBytes(p.dir / "out" / "c.json"));
+    ASSERT_EQ(k["frames"].size(), 3u);
     EXPECT_EQ(k["frames"][1]["camera_to_world"], cut["frames"][1]["camera_to_world"]);
-    EXPECT_EQ(test::readBytes(p.dir / "out" / "b_frames" / "frame_000001.png"),
-              test::readBytes(p.dir / "png8" / "001.png"));
-    // The same output with a step it was not made with is refused, not mixed.
-    const test::RunResult mixed = test::runCli(p.args(
-        std::string(kNoSearch) + " --step 2", {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "b.json"}}));
-    expectOneErrorLine(mixed, "--restart");
+    EXPECT_EQ(test::readBytes(p.dir / "out" / "c_frames" / "frame_000002.png"),
+              test::readBytes(p.dir / "png8" / "002.png"));
+    // The same output without the step it was made with is refused, not mixed.
+    expectOneErrorLine(test::runCli(p.args(kNoSearch, video)), "--restart");
 }
