@@ -37,7 +37,7 @@ struct PoseScore {
     std::size_t converged = 0, frames = 0;
 };
 PoseScore scorePoses(const fs::path& registered, const fs::path& truth) {
-    const fit::FrameSet r = fit::readFrames(registered), t = fit::readFrames(truth);
+    const frames::FrameSet r = frames::readFrames(registered), t = frames::readFrames(truth);
     std::vector<double> mm, deg;
     PoseScore s;
     for (std::size_t i = 0; i < std::min(r.frames.size(), t.frames.size()); ++i) {

@@ -168,7 +168,7 @@ void run(const RegisterArgs& a, const Global& g) {
     if (!a.report.empty()) requireOutputDir(a.report);
 
     // Everything is checked before anything is written.
-    const fit::CameraModel cam = fit::readCamera(a.camera);
+    const frames::CameraModel cam = frames::readCamera(a.camera);
     o.lightOffset = cam.lightOffset;
     o.lamp = cam.lamp;
     if (!a.brdf.empty()) o.brdf = shading::readBrdf(a.brdf);
@@ -176,7 +176,7 @@ void run(const RegisterArgs& a, const Global& g) {
         throw InputError("field 'intrinsics.cx/cy'", a.camera,
                          fmt::format("the principal point ({}, {}) lies outside the {}x{} image", cam.K.cx, cam.K.cy,
                                      cam.K.width, cam.K.height));
-    const fit::Mat4 init = fit::readPose(a.init);
+    const frames::Mat4 init = frames::readPose(a.init);
     FrameSource source(a, out);
     if (source.isVideo()) {
         const fit::VideoInfo& v = source.videoInfo();
@@ -244,7 +244,7 @@ void run(const RegisterArgs& a, const Global& g) {
     // the kept frames again at their registered poses.
     fit::AlbedoMap map(m.vertexCount());
     auto prepare = [&](const fs::path& image) {
-        fit::Frame fr;
+        frames::Frame fr;
         fr.image = image;
         fr.K = cam.K;
         image::Image8 sat;

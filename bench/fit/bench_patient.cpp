@@ -80,7 +80,7 @@ namespace {
 // its 5th, 50th, 95th and 99th percentiles, mm (pixels beyond the rendered
 // neighbourhood count at farMm). A view down a lumen spans a wide range, a
 // wall seen face on a narrow one.
-std::array<double, 4> viewDepths(const mesh::Mesh& m, const fit::VideoFrame::Level& lv, const fit::Mat4& pose,
+std::array<double, 4> viewDepths(const mesh::Mesh& m, const fit::VideoFrame::Level& lv, const frames::Mat4& pose,
                                  const fit::RegisterOptions& o) {
     const fit::ModelView v = fit::renderModel(m, lv.K, pose, o.lightOffset, 2, 1, o.lamp);
     std::vector<double> z;
@@ -96,7 +96,7 @@ std::array<double, 4> viewDepths(const mesh::Mesh& m, const fit::VideoFrame::Lev
 
 // The rotation taking b's camera axes to a's, as a rotation vector in b's
 // camera axes (degrees).
-std::array<double, 3> rotationBetween(const fit::Mat4& a, const fit::Mat4& b) {
+std::array<double, 3> rotationBetween(const frames::Mat4& a, const frames::Mat4& b) {
     double R[3][3];  // b^T a
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) {
@@ -159,8 +159,8 @@ int main(int argc, char** argv) {
                 model == "lamp" ? "lamp model" : "truth's brdf");
     if (patient.pathStopMm > 0)
         std::printf("the centerline's path leaves the lumen: the scope stops at %.1f mm\n", patient.pathStopMm);
-    const fit::FrameSet truth = fit::readFrames(dir / "truth" / "frames.json");
-    const fit::Mat4 init = fit::readPose(dir / "init.json");
+    const frames::FrameSet truth = frames::readFrames(dir / "truth" / "frames.json");
+    const frames::Mat4 init = frames::readPose(dir / "init.json");
     std::vector<image::ImageF> linear;
     std::vector<image::Image8> sat(truth.frames.size());
     for (std::size_t i = 0; i < truth.frames.size(); ++i)
@@ -246,8 +246,8 @@ int main(int argc, char** argv) {
             deg.push_back(e.degrees);
             if (trace) {
                 // The viewing direction's error alone (the rest of e.degrees is roll about it).
-                const fit::Mat4& a = r.cameraToWorld;
-                const fit::Mat4& b = truth.frames[i].cameraToWorld;
+                const frames::Mat4& a = r.cameraToWorld;
+                const frames::Mat4& b = truth.frames[i].cameraToWorld;
                 const double dot = a[0][2] * b[0][2] + a[1][2] * b[1][2] + a[2][2] * b[2][2];
                 // Then the albedo map's step: its pose's error (-1: it did not converge).
                 fit::PoseError m{-1, -1};
@@ -304,7 +304,7 @@ int main(int argc, char** argv) {
                     std::vector<float> valid(lv.valid.begin(), lv.valid.end());
                     raw("valid", valid.data(), n);
                     raw("vp", lv.pq.p.data(), n), raw("vq", lv.pq.q.data(), n), raw("vw", lv.pq.weight.data(), n);
-                    const fit::Mat4* poses[2] = {&truth.frames[i].cameraToWorld, &r.cameraToWorld};
+                    const frames::Mat4* poses[2] = {&truth.frames[i].cameraToWorld, &r.cameraToWorld};
                     const char* names[2] = {"t", "e"};
                     for (int k = 0; k < 2; ++k) {
                         const fit::ModelView mv =
@@ -346,11 +346,11 @@ int main(int argc, char** argv) {
     // is registered again by intensity against the model carrying that
     // texture (mucosa register --fit).
     if (std::getenv("MUCOSA_PIPELINE") && !pqRun.empty()) {
-        fit::FrameSet registered = truth;
+        frames::FrameSet registered = truth;
         registered.frames.clear();
         for (std::size_t i = 0; i < truth.frames.size(); ++i)
             if (pqRun[i].converged) {
-                fit::Frame f = truth.frames[i];
+                frames::Frame f = truth.frames[i];
                 f.cameraToWorld = pqRun[i].cameraToWorld;
                 registered.frames.push_back(f);
             }
@@ -374,7 +374,7 @@ int main(int argc, char** argv) {
     // 6 random directions each; success = within 1 mm and 2 degrees.
     std::mt19937 dirRng(3);
     std::normal_distribution<double> g(0, 1);
-    const fit::Mat4& first = truth.frames[0].cameraToWorld;
+    const frames::Mat4& first = truth.frames[0].cameraToWorld;
     for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
         if (pqOnly) break;
         const fit::RegisterOptions o = options(method);
@@ -384,7 +384,7 @@ int main(int argc, char** argv) {
             int ok = 0;
             const int tries = 6;
             for (int t = 0; t < tries; ++t) {
-                fit::Vec3d a{g(dirRng), g(dirRng), g(dirRng)}, b{g(dirRng), g(dirRng), g(dirRng)};
+                frames::Vec3d a{g(dirRng), g(dirRng), g(dirRng)}, b{g(dirRng), g(dirRng), g(dirRng)};
                 const double na = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
                 const double nb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
                 for (int k = 0; k < 3; ++k) a[k] *= emm / na, b[k] *= edeg * M_PI / 180 / nb;

@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
     if (argc > 3) levels.clear();
     for (int i = 3; i < argc; ++i) levels.push_back(std::atoi(argv[i]));
     const test::RegisterScene scene = test::makeRegisterScene(frames);
-    fit::Intrinsics K;
+    frames::Intrinsics K;
     K.width = K.height = size;
     K.fx = K.fy = 0.5625 * size;  // 83 degrees across
     K.cx = K.cy = (size - 1) / 2.0;
@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
         o.method = method;
         o.levels = levels;
         // Tracking from a first pose 1.5 mm and 3 degrees off.
-        const fit::Mat4 pose = fit::perturbPose(scene.poses[0], {0.9, -0.9, 0.7}, {0.03, -0.03, 0.02});
+        const frames::Mat4 pose = fit::perturbPose(scene.poses[0], {0.9, -0.9, 0.7}, {0.03, -0.03, 0.02});
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0, renders = 0;
         int converged = 0, losses = 0, lostFor = 0;
@@ -138,11 +138,11 @@ int main(int argc, char** argv) {
                 int ok = 0;
                 const int tries = 6;
                 for (int t = 0; t < tries; ++t) {
-                    fit::Vec3d a{g(dir), g(dir), g(dir)}, b{g(dir), g(dir), g(dir)};
+                    frames::Vec3d a{g(dir), g(dir), g(dir)}, b{g(dir), g(dir), g(dir)};
                     const double na = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
                     const double nb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
                     for (int k = 0; k < 3; ++k) a[k] *= emm / na, b[k] *= edeg * M_PI / 180 / nb;
-                    const fit::Mat4 start = fit::perturbPose(scene.poses[0], a, b);
+                    const frames::Mat4 start = fit::perturbPose(scene.poses[0], a, b);
                     const auto t0 = std::chrono::steady_clock::now();
                     const fit::FrameRegistration r = search ? fit::registerInitial(scene.mesh, vf, start, o, is)
                                                             : fit::registerFrame(scene.mesh, vf, start, o);

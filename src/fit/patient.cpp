@@ -125,7 +125,7 @@ std::vector<double> schedule(int frames, bool pauses, double speed, double last)
 // The endoscope's camera (shaders/camera.glsl) on an 8-bit linear render:
 // exposure x jitter, vignetting, Poisson-Gaussian noise, clipping, the tone
 // curve, 8 bits, the circular field-of-view mask.
-image::Image8 applyCamera(const image::Image8& linear, const CameraModel& cam, const shading::ParamSet& params,
+image::Image8 applyCamera(const image::Image8& linear, const frames::CameraModel& cam, const shading::ParamSet& params,
                           double gain, int index) {
     using P = shading::Param;
     const double fullWell = params[P::FullWell], readNoise = params[P::ReadNoise];
@@ -223,9 +223,10 @@ SyntheticPatient makeSyntheticPatient(const PatientOptions& o) {
         // pose, and the scope stops 2 mm before the first that fails.
         for (std::size_t i = 0; i < path.size(); i += 10) {
             const camera::Pose& q = path[i];
-            const Vec3d eye{q.position[0], q.position[1], q.position[2]};
-            const Mat4 pose = lookAtPose(eye, {eye[0] + q.forward[0], eye[1] + q.forward[1], eye[2] + q.forward[2]},
-                                         {q.up[0], q.up[1], q.up[2]});
+            const frames::Vec3d eye{q.position[0], q.position[1], q.position[2]};
+            const frames::Mat4 pose =
+                frames::lookAtPose(eye, {eye[0] + q.forward[0], eye[1] + q.forward[1], eye[2] + q.forward[2]},
+                                   {q.up[0], q.up[1], q.up[2]});
             try {
                 checkInitialView(p.mesh, p.camera.K, pose, o.lightOffset, o.meshFile.string(), "path");
             } catch (const InputError& e) {
@@ -261,9 +262,9 @@ SyntheticPatient makeSyntheticPatient(const PatientOptions& o) {
         const double roll =
             o.rollDeg * kPi / 180.0 * (std::sin(2 * kPi * t / 170.0) + 0.3 * std::sin(2 * kPi * t / 47.0 + 1.0));
         q.up = rotate(q.up, q.forward, roll);
-        const Vec3d eye{q.position[0], q.position[1], q.position[2]};
-        p.poses.push_back(lookAtPose(eye, {eye[0] + q.forward[0], eye[1] + q.forward[1], eye[2] + q.forward[2]},
-                                     {q.up[0], q.up[1], q.up[2]}));
+        const frames::Vec3d eye{q.position[0], q.position[1], q.position[2]};
+        p.poses.push_back(frames::lookAtPose(eye, {eye[0] + q.forward[0], eye[1] + q.forward[1], eye[2] + q.forward[2]},
+                                             {q.up[0], q.up[1], q.up[2]}));
         p.exposureFactors.push_back(1.0 + o.exposureJitter * (2.0 * uniform(rng) - 1.0));
     }
     return p;
@@ -294,11 +295,11 @@ image::Image8 PatientVideo::frame(int index) {
     const SyntheticPatient& p = impl_->patient;
     if (index < 0 || index >= static_cast<int>(p.poses.size()))
         throw InputError("frame", "", fmt::format("{} is not a frame of the video (0..{})", index, p.poses.size() - 1));
-    const Mat4& c2w = p.poses[static_cast<std::size_t>(index)];
+    const frames::Mat4& c2w = p.poses[static_cast<std::size_t>(index)];
     shading::FrameSetup f = scene::frameSetup(impl_->scene, camera::Pose{}, p.options.size, p.options.size);
-    f.view = glViewMatrix(c2w);
-    f.projection = glProjectionMatrix(p.camera.K, impl_->scene.lens.nearMm, impl_->scene.lens.farMm);
-    const Vec3d eye = cameraCentre(c2w), light = transformPoint(c2w, p.camera.lightOffset);
+    f.view = frames::glViewMatrix(c2w);
+    f.projection = frames::glProjectionMatrix(p.camera.K, impl_->scene.lens.nearMm, impl_->scene.lens.farMm);
+    const frames::Vec3d eye = frames::cameraCentre(c2w), light = frames::transformPoint(c2w, p.camera.lightOffset);
     for (int k = 0; k < 3; ++k) {
         f.eye[static_cast<std::size_t>(k)] = static_cast<float>(eye[static_cast<std::size_t>(k)]);
         f.light[static_cast<std::size_t>(k)] = static_cast<float>(light[static_cast<std::size_t>(k)]);
@@ -342,8 +343,8 @@ void writeSyntheticPatient(const SyntheticPatient& p, const fs::path& dir, const
     }
     mesh::save(p.mesh, dir / "airway.glb");
     json cam{{"units", "mm"},
-             {"intrinsics", intrinsicsJson(p.camera.K)},
-             {"tone_curve", toneCurveName(p.camera.response.toneCurve)},
+             {"intrinsics", frames::intrinsicsJson(p.camera.K)},
+             {"tone_curve", frames::toneCurveName(p.camera.response.toneCurve)},
              {"vignetting", p.camera.response.vignetting},
              {"light",
               {{"offset", p.camera.lightOffset},
@@ -354,20 +355,21 @@ void writeSyntheticPatient(const SyntheticPatient& p, const fs::path& dir, const
     // The user's first pose: the truth, off by a hand's placement.
     const double deg = o.initErrorDeg * kPi / 180.0, mm = o.initErrorMm;
     const double tn = std::sqrt(3.0), rn = std::sqrt(1.0 + 1.0 + 0.25);
-    const Mat4 init = perturbPose(p.poses.front(), {mm / tn, -mm / tn, mm / tn}, {deg / rn, deg / rn, -0.5 * deg / rn});
-    const Vec3d c = cameraCentre(init);
+    const frames::Mat4 init =
+        perturbPose(p.poses.front(), {mm / tn, -mm / tn, mm / tn}, {deg / rn, deg / rn, -0.5 * deg / rn});
+    const frames::Vec3d c = frames::cameraCentre(init);
     json pose{{"position", c},
-              {"look_at", Vec3d{c[0] + 10 * init[0][2], c[1] + 10 * init[1][2], c[2] + 10 * init[2][2]}},
-              {"up", Vec3d{-init[0][1], -init[1][1], -init[2][1]}}};
+              {"look_at", frames::Vec3d{c[0] + 10 * init[0][2], c[1] + 10 * init[1][2], c[2] + 10 * init[2][2]}},
+              {"up", frames::Vec3d{-init[0][1], -init[1][1], -init[2][1]}}};
     writeFileAtomic(dir / "init.json", pose.dump(2) + "\n");
 
-    FrameSet truth;
+    frames::FrameSet truth;
     truth.response = p.camera.response;
     truth.lightOffset = p.camera.lightOffset;
     PatientVideo video(p);
     const int n = static_cast<int>(p.poses.size());
     for (int i = 0; i < n; ++i) {
-        Frame f;
+        frames::Frame f;
         f.image = dir / "video" / fmt::format("frame_{:04}.png", i);
         f.K = p.camera.K;
         f.cameraToWorld = p.poses[static_cast<std::size_t>(i)];
@@ -375,7 +377,7 @@ void writeSyntheticPatient(const SyntheticPatient& p, const fs::path& dir, const
         truth.frames.push_back(f);
         if (o.progress) o.progress(i + 1, n);
     }
-    writeFrames(dir / "truth" / "frames.json", truth);
+    frames::writeFrames(dir / "truth" / "frames.json", truth);
     json brdf = shading::toJson(p.brdf);
     writeFileAtomic(dir / "truth" / "brdf.json", brdf.dump(2) + "\n");
     image::writePng(dir / "truth" / "texture.png", p.texture);

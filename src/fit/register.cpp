@@ -110,7 +110,7 @@ std::optional<std::array<double, 3>> solvePq(double gx, double gy, double xn, do
 // The estimator, both sides. `E`: linear irradiance; `use`: pixels that may
 // be used; `darkLevel`: the video's dark lumen (its weight's brightness term);
 // `grazing`: the model's side (no mask on the normal, weight 1).
-PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const Intrinsics& K, const PqOptions& o,
+PqField estimate(const image::ImageF& E, std::vector<std::uint8_t> use, const frames::Intrinsics& K, const PqOptions& o,
                  double darkLevel, bool grazing = false) {
     const int w = E.width(), h = E.height();
     const std::size_t n = static_cast<std::size_t>(w) * h;
@@ -199,14 +199,14 @@ double percentile(std::vector<float> v, double q) {
 
 using Mat3 = Eigen::Matrix3d;
 
-Mat3 rotationOf(const Mat4& m) {
+Mat3 rotationOf(const frames::Mat4& m) {
     Mat3 R;
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) R(r, c) = m[r][c];
     return R;
 }
 
-Mat3 rodrigues(const Vec3d& w) {
+Mat3 rodrigues(const frames::Vec3d& w) {
     const Eigen::Vector3d v(w[0], w[1], w[2]);
     const double a = v.norm();
     if (a < 1e-12) return Mat3::Identity();
@@ -242,7 +242,7 @@ struct Neighbourhood {
     mesh::Mesh mesh;
     RegisterOptions options;
 };
-Neighbourhood neighbourhood(const mesh::Mesh& m, const Vec3d& centre, double radius, const RegisterOptions& o) {
+Neighbourhood neighbourhood(const mesh::Mesh& m, const frames::Vec3d& centre, double radius, const RegisterOptions& o) {
     Neighbourhood n;
     n.options = o;
     const bool perVertex = o.texture && !o.texture->perVertex.empty();
@@ -293,7 +293,8 @@ struct Objective {
     // Per-pixel difference vectors at a pose (3 per pixel for pq, 1 for
     // intensity) and the similarity there.
     // `seen` (optional): 1 where the model has an estimate at the pixel.
-    std::vector<double> differences(const Mat4& pose, double* similarity, std::vector<std::uint8_t>* seen = nullptr) {
+    std::vector<double> differences(const frames::Mat4& pose, double* similarity,
+                                    std::vector<std::uint8_t>* seen = nullptr) {
         auto t0 = Clock::now();
         const ModelView view = renderModel(mesh, level.K, pose, o.lightOffset, 1, o.supersample, o.lamp,
                                            o.brdf ? &*o.brdf : nullptr, o.texture.get());
@@ -383,7 +384,7 @@ const char* methodName(RegistrationMethod m) noexcept {
     return m == RegistrationMethod::PqSpace ? "pq" : "intensity";
 }
 
-PqField pqFromShading(const image::ImageF& linear, const Intrinsics& K, const PqOptions& o,
+PqField pqFromShading(const image::ImageF& linear, const frames::Intrinsics& K, const PqOptions& o,
                       const std::vector<std::uint8_t>* valid) {
     const std::size_t n = static_cast<std::size_t>(linear.width()) * linear.height();
     std::vector<float> inside;
@@ -442,7 +443,7 @@ namespace {
 // camera's axes (R: world to camera), unit. (Plain arithmetic: these run per
 // sample, and Eigen's 3-vectors were a fifth of a registration's time in the
 // sanitized build, where they are not inlined.)
-Vec3d cameraNormal(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Mat3& R) {
+frames::Vec3d cameraNormal(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Mat3& R) {
     double nw[3] = {0, 0, 0};
     for (int k = 0; k < 3; ++k) {
         const auto& nn = mesh.normals[mesh.indices[3 * static_cast<std::size_t>(t) + k]];
@@ -455,7 +456,7 @@ Vec3d cameraNormal(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3]
     return {n[0] / len, n[1] / len, n[2] / len};
 }
 
-double dot3(const Vec3d& a, const Eigen::Vector3d& b) {
+double dot3(const frames::Vec3d& a, const Eigen::Vector3d& b) {
     const double* v = b.data();
     return a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
 }
@@ -464,9 +465,9 @@ double dot3(const Vec3d& a, const Eigen::Vector3d& b) {
 // rho delta) on the surface point P (camera space) of triangle t at
 // barycentrics bs, times `albedo`. `lit`: the point is lit (not back-facing).
 double shadeSample(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3], const Eigen::Vector3d& P,
-                   const Mat3& R, const Vec3d& L, const LampProfile& lamp, const shading::BrdfParams* brdf,
-                   double albedo, bool& lit) {
-    const Vec3d nc = cameraNormal(mesh, t, bs, R);
+                   const Mat3& R, const frames::Vec3d& L, const frames::LampProfile& lamp,
+                   const shading::BrdfParams* brdf, double albedo, bool& lit) {
+    const frames::Vec3d nc = cameraNormal(mesh, t, bs, R);
     const double* p = P.data();
     lit = false;
     if (brdf) {
@@ -509,8 +510,8 @@ double albedoAt(const mesh::Mesh& mesh, const ModelTexture* texture, std::int32_
     return texture->at(u, v);
 }
 
-Intrinsics scaled(const Intrinsics& K, int ss) {
-    Intrinsics Ks = K;
+frames::Intrinsics scaled(const frames::Intrinsics& K, int ss) {
+    frames::Intrinsics Ks = K;
     Ks.width = K.width * ss;
     Ks.height = K.height * ss;
     Ks.fx = K.fx * ss;
@@ -522,18 +523,18 @@ Intrinsics scaled(const Intrinsics& K, int ss) {
 
 }  // namespace
 
-ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& L,
-                      int threads, int supersample, const LampProfile& lamp, const shading::BrdfParams* brdf,
-                      const ModelTexture* texture) {
+ModelView renderModel(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& cameraToWorld,
+                      const frames::Vec3d& L, int threads, int supersample, const frames::LampProfile& lamp,
+                      const shading::BrdfParams* brdf, const ModelTexture* texture) {
     if (texture && !texture->perVertex.empty() && texture->perVertex.size() != mesh.vertexCount())
         throw InputError("model texture", "registration", "has an albedo for a different number of vertices");
     // Rendered at `supersample` x the resolution and box-filtered, as the
     // video's pixels integrate the scene: without it the model is point-
     // sampled, and the comparison favours a pose that aliases alike.
     const int ss = std::max(1, supersample);
-    const Intrinsics Ks = scaled(K, ss);
-    const Mat4 W = invertRigid(cameraToWorld);
-    const GBuffer g = rasterize(mesh, Ks, W, 0.5, threads);
+    const frames::Intrinsics Ks = scaled(K, ss);
+    const frames::Mat4 W = frames::invertRigid(cameraToWorld);
+    const raster::GBuffer g = raster::rasterize(mesh, Ks, W, 0.5, threads);
     ModelView v;
     v.shading = image::ImageF(K.width, K.height, 1);
     v.depth = image::ImageF(K.width, K.height, 1);
@@ -569,18 +570,19 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
     return v;
 }
 
-std::size_t AlbedoMap::add(const mesh::Mesh& fullMesh, const VideoFrame& frame, const Mat4& cameraToWorld,
+std::size_t AlbedoMap::add(const mesh::Mesh& fullMesh, const VideoFrame& frame, const frames::Mat4& cameraToWorld,
                            const RegisterOptions& o) {
     if (fullMesh.vertexCount() != sum_.size())
         throw InputError("albedo map", "registration", "was made for a mesh with a different number of vertices");
     if (!fullMesh.hasNormals()) throw InputError("mesh", "albedo map", "has no normals");
     if (frame.levels.empty()) return 0;
     const VideoFrame::Level& level = frame.levels.back();
-    const Intrinsics& K = level.K;
+    const frames::Intrinsics& K = level.K;
     std::vector<std::uint32_t> kept;
-    const mesh::Mesh mesh = submesh(fullMesh, trianglesNear(fullMesh, cameraCentre(cameraToWorld), o.farMm), &kept);
-    const Mat4 W = invertRigid(cameraToWorld);
-    const GBuffer g = rasterize(mesh, K, W, 0.5, 1);
+    const mesh::Mesh mesh =
+        submesh(fullMesh, trianglesNear(fullMesh, frames::cameraCentre(cameraToWorld), o.farMm), &kept);
+    const frames::Mat4 W = frames::invertRigid(cameraToWorld);
+    const raster::GBuffer g = raster::rasterize(mesh, K, W, 0.5, 1);
     const Mat3 R = rotationOf(W);
     const std::size_t n = static_cast<std::size_t>(K.width) * K.height;
     // The dark lumen carries noise, not albedo: the pq estimator's threshold.
@@ -671,7 +673,7 @@ double AlbedoMap::seenFraction() const noexcept {
            static_cast<double>(weight_.size());
 }
 
-PqField pqFromModel(const ModelView& view, const Intrinsics& K, const PqOptions& o,
+PqField pqFromModel(const ModelView& view, const frames::Intrinsics& K, const PqOptions& o,
                     const std::vector<std::uint8_t>* usable) {
     const std::size_t n = static_cast<std::size_t>(K.width) * K.height;
     std::vector<std::uint8_t> use(n);
@@ -709,7 +711,7 @@ double normalisedCrossCorrelation(const image::ImageF& a, const image::ImageF& b
     return va > 0 && vb > 0 ? cov / std::sqrt(va * vb) : 0;
 }
 
-VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* saturated, const Intrinsics& K,
+VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* saturated, const frames::Intrinsics& K,
                         const RegisterOptions& o) {
     const int W = linear.width(), H = linear.height();
     // Luminance (Rec. 709 weights) and the scope's field of view.
@@ -745,7 +747,7 @@ VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* satura
                 for (int j = 0; ok && j < taps; ++j)
                     for (int i = 0; ok && i < taps; ++i) {
                         const double u = x + (i + 0.5) / taps - 0.5, v = y + (j + 0.5) / taps - 0.5;
-                        const auto px = project(K, (u - l.K.cx) / l.K.fx, (v - l.K.cy) / l.K.fy);
+                        const auto px = frames::project(K, (u - l.K.cx) / l.K.fx, (v - l.K.cy) / l.K.fy);
                         const double fx = px[0], fy = px[1];
                         if (!(fx >= 0 && fy >= 0 && fx <= W - 1 && fy <= H - 1)) {
                             ok = false;
@@ -778,7 +780,7 @@ VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* satura
     return f;
 }
 
-std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& m, const Vec3d& c, double radius) {
+std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& m, const frames::Vec3d& c, double radius) {
     std::vector<std::uint32_t> out;
     for (std::size_t t = 0; t < m.triangleCount(); ++t) {
         double best = std::numeric_limits<double>::infinity();
@@ -878,7 +880,7 @@ std::array<double, 6> poseDeviation(const Eigen::Matrix<double, 6, 6>& A, double
 
 // registerFrame's coarse-to-fine optimisation, from `firstLevel` on.
 FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& o, const VideoFrame& frame,
-                                 const Mat4& initial, std::size_t firstLevel, Clock::time_point start) {
+                                 const frames::Mat4& initial, std::size_t firstLevel, Clock::time_point start) {
     FrameRegistration r;
     r.cameraToWorld = initial;
     const int finest = frame.levels.back().K.width;
@@ -898,7 +900,7 @@ FrameRegistration registerLevels(const mesh::Mesh& mesh, const RegisterOptions& 
         // columns of the Jacobian are comparable.
         const double scale = static_cast<double>(finest) / level.K.width;
         const double ht = o.stepMm * scale, hw = o.stepDeg * scale * M_PI / 180;
-        const Mat4 base = r.cameraToWorld;
+        const frames::Mat4 base = r.cameraToWorld;
         auto poseAt = [&](const Eigen::Matrix<double, 6, 1>& x) {
             return perturbPose(base, {x[0] * ht, x[1] * ht, x[2] * ht}, {x[3] * hw, x[4] * hw, x[5] * hw});
         };
@@ -1095,11 +1097,11 @@ bool outranks(const FrameRegistration& a, const FrameRegistration& b) noexcept {
 
 }  // namespace
 
-FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& frame, const Mat4& initial,
+FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& frame, const frames::Mat4& initial,
                                 const RegisterOptions& options) {
     const auto start = Clock::now();
     if (frame.levels.empty()) throw InputError("frame", "registration", "has no levels");
-    const Neighbourhood near = neighbourhood(fullMesh, cameraCentre(initial), options.farMm, options);
+    const Neighbourhood near = neighbourhood(fullMesh, frames::cameraCentre(initial), options.farMm, options);
     FrameRegistration r = registerLevels(near.mesh, near.options, frame, initial, 0, start);
     // A coarse level can prefer a pose the finest one does not (a bias of the
     // blurred field: on the category-4 phantom's first frame, 40 pixels
@@ -1160,8 +1162,8 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
     std::optional<FrameRegistration> byMapBest;
     double render = 0, similarity = 0, optimiser = 0;
     int iterations = 0, evaluations = 0;
-    for (const Mat4& trackStart : tracker.starts()) {
-        Mat4 start = trackStart;
+    for (const frames::Mat4& trackStart : tracker.starts()) {
+        frames::Mat4 start = trackStart;
         RegisterOptions method = options;
         if (mapped) {
             const FrameRegistration m = registerFrame(mesh, frame, trackStart, byMap);
@@ -1227,26 +1229,26 @@ FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& fram
     return best;
 }
 
-FrameRegistration registerInitial(const mesh::Mesh& fullMesh, const VideoFrame& frame, const Mat4& initial,
+FrameRegistration registerInitial(const mesh::Mesh& fullMesh, const VideoFrame& frame, const frames::Mat4& initial,
                                   const RegisterOptions& o, const InitialSearch& search) {
     if (frame.levels.empty()) throw InputError("frame", "registration", "has no levels");
     const auto start = Clock::now();
     // The candidates: the given pose first, then draws around it.
-    std::vector<Mat4> poses{initial};
+    std::vector<frames::Mat4> poses{initial};
     std::mt19937 rng(search.seed);
     std::uniform_real_distribution<double> uni(-1.0, 1.0);
     std::normal_distribution<double> gauss(0.0, 1.0);
     while (static_cast<int>(poses.size()) < std::max(1, search.candidates)) {
-        Vec3d t{uni(rng), uni(rng), uni(rng)};
+        frames::Vec3d t{uni(rng), uni(rng), uni(rng)};
         if (t[0] * t[0] + t[1] * t[1] + t[2] * t[2] > 1) continue;  // uniform in the ball
-        Vec3d w{gauss(rng), gauss(rng), gauss(rng)};
+        frames::Vec3d w{gauss(rng), gauss(rng), gauss(rng)};
         const double nw = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
         const double angle = std::abs(uni(rng)) * search.degrees * M_PI / 180;
         for (int k = 0; k < 3; ++k) t[k] *= search.radiusMm, w[k] *= nw > 0 ? angle / nw : 0.0;
         poses.push_back(perturbPose(initial, t, w));
     }
     // Scored at the coarsest level, side by side.
-    const Neighbourhood near = neighbourhood(fullMesh, cameraCentre(initial), o.farMm + search.radiusMm, o);
+    const Neighbourhood near = neighbourhood(fullMesh, frames::cameraCentre(initial), o.farMm + search.radiusMm, o);
     const mesh::Mesh& mesh = near.mesh;
     FrameRegistration total;
     std::vector<double> score(poses.size(), -2.0);
@@ -1321,7 +1323,7 @@ bool paintsAlbedoMap(const FrameRegistration& r, const RegisterOptions& o) noexc
     return r.converged && r.similarity >= o.minPaintSimilarity;
 }
 
-Mat4 predictPose(const Mat4& before, const Mat4& last, double damping) noexcept {
+frames::Mat4 predictPose(const frames::Mat4& before, const frames::Mat4& last, double damping) noexcept {
     // Relative motion in the camera's frame: M = before^-1 * last = [R | t].
     const Mat3 Rb = rotationOf(before), Rl = rotationOf(last);
     const Mat3 R = Rb.transpose() * Rl;
@@ -1335,9 +1337,9 @@ Mat4 predictPose(const Mat4& before, const Mat4& last, double damping) noexcept 
     return perturbPose(last, {tl[0], tl[1], tl[2]}, {w[0], w[1], w[2]});
 }
 
-PoseError poseError(const Mat4& a, const Mat4& b) noexcept {
+PoseError poseError(const frames::Mat4& a, const frames::Mat4& b) noexcept {
     PoseError e;
-    const Vec3d ca = cameraCentre(a), cb = cameraCentre(b);
+    const frames::Vec3d ca = frames::cameraCentre(a), cb = frames::cameraCentre(b);
     e.position = std::sqrt((ca[0] - cb[0]) * (ca[0] - cb[0]) + (ca[1] - cb[1]) * (ca[1] - cb[1]) +
                            (ca[2] - cb[2]) * (ca[2] - cb[2]));
     const Mat3 R = rotationOf(a).transpose() * rotationOf(b);
@@ -1345,11 +1347,11 @@ PoseError poseError(const Mat4& a, const Mat4& b) noexcept {
     return e;
 }
 
-Mat4 perturbPose(const Mat4& m, const Vec3d& t, const Vec3d& w) noexcept {
+frames::Mat4 perturbPose(const frames::Mat4& m, const frames::Vec3d& t, const frames::Vec3d& w) noexcept {
     const Mat3 R = rotationOf(m);
     const Mat3 Rn = R * rodrigues(w);
     const Eigen::Vector3d tn = R * Eigen::Vector3d(t[0], t[1], t[2]) + Eigen::Vector3d(m[0][3], m[1][3], m[2][3]);
-    Mat4 o{};
+    frames::Mat4 o{};
     for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) o[r][c] = Rn(r, c);
         o[r][3] = tn[r];

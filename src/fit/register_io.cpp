@@ -29,7 +29,7 @@ namespace {}  // namespace
 
 void writeRegistration(const fs::path& path, const RegistrationRun& run) {
     const fs::path folder = path.parent_path();
-    const json k = intrinsicsJson(run.camera.K);
+    const json k = frames::intrinsicsJson(run.camera.K);
     json j{{"units", "mm"},
            {"light", {{"offset", run.camera.lightOffset}}},
            {"registration",
@@ -41,7 +41,7 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
              {"frames_converged", std::count_if(run.frames.begin(), run.frames.end(),
                                                 [](const RegisteredFrame& f) { return f.r.converged; })}}},
            {"frames", json::array()}};
-    writeResponse(j, run.camera.response);
+    frames::writeResponse(j, run.camera.response);
     // A deviation that is not a finite number (not computed, or an axis the
     // frame does not constrain at all) is written as null.
     auto deviations = [](const FrameRegistration& r, std::size_t first) {
@@ -54,7 +54,7 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
         json m = json::array();
         for (const auto& row : f.r.cameraToWorld) m.push_back(row);
         j["frames"].push_back(
-            json{{"image", relativePath(f.image, folder)},
+            json{{"image", frames::relativePath(f.image, folder)},
                  {"intrinsics", k},
                  {"camera_to_world", m},
                  {"registration",
@@ -78,7 +78,7 @@ void writeRegistration(const fs::path& path, const RegistrationRun& run) {
 
 RegistrationRun readRegistration(const fs::path& path) {
     const std::string file = path.string();
-    const FrameSet set = readFrames(path);  // the frames file's own checks
+    const frames::FrameSet set = frames::readFrames(path);  // the frames file's own checks
     const json j = detail::parseJsonFile(readTextFile(path), file);
     if (!j.contains("registration") || !j["registration"].is_object() || !j["registration"].contains("method") ||
         !j["registration"]["method"].is_string())
@@ -132,10 +132,10 @@ RegistrationRun readRegistration(const fs::path& path) {
     return run;
 }
 
-void checkInitialView(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& pose, const Vec3d& lightOffset,
-                      const std::string& meshFile, const std::string& poseFile) {
+void checkInitialView(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& pose,
+                      const frames::Vec3d& lightOffset, const std::string& meshFile, const std::string& poseFile) {
     if (!mesh.hasNormals()) throw InputError("mesh", meshFile, "has no normals");
-    Intrinsics k = K;
+    frames::Intrinsics k = K;
     const double s = 80.0 / K.width;
     k.width = 80;
     k.height = std::max(1, static_cast<int>(std::lround(K.height * s)));
@@ -254,7 +254,7 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
     for (int s = 0; s < count; ++s) {
         const std::size_t i = count > 1 ? s * (n - 1) / static_cast<std::size_t>(count - 1) : 0;
         const RegisteredFrame& f = run.frames[i];
-        Frame fr;
+        frames::Frame fr;
         fr.image = f.image;
         fr.K = run.camera.K;
         image::Image8 sat;

@@ -4,8 +4,6 @@ find_package(Eigen3 CONFIG REQUIRED)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(MUCOSA_FFMPEG REQUIRED IMPORTED_TARGET GLOBAL libavformat libavcodec libswscale libavutil)
 target_sources(mucosa_fit PRIVATE
-  ${CMAKE_CURRENT_LIST_DIR}/frames.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/raster.cpp
   ${CMAKE_CURRENT_LIST_DIR}/backproject.cpp
   ${CMAKE_CURRENT_LIST_DIR}/solve.cpp
   ${CMAKE_CURRENT_LIST_DIR}/texture.cpp
@@ -26,7 +24,7 @@ target_link_libraries(mucosa_fit PRIVATE Ceres::ceres Eigen3::Eigen PkgConfig::M
 # comparison hooks alone were a tenth of a registration's time).
 if(MUCOSA_BUILD_FUZZ)
   set_source_files_properties(
-    ${CMAKE_CURRENT_LIST_DIR}/raster.cpp ${CMAKE_CURRENT_LIST_DIR}/register.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/register.cpp
     ${CMAKE_CURRENT_LIST_DIR}/backproject.cpp ${CMAKE_CURRENT_LIST_DIR}/texture.cpp
     ${CMAKE_CURRENT_LIST_DIR}/patient.cpp
     PROPERTIES COMPILE_OPTIONS -fno-sanitize=fuzzer-no-link)

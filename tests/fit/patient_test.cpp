@@ -42,45 +42,45 @@ fit::PatientOptions smallPatient() {
 
 TEST(Response, ToneCurvesAreInvertedExactlyAndAPowerLawIsAPowerLaw) {
     for (int curve = 0; curve < 3; ++curve) {
-        fit::Response r;
+        frames::Response r;
         r.toneCurve = curve;
         for (double s : {0.0, 0.001, 0.01, 0.018, 0.05, 0.2, 0.5, 0.9, 1.0})
             EXPECT_NEAR(r.linear(shading::toneCurve(static_cast<float>(s), curve)), s, 2e-5) << curve << " " << s;
     }
     // BT.709 at its published points: 0.018 -> 0.081, 1 -> 1, 0.5 -> 0.7055.
     EXPECT_NEAR(shading::toneCurve(0.5f, 1), 1.099 * std::pow(0.5, 0.45) - 0.099, 1e-5);
-    const fit::Response power(2.2);
+    const frames::Response power(2.2);
     EXPECT_NEAR(power.linear(0.5), std::pow(0.5, 2.2), 1e-12);
 }
 
 TEST(Response, FramesAndCameraFilesReadAndWriteToneCurveAndVignetting) {
     test::TempDir dir;
     writeText(dir / "frames.json", std::string(R"({"tone_curve": "bt709", "vignetting": 1.5, )") + kFrame + "}");
-    const fit::FrameSet set = fit::readFrames(dir / "frames.json");
+    const frames::FrameSet set = frames::readFrames(dir / "frames.json");
     EXPECT_EQ(set.response.toneCurve, 1);
     EXPECT_DOUBLE_EQ(set.response.vignetting, 1.5);
     // Written back: the same keys (and the image relative to the file).
-    fit::writeFrames(dir / "again.json", set);
+    frames::writeFrames(dir / "again.json", set);
     const auto j = nlohmann::json::parse(std::ifstream(dir / "again.json"));
     EXPECT_EQ(j["tone_curve"], "bt709");
     EXPECT_EQ(j["vignetting"], 1.5);
     EXPECT_FALSE(j.contains("gamma"));
     EXPECT_EQ(j["frames"][0]["image"], "f.png");
-    const fit::FrameSet back = fit::readFrames(dir / "again.json");
+    const frames::FrameSet back = frames::readFrames(dir / "again.json");
     EXPECT_EQ(back.response.toneCurve, 1);
     EXPECT_DOUBLE_EQ(back.response.vignetting, 1.5);
 
     writeText(dir / "camera.json",
               R"({"intrinsics": {"width": 33, "height": 33, "fx": 20, "fy": 20, "cx": 16, "cy": 16},
                   "tone_curve": "srgb"})");
-    EXPECT_EQ(fit::readCamera(dir / "camera.json").response.toneCurve, 2);
-    EXPECT_EQ(fit::readCamera(dir / "camera.json").response.vignetting, 0.0);
+    EXPECT_EQ(frames::readCamera(dir / "camera.json").response.toneCurve, 2);
+    EXPECT_EQ(frames::readCamera(dir / "camera.json").response.vignetting, 0.0);
 
     // Errors name the field.
     auto refused = [&](const std::string& keys, const std::string& field) {
         writeText(dir / "bad.json", "{" + keys + ", " + kFrame + "}");
         try {
-            fit::readFrames(dir / "bad.json");
+            frames::readFrames(dir / "bad.json");
             ADD_FAILURE() << keys;
         } catch (const InputError& e) {
             EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
@@ -97,7 +97,7 @@ TEST(Response, LoadFrameImageDividesTheVignettingOut) {
     // A frame that is the vignetting cos^2 of the field angle itself (sRGB
     // encoded, 16 bits) decodes to a flat field.
     test::TempDir dir;
-    fit::Frame f;
+    frames::Frame f;
     f.image = dir / "f.png";
     f.K = {33, 33, 20, 20, 16, 16};
     image::Image16 img(33, 33, 3);
@@ -109,7 +109,7 @@ TEST(Response, LoadFrameImageDividesTheVignettingOut) {
                 img.at(x, y, c) = static_cast<std::uint16_t>(std::lround(65535 * shading::toneCurve(float(s), 2)));
         }
     image::writePng(f.image, img);
-    fit::Response r;
+    frames::Response r;
     r.toneCurve = 2;
     r.vignetting = 2;
     const image::ImageF lin = fit::loadFrameImage(f, r);
@@ -150,7 +150,7 @@ TEST(FieldOfView, BlackConnectedToTheBorderIsOutsideADarkLumenInsideIsNot) {
 
 TEST(FieldOfView, LoadFrameImageMasksItAndSaturation) {
     test::TempDir dir;
-    fit::Frame f;
+    frames::Frame f;
     f.image = dir / "f.png";
     f.K = {21, 21, 60, 60, 10, 10};
     image::Image8 img(21, 21, 3);
@@ -161,7 +161,7 @@ TEST(FieldOfView, LoadFrameImageMasksItAndSaturation) {
                     (x - 10) * (x - 10) + (y - 10) * (y - 10) <= 64 ? (x == 10 && y == 10 ? 255 : 100) : 0;
     image::writePng(f.image, img);
     image::Image8 mask;
-    fit::loadFrameImage(f, fit::Response{}, &mask);
+    fit::loadFrameImage(f, frames::Response{}, &mask);
     EXPECT_EQ(mask.at(10, 10), fit::kMaskSaturated);
     EXPECT_EQ(mask.at(0, 0), fit::kMaskOutsideView);
     EXPECT_EQ(mask.at(10, 2), fit::kMaskOutsideView);  // on the disc, within the margin of its edge
@@ -176,13 +176,13 @@ TEST(SyntheticPatient, PathGoesForwardPausesPullsBackAndRollsInsideTheAirway) {
     ASSERT_EQ(p.exposureFactors.size(), 160u);
     int still = 0, back = 0, forward = 0;
     double minRoll = 0, maxRoll = 0;
-    const fit::Vec3d start = fit::cameraCentre(p.poses.front());
+    const frames::Vec3d start = frames::cameraCentre(p.poses.front());
     double lastFromStart = 0;
     for (std::size_t i = 1; i < p.poses.size(); ++i) {
         const fit::PoseError step = fit::poseError(p.poses[i - 1], p.poses[i]);
         EXPECT_LE(step.position, o.speedMm * 1.2 + 0.05) << i;  // a scope, not a jump
         EXPECT_LE(step.degrees, 6.0) << i;
-        const fit::Vec3d c = fit::cameraCentre(p.poses[i]);
+        const frames::Vec3d c = frames::cameraCentre(p.poses[i]);
         const double fromStart = std::hypot(c[0] - start[0], c[1] - start[1], c[2] - start[2]);
         still += step.position < 1e-6;
         back += fromStart < lastFromStart - 0.1;
@@ -231,15 +231,15 @@ TEST(SyntheticPatient, WritesTheVideoCameraInitialPoseAndTheTruth) {
     };
     fit::writeSyntheticPatient(p, dir.path(), wo);
     EXPECT_EQ(shown, 6);
-    const fit::CameraModel cam = fit::readCamera(dir / "camera.json");
+    const frames::CameraModel cam = frames::readCamera(dir / "camera.json");
     EXPECT_EQ(cam.K.width, 96);
     EXPECT_EQ(cam.response.toneCurve, 1);  // BT.709, the scope's video
     EXPECT_NEAR(cam.lightOffset[1], 1.2, 1e-12);
     // The initial pose is the truth moved by 1 mm and 2 degrees.
-    const fit::PoseError e = fit::poseError(fit::readPose(dir / "init.json"), p.poses.front());
+    const fit::PoseError e = fit::poseError(frames::readPose(dir / "init.json"), p.poses.front());
     EXPECT_NEAR(e.position, 1.0, 1e-6);
     EXPECT_NEAR(e.degrees, 2.0, 0.01);
-    const fit::FrameSet truth = fit::readFrames(dir / "truth" / "frames.json");
+    const frames::FrameSet truth = frames::readFrames(dir / "truth" / "frames.json");
     ASSERT_EQ(truth.frames.size(), 6u);
     EXPECT_EQ(truth.frames[3].cameraToWorld, p.poses[3]);
     EXPECT_TRUE(std::filesystem::exists(dir / "truth" / "brdf.json"));
@@ -248,7 +248,7 @@ TEST(SyntheticPatient, WritesTheVideoCameraInitialPoseAndTheTruth) {
     // inside, a dark lumen ahead, and the exposure differs frame to frame.
     double previousMean = -1;
     int differ = 0;
-    for (const fit::Frame& f : truth.frames) {
+    for (const frames::Frame& f : truth.frames) {
         const image::PngImage png = image::readPng(f.image);
         ASSERT_EQ(png.pixels.width(), 96);
         EXPECT_EQ(png.pixels.at(0, 0, 0), 0);
@@ -307,7 +307,7 @@ TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
         EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "ct", "p")) << i;
     EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses.back(), p.camera.lightOffset, "ct", "p"));
     // The trachea runs along +y (504..660 mm), the scope goes down it.
-    EXPECT_LT(fit::cameraCentre(p.poses.back())[1], fit::cameraCentre(p.poses.front())[1] - 20);
+    EXPECT_LT(frames::cameraCentre(p.poses.back())[1], frames::cameraCentre(p.poses.front())[1] - 20);
     fit::PatientVideo video(p);
     const image::Image8 f = video.frame(10);
     int lit = 0;
@@ -326,7 +326,7 @@ namespace {
 struct FirstFrame {
     fit::SyntheticPatient patient;
     fit::VideoFrame frame;
-    fit::Mat4 init{}, truth{};
+    frames::Mat4 init{}, truth{};
     fit::RegisterOptions options;
 };
 
@@ -339,8 +339,8 @@ FirstFrame firstFrame(fit::PatientLook look) {
     FirstFrame f{fit::makeSyntheticPatient(o), {}, {}, {}, {}};
     test::TempDir dir;
     fit::writeSyntheticPatient(f.patient, dir.path());
-    const fit::FrameSet truth = fit::readFrames(dir / "truth" / "frames.json");
-    f.init = fit::readPose(dir / "init.json");
+    const frames::FrameSet truth = frames::readFrames(dir / "truth" / "frames.json");
+    f.init = frames::readPose(dir / "init.json");
     f.truth = truth.frames[0].cameraToWorld;
     image::Image8 sat;
     const image::ImageF linear = fit::loadFrameImage(truth.frames[0], truth.response, &sat, 0.97);

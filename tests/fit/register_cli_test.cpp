@@ -8,8 +8,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include <mucosa/fit/frames.hpp>
 #include <mucosa/fit/register.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/repair.hpp>
@@ -26,8 +26,8 @@ namespace {
 
 constexpr int kSize = 160;
 
-fit::Intrinsics camera() {
-    fit::Intrinsics K;
+frames::Intrinsics camera() {
+    frames::Intrinsics K;
     K.width = K.height = kSize;
     K.fx = K.fy = 90;
     K.cx = K.cy = (kSize - 1) / 2.0;
@@ -38,7 +38,7 @@ void writeText(const fs::path& p, const std::string& s) {
     std::ofstream(p) << s;
 }
 
-json poseJson(const fit::Mat4& m) {
+json poseJson(const frames::Mat4& m) {
     json rows = json::array();
     for (const auto& r : m) rows.push_back(r);
     return json{{"camera_to_world", rows}};
@@ -61,7 +61,7 @@ struct Patient {
                 px.data()[k] = static_cast<std::uint16_t>(std::lround(65535.0 * std::clamp(f.data()[k], 0.f, 1.f)));
             image::writePng(dir / "video" / fmt::format("{:03d}.png", i), px);
         }
-        const fit::Intrinsics K = camera();
+        const frames::Intrinsics K = camera();
         writeText(
             dir / "camera.json",
             json{{"intrinsics",
@@ -109,7 +109,7 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     EXPECT_NE(r.out.find("registered 5 frames (5 converged) with method pq"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("pose sd, median over frames"), std::string::npos) << r.out;
     // The frames file mucosa fit reads, with the registration per frame.
-    const fit::FrameSet set = fit::readFrames(p.dir / "out" / "frames.json");
+    const frames::FrameSet set = frames::readFrames(p.dir / "out" / "frames.json");
     ASSERT_EQ(set.frames.size(), 5u);
     for (std::size_t i = 0; i < 5; ++i) {
         const fit::PoseError e = fit::poseError(set.frames[i].cameraToWorld, p.scene.poses[i]);
@@ -176,9 +176,10 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     const json k = json::parse(test::readBytes(p.dir / "out" / "frames.json"));
     ASSERT_EQ(k["frames"].size(), 5u);
     EXPECT_EQ(k["frames"][1]["camera_to_world"], cut["frames"][1]["camera_to_world"]);  // kept, not redone
-    EXPECT_LT(fit::poseError(fit::readFrames(p.dir / "out" / "frames.json").frames[4].cameraToWorld, p.scene.poses[4])
-                  .position,
-              0.8);
+    EXPECT_LT(
+        fit::poseError(frames::readFrames(p.dir / "out" / "frames.json").frames[4].cameraToWorld, p.scene.poses[4])
+            .position,
+        0.8);
 
     // Another method, or the albedo map set otherwise, on the same output is
     // refused; --restart overwrites.
@@ -223,7 +224,7 @@ TEST(RegisterCli, BadInputIsOneLineAndWritesNothing) {
     check(p.args("", {{"--video", p.dir / "small.mkv"}}), "is 120x160, but");
     EXPECT_FALSE(fs::exists(p.dir / "out" / "frames_frames"));
     // Outside the airway: 40 mm to the side of the tube, looking along it.
-    const fit::Vec3d c = fit::cameraCentre(p.scene.poses[0]);
+    const frames::Vec3d c = frames::cameraCentre(p.scene.poses[0]);
     writeText(p.dir / "outside.json",
               json{{"position", {c[0] + 40, c[1], c[2]}}, {"look_at", {c[0], c[1], c[2]}}, {"up", {0, 1, 0}}}.dump());
     check(p.args("", {{"--init", p.dir / "outside.json"}}), "initial pose");
@@ -280,7 +281,8 @@ TEST(RegisterCli, AVideoFileRegistersLikeItsFramesAndResumes) {
         test::runCli(p.args(kNoSearch, {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "b.json"}}));
     ASSERT_EQ(video.exitCode, 0) << video.err;
     EXPECT_NE(video.out.find("registered 5 frames (5 converged)"), std::string::npos) << video.out;
-    const fit::FrameSet a = fit::readFrames(p.dir / "out" / "a.json"), b = fit::readFrames(p.dir / "out" / "b.json");
+    const frames::FrameSet a = frames::readFrames(p.dir / "out" / "a.json"),
+                           b = frames::readFrames(p.dir / "out" / "b.json");
     ASSERT_EQ(b.frames.size(), 5u);
     for (std::size_t i = 0; i < 5; ++i) {
         EXPECT_EQ(a.frames[i].cameraToWorld, b.frames[i].cameraToWorld) << i;
@@ -293,7 +295,7 @@ TEST(RegisterCli, AVideoFileRegistersLikeItsFramesAndResumes) {
     const test::RunResult step = test::runCli(p.args(
         std::string(kNoSearch) + " --step 2", {{"--video", p.dir / "scope.mkv"}, {"-o", p.dir / "out" / "c.json"}}));
     ASSERT_EQ(step.exitCode, 0) << step.err;
-    const fit::FrameSet c = fit::readFrames(p.dir / "out" / "c.json");
+    const frames::FrameSet c = frames::readFrames(p.dir / "out" / "c.json");
     ASSERT_EQ(c.frames.size(), 3u);
     EXPECT_EQ(c.frames[2].image.filename(), "frame_000004.png");
     // Resume: cut b to two frames and delete one of their PNGs; the rest is

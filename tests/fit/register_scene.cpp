@@ -3,10 +3,10 @@
 #include <cmath>
 #include <random>
 
-#include <mucosa/fit/raster.hpp>
 #include <mucosa/fit/register.hpp>
 #include <mucosa/mesh/primitives.hpp>
 #include <mucosa/mesh/repair.hpp>
+#include <mucosa/raster/raster.hpp>
 
 namespace mucosa::test {
 
@@ -54,15 +54,15 @@ RegisterScene makeRegisterScene(int frames) {
         const auto& p = centre[i];
         const auto& q = centre[i + 100];
         const double roll = 0.025 * f;
-        const fit::Vec3d off{1.2 * std::cos(0.3 * f), 0.8 * std::sin(0.2 * f), 0.0};
-        const fit::Vec3d pos{p[0] + off[0], p[1] + off[1], p[2] + off[2]};
-        const fit::Vec3d at{q[0] + 1.5 * std::cos(0.1 * f), q[1] - 1.0, q[2]};
-        s.poses.push_back(fit::lookAtPose(pos, at, {std::sin(roll), std::cos(roll), 0.0}));
+        const frames::Vec3d off{1.2 * std::cos(0.3 * f), 0.8 * std::sin(0.2 * f), 0.0};
+        const frames::Vec3d pos{p[0] + off[0], p[1] + off[1], p[2] + off[2]};
+        const frames::Vec3d at{q[0] + 1.5 * std::cos(0.1 * f), q[1] - 1.0, q[2]};
+        s.poses.push_back(frames::lookAtPose(pos, at, {std::sin(roll), std::cos(roll), 0.0}));
     }
     return s;
 }
 
-double albedoFactor(const fit::Vec3d& pw, double contrast) {
+double albedoFactor(const frames::Vec3d& pw, double contrast) {
     // Procedural albedo on the surface: a network of thin dark vessels over
     // gentle blotches, as on airway mucosa.
     const double vessel = std::exp(-std::pow(std::sin(pw[0] * 0.9 + 0.8 * std::sin(pw[2] * 0.35)) / 0.08, 2)) +
@@ -71,10 +71,10 @@ double albedoFactor(const fit::Vec3d& pw, double contrast) {
                    (0.3 * std::sin(pw[0] * 0.6 + pw[2] * 0.25) * std::sin(pw[1] * 0.5) - 1.2 * std::min(1.0, vessel));
 }
 
-image::ImageF renderVideoFrame(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& pose,
+image::ImageF renderVideoFrame(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& pose,
                                const VideoOptions& o, int threads, image::Image8* saturated) {
-    const fit::Mat4 W = fit::invertRigid(pose);
-    const fit::GBuffer g = fit::rasterize(mesh, K, W, 0.05, threads);
+    const frames::Mat4 W = frames::invertRigid(pose);
+    const raster::GBuffer g = raster::rasterize(mesh, K, W, 0.05, threads);
     image::ImageF out(K.width, K.height, 3);
     if (saturated) *saturated = image::Image8(K.width, K.height, 1);
     std::mt19937 rng(o.seed);
@@ -90,25 +90,25 @@ image::ImageF renderVideoFrame(const mesh::Mesh& mesh, const fit::Intrinsics& K,
             const std::int32_t t = g.triangle[i];
             if (t >= 0) {
                 const double z = g.depth[i];
-                const fit::Vec3d P{(x - K.cx) / K.fx * z, (y - K.cy) / K.fy * z, z};
+                const frames::Vec3d P{(x - K.cx) / K.fx * z, (y - K.cy) / K.fy * z, z};
                 const double b1 = g.b1[i], b2 = g.b2[i], bs[3] = {1 - b1 - b2, b1, b2};
-                fit::Vec3d nw{0, 0, 0}, pw{0, 0, 0};
+                frames::Vec3d nw{0, 0, 0}, pw{0, 0, 0};
                 for (int k = 0; k < 3; ++k) {
                     const auto v = mesh.indices[3 * static_cast<std::size_t>(t) + k];
                     for (int c = 0; c < 3; ++c)
                         nw[c] += bs[k] * mesh.normals[v][c], pw[c] += bs[k] * mesh.positions[v][c];
                 }
-                fit::Vec3d n = fit::transformDirection(W, nw);
+                frames::Vec3d n = frames::transformDirection(W, nw);
                 const double nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
                 for (double& c : n) c /= nn;
-                const fit::Vec3d l{o.lightOffset[0] - P[0], o.lightOffset[1] - P[1], o.lightOffset[2] - P[2]};
+                const frames::Vec3d l{o.lightOffset[0] - P[0], o.lightOffset[1] - P[1], o.lightOffset[2] - P[2]};
                 const double d = std::sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
                 const double cosine = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / d;
                 if (cosine > 0) {
                     e = cosine / (d * d);
                     // Blinn-Phong glint, viewer at the origin.
                     const double pl = std::sqrt(P[0] * P[0] + P[1] * P[1] + P[2] * P[2]);
-                    fit::Vec3d h{l[0] / d - P[0] / pl, l[1] / d - P[1] / pl, l[2] / d - P[2] / pl};
+                    frames::Vec3d h{l[0] / d - P[0] / pl, l[1] / d - P[1] / pl, l[2] / d - P[2] / pl};
                     const double hn = std::sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
                     const double nh = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / hn;
                     spec = o.specular * std::pow(std::max(0.0, nh), 60.0) / (d * d);

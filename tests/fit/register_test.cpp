@@ -19,8 +19,8 @@
 #include "test_support.hpp"
 
 using namespace mucosa;
-using fit::Intrinsics;
-using fit::Mat4;
+using frames::Intrinsics;
+using frames::Mat4;
 
 namespace {
 
@@ -175,13 +175,13 @@ TEST(RegisterPq, CylinderShadingGivesTheTrueGradient) {
 TEST(RegisterPq, ModelSideOfAPlaneIsItsGradient) {
     mesh::Mesh quad = mesh::makeQuad(200.0f, 20);  // z = 0, normal +z
     const Intrinsics K = pinhole(101, 80);
-    const Mat4 pose = fit::lookAtPose({12, -8, 25}, {1, 2, 0}, {0, 1, 0});
+    const Mat4 pose = frames::lookAtPose({12, -8, 25}, {1, 2, 0}, {0, 1, 0});
     const fit::ModelView v = fit::renderModel(quad, K, pose, {0, 0, 0});
     fit::PqOptions o;
     const fit::PqField f = fit::pqFromModel(v, K, o);
     // Plane normal +z (world) in camera space.
-    const Mat4 W = fit::invertRigid(pose);
-    const auto n = fit::transformDirection(W, {0, 0, 1});
+    const Mat4 W = frames::invertRigid(pose);
+    const auto n = frames::transformDirection(W, {0, 0, 1});
     const double p = n[0] / -n[2], q = n[1] / -n[2];
     std::vector<double> err;
     for (std::size_t i = 0; i < f.weight.size(); ++i)
@@ -195,12 +195,12 @@ TEST(RegisterPq, ModelSideOfAPlaneIsItsGradient) {
 }
 
 TEST(RegisterPose, PerturbAndErrorAreConsistent) {
-    const Mat4 a = fit::lookAtPose({1, 2, 3}, {4, 6, 3}, {0, 0, 1});
+    const Mat4 a = frames::lookAtPose({1, 2, 3}, {4, 6, 3}, {0, 0, 1});
     // Orthonormal, right-handed, z toward the target, up -> -y.
-    const auto z = fit::transformDirection(a, {0, 0, 1});
+    const auto z = frames::transformDirection(a, {0, 0, 1});
     EXPECT_NEAR(z[0], 0.6, 1e-12);
     EXPECT_NEAR(z[1], 0.8, 1e-12);
-    const auto y = fit::transformDirection(a, {0, 1, 0});
+    const auto y = frames::transformDirection(a, {0, 1, 0});
     EXPECT_NEAR(y[2], -1, 1e-12);
     const Mat4 b = fit::perturbPose(a, {0.3, -0.4, 1.2}, {0, 0, 10 * M_PI / 180});
     const fit::PoseError e = fit::poseError(a, b);
@@ -224,7 +224,7 @@ TEST(RegisterPq, LampOffsetIsModelledExactly) {
     const test::RegisterScene scene = test::makeRegisterScene();
     const Intrinsics K = pinhole(160, 90);
     const Mat4 pose = scene.poses[3];
-    const fit::Vec3d offset{2.5, 0, 0};
+    const frames::Vec3d offset{2.5, 0, 0};
     test::VideoOptions vo;
     vo.lightOffset = offset;
     vo.noise = 0;
@@ -321,14 +321,14 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
     const double R = 5;
     const mesh::Mesh tube = test::makeTube(R, 160, 256, 320);  // along +z, normals into the lumen
     const Intrinsics K = pinhole(80, 28);                      // 110 degrees across
-    const Mat4 truth = fit::lookAtPose({1.2, -0.8, 20}, {0.3, 0.2, 120}, {0, -1, 0});
+    const Mat4 truth = frames::lookAtPose({1.2, -0.8, 20}, {0.3, 0.2, 120}, {0, -1, 0});
     // 1. The model's field against the cylinder's normals.
     {
         const fit::ModelView v = fit::renderModel(tube, K, truth, {0, 0, 0}, 1, 2);
         fit::PqOptions o;
         const fit::PqField f = fit::pqFromModel(v, K, o);
-        const Mat4 W = fit::invertRigid(truth);
-        const fit::Vec3d c = fit::cameraCentre(truth);
+        const Mat4 W = frames::invertRigid(truth);
+        const frames::Vec3d c = frames::cameraCentre(truth);
         std::vector<double> err, steepErr;
         int seen = 0, kept = 0;
         for (int y = 4; y < K.height - 4; ++y)
@@ -343,10 +343,11 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
                 if (f.weight[i] <= 0) continue;
                 ++kept;
                 // The ray's hit on the cylinder x^2 + y^2 = R^2 (world).
-                const fit::Vec3d d = fit::transformDirection(truth, {(x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0});
+                const frames::Vec3d d = frames::transformDirection(truth, {(x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0});
                 const double a = d[0] * d[0] + d[1] * d[1], b = 2 * (c[0] * d[0] + c[1] * d[1]);
                 const double t = (-b + std::sqrt(b * b - 4 * a * (c[0] * c[0] + c[1] * c[1] - R * R))) / (2 * a);
-                const fit::Vec3d n = fit::transformDirection(W, {-(c[0] + t * d[0]) / R, -(c[1] + t * d[1]) / R, 0.0});
+                const frames::Vec3d n =
+                    frames::transformDirection(W, {-(c[0] + t * d[0]) / R, -(c[1] + t * d[1]) / R, 0.0});
                 const auto& m = f.normal[i];
                 const double e = std::acos(std::clamp(m[0] * n[0] + m[1] * n[1] + m[2] * n[2], -1.0, 1.0)) * 180 / M_PI;
                 err.push_back(e);
@@ -383,7 +384,7 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
     std::printf("at the truth %.4f, shifted:", s0);
     for (double mm : {-3.0, -1.5, 1.5, 3.0})
         for (int axis = 0; axis < 2; ++axis) {
-            fit::Vec3d t{0, 0, 0}, w{0, 0, 0};
+            frames::Vec3d t{0, 0, 0}, w{0, 0, 0};
             t[axis] = mm;
             // Turned back towards the lumen 100 mm ahead: about y for an x shift.
             const double turn = std::atan(mm / 100);
@@ -413,7 +414,7 @@ TEST(RegisterPq, SimilarityPeaksAtTheTruePose) {
             std::printf("frame %d, width %d: at the truth %.4f, moved:", f, L.K.width, s0);
             for (int axis = 0; axis < 6; ++axis)
                 for (double sign : {-1.0, 1.0}) {
-                    fit::Vec3d t{0, 0, 0}, w{0, 0, 0};
+                    frames::Vec3d t{0, 0, 0}, w{0, 0, 0};
                     if (axis < 3)
                         t[axis] = sign * 1.0;
                     else
@@ -432,9 +433,9 @@ TEST(RegisterPq, SimilarityPeaksAtTheTruePose) {
 TEST(RegisterPq, ModelShadingFollowsTheLampsSpreadAndDisk) {
     mesh::Mesh quad = mesh::makeQuad(400.0f, 40);  // z = 0, normal +z
     const Intrinsics K = pinhole(81, 81);
-    const Mat4 pose = fit::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});  // 20 mm above, facing it
+    const Mat4 pose = frames::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});  // 20 mm above, facing it
     const fit::ModelView point = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1);
-    fit::LampProfile lamp;
+    frames::LampProfile lamp;
     lamp.spread = 0.8;
     lamp.radiusMm = 1.5;
     const fit::ModelView spot = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
@@ -608,7 +609,7 @@ TEST(RegisterPose, TheFramesUncertaintyShowsTheAxesItDoesNotFix) {
     {
         const mesh::Mesh tube = test::makeTube(5, 160, 256, 320);
         const Intrinsics K = pinhole(160, 56);
-        const Mat4 pose = fit::lookAtPose({0, 0, 20}, {0, 0, 120}, {0, -1, 0});
+        const Mat4 pose = frames::lookAtPose({0, 0, 20}, {0, 0, 120}, {0, -1, 0});
         test::VideoOptions plain;
         plain.albedoContrast = 0;
         image::Image8 sat;
@@ -645,8 +646,8 @@ TEST(RegisterPose, AFrameFacingTheWallIsFlaggedNoLumen) {
     };
     const fit::RegisterOptions o;
     ASSERT_GT(o.minDepthRange, 1.0);
-    const Mat4 down = fit::lookAtPose({0, 0, 20}, {0, 0, 120}, {0, -1, 0});
-    const Mat4 wall = fit::lookAtPose({0, 0, 60}, {5, 0, 60}, {0, 0, 1});
+    const Mat4 down = frames::lookAtPose({0, 0, 20}, {0, 0, 120}, {0, -1, 0});
+    const Mat4 wall = frames::lookAtPose({0, 0, 60}, {5, 0, 60}, {0, 0, 1});
     const fit::FrameRegistration a = run(down, o);
     const fit::FrameRegistration b = run(wall, o);
     fit::RegisterOptions off = o;
@@ -798,20 +799,20 @@ TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
 TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
     auto at = [](double z, bool converged) {
         fit::FrameRegistration r;
-        r.cameraToWorld = fit::lookAtPose({0, 0, z}, {0, 0, z - 10}, {0, 1, 0});
+        r.cameraToWorld = frames::lookAtPose({0, 0, z}, {0, 0, z - 10}, {0, 1, 0});
         r.converged = converged;
         return r;
     };
     fit::Tracker t(at(0, true).cameraToWorld);
     t.update(at(0, true));
     t.update(at(-1, true));  // 1 mm a frame along -z
-    EXPECT_NEAR(fit::cameraCentre(t.start())[2], -2.0, 1e-9);
+    EXPECT_NEAR(frames::cameraCentre(t.start())[2], -2.0, 1e-9);
     for (int i = 0; i < 10; ++i) t.update(at(-2 - i, false));
-    EXPECT_NEAR(fit::cameraCentre(t.start())[2], -1.0, 1e-9);  // where the track last was
+    EXPECT_NEAR(frames::cameraCentre(t.start())[2], -1.0, 1e-9);  // where the track last was
     t.update(at(-12, true));  // converged again, 11 mm on from the last converged frame
-    EXPECT_NEAR(fit::cameraCentre(t.start())[2], -12.0, 1e-9) << "the 11 mm gap taken as one frame's motion";
+    EXPECT_NEAR(frames::cameraCentre(t.start())[2], -12.0, 1e-9) << "the 11 mm gap taken as one frame's motion";
     t.update(at(-13, true));  // consecutive: the velocity is back
-    EXPECT_NEAR(fit::cameraCentre(t.start())[2], -14.0, 1e-9);
+    EXPECT_NEAR(frames::cameraCentre(t.start())[2], -14.0, 1e-9);
     // A flagged frame that kept the albedo map's pose moves the track there,
     // without velocity, and the next frame starts there alone; without
     // anchorOnMap the track stays and the kept pose is a second start.
@@ -824,10 +825,10 @@ TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
         a.update(at(-2, true));
         a.update(kept);
         ASSERT_EQ(a.starts().size(), anchor ? 1u : 2u);
-        EXPECT_NEAR(fit::cameraCentre(a.start())[2], anchor ? -16.0 : -2.0, 1e-9);
-        EXPECT_NEAR(fit::cameraCentre(a.starts().back())[2], -16.0, 1e-9);
+        EXPECT_NEAR(frames::cameraCentre(a.start())[2], anchor ? -16.0 : -2.0, 1e-9);
+        EXPECT_NEAR(frames::cameraCentre(a.starts().back())[2], -16.0, 1e-9);
         a.update(at(-17, true));  // converged again: no velocity from the kept pose yet
-        EXPECT_NEAR(fit::cameraCentre(a.start())[2], -17.0, 1e-9);
+        EXPECT_NEAR(frames::cameraCentre(a.start())[2], -17.0, 1e-9);
     }
 }
 
@@ -837,8 +838,8 @@ TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
 TEST(RegisterPq, ModelShadingAddsTheWallsBackScatter) {
     mesh::Mesh quad = mesh::makeQuad(400.0f, 40);
     const Intrinsics K = pinhole(41, 41);
-    const Mat4 pose = fit::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});
-    fit::LampProfile lamp;
+    const Mat4 pose = frames::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});
+    frames::LampProfile lamp;
     lamp.spread = 0.5;
     const fit::ModelView direct = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
     lamp.ambient = 0.2;
@@ -859,13 +860,13 @@ TEST(RegisterPq, ModelShadingAddsTheWallsBackScatter) {
 TEST(RegisterPq, ModelShadedByAFittedBrdfIsRhoTimesDelta) {
     mesh::Mesh quad = mesh::makeQuad(400.0f, 40);  // z = 0, normal +z
     const Intrinsics K = pinhole(81, 81);
-    const Mat4 pose = fit::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});
+    const Mat4 pose = frames::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});
     shading::BrdfParams b;
     b.c = {0.1, 0.6, 0.3, 0.0};
     b.d = {-1.5, 0.9, -0.2};  // non-increasing on [0, 1], not an inverse square
     b.zmin = 18.0;
     b.zmax = 40.0;
-    fit::LampProfile lamp;
+    frames::LampProfile lamp;
     lamp.spread = 0.8;
     const fit::ModelView v = fit::renderModel(quad, K, pose, {0, 3, 0}, 1, 1, lamp, &b);
     int checked = 0;
@@ -888,23 +889,23 @@ TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
     const std::string k = R"("intrinsics": {"width": 64, "height": 64, "fx": 40, "fy": 40, "cx": 31.5, "cy": 31.5})";
     std::ofstream(dir / "c.json")
         << "{" << k << R"(, "light": {"offset": [0, 1, 0], "spread": 0.5, "source_radius_mm": 1.5, "ambient": 0.03}})";
-    const fit::CameraModel c = fit::readCamera(dir / "c.json");
+    const frames::CameraModel c = frames::readCamera(dir / "c.json");
     EXPECT_DOUBLE_EQ(c.lamp.spread, 0.5);
     EXPECT_DOUBLE_EQ(c.lamp.radiusMm, 1.5);
     EXPECT_DOUBLE_EQ(c.lamp.ambient, 0.03);
     EXPECT_DOUBLE_EQ(c.lightOffset[1], 1.0);
     std::ofstream(dir / "d.json") << "{" << k << R"(, "light": {"spread": -1}})";
     try {
-        fit::readCamera(dir / "d.json");
+        frames::readCamera(dir / "d.json");
         FAIL();
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("light.spread"), std::string::npos) << e.what();
     }
     std::ofstream(dir / "e.json") << "{" << k << R"(, "light": {"source_radius_mm": "big"}})";
-    EXPECT_THROW(fit::readCamera(dir / "e.json"), InputError);
+    EXPECT_THROW(frames::readCamera(dir / "e.json"), InputError);
     std::ofstream(dir / "f.json") << "{" << k << R"(, "light": {"ambient": 3}})";
     try {
-        fit::readCamera(dir / "f.json");
+        frames::readCamera(dir / "f.json");
         FAIL();
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("light.ambient"), std::string::npos) << e.what();
@@ -919,7 +920,7 @@ TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
 TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
     const OffStart off;
     const Mat4& truth = off.scene.poses[0];
-    const std::vector<std::pair<fit::Vec3d, fit::Vec3d>> offsets{
+    const std::vector<std::pair<frames::Vec3d, frames::Vec3d>> offsets{
         {{4.0, -3.0, 2.0}, {0.12, 0.10, -0.08}},
         {{2.0, 4.0, -3.5}, {0.15, -0.08, 0.12}},
     };
@@ -983,7 +984,7 @@ TEST(RegisterPq, AModelTextureMultipliesTheShadingByTheAlbedoAtTheUvs) {
     mesh::Mesh quad = mesh::makeQuad(200.0f, 20);
     ASSERT_TRUE(quad.hasUvs());
     const Intrinsics K = pinhole(61, 80);
-    const Mat4 pose = fit::lookAtPose({12, -8, 25}, {1, 2, 0}, {0, 1, 0});
+    const Mat4 pose = frames::lookAtPose({12, -8, 25}, {1, 2, 0}, {0, 1, 0});
     fit::ModelTexture flat;
     flat.luminance = image::ImageF(1, 1, 1);
     flat.luminance.at(0, 0) = 0.4f;
@@ -1109,7 +1110,8 @@ SmoothTubeTrack smoothTubeTrack(const fit::RegisterOptions& ro) {
         at += step;
         const auto& p = centre[static_cast<std::size_t>(at)];
         const auto& q = centre[static_cast<std::size_t>(at + 100)];
-        t.poses.push_back(fit::lookAtPose({p[0] + 1.5, p[1] + 0.8, p[2]}, {q[0] + 1.0, q[1] - 0.5, q[2]}, {0, 1, 0}));
+        t.poses.push_back(
+            frames::lookAtPose({p[0] + 1.5, p[1] + 0.8, p[2]}, {q[0] + 1.0, q[1] - 0.5, q[2]}, {0, 1, 0}));
     }
     const Intrinsics K = pinhole(160, 90);
     test::VideoOptions vo;

@@ -18,7 +18,7 @@
 #include <utility>
 #include <vector>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
 #include <mucosa/shading/brdf.hpp>
@@ -43,13 +43,13 @@ struct PatientOptions {
     int size = 320;         // square frames, pixels
     double fovDeg = 110.0;  // across the frame
     PatientLook look = PatientLook::Lamp;
-    double exposureJitter = 0.3;       // each frame's exposure x a factor uniform in [1 - j, 1 + j]
-    double startMm = 60.0;             // where the path starts, along the trachea's centerline (mm)
-    double stopMm = 12.0;              // how far before the lobar bronchus's end it stops (mm)
-    double speedMm = 0.6;              // forward, per frame (15 mm/s at 25 frames/s)
-    double rollDeg = 25.0;             // amplitude of the hand's roll of the scope
-    bool pauses = true;                // the scope stops, pulls back and goes on, now and then
-    Vec3d lightOffset{0.0, 1.2, 0.0};  // the lamp in camera coordinates (OpenCV axes, mm)
+    double exposureJitter = 0.3;               // each frame's exposure x a factor uniform in [1 - j, 1 + j]
+    double startMm = 60.0;                     // where the path starts, along the trachea's centerline (mm)
+    double stopMm = 12.0;                      // how far before the lobar bronchus's end it stops (mm)
+    double speedMm = 0.6;                      // forward, per frame (15 mm/s at 25 frames/s)
+    double rollDeg = 25.0;                     // amplitude of the hand's roll of the scope
+    bool pauses = true;                        // the scope stops, pulls back and goes on, now and then
+    frames::Vec3d lightOffset{0.0, 1.2, 0.0};  // the lamp in camera coordinates (OpenCV axes, mm)
     std::uint64_t seed = 1;
     // Empty: the phantom. Else a patient's CT airway (any format mesh::load
     // reads, mm, normals facing the lumen): centerline UVs are computed on it,
@@ -62,9 +62,9 @@ struct PatientOptions {
 };
 
 struct SyntheticPatient {
-    mesh::Mesh mesh;          // the "CT" airway (the phantom or meshFile; centerline UVs, normals into the lumen)
-    CameraModel camera;       // what the scope's calibration says (intrinsics, response, lamp offset)
-    std::vector<Mat4> poses;  // the truth: each frame's camera_to_world (OpenCV axes, mm)
+    mesh::Mesh mesh;             // the "CT" airway (the phantom or meshFile; centerline UVs, normals into the lumen)
+    frames::CameraModel camera;  // what the scope's calibration says (intrinsics, response, lamp offset)
+    std::vector<frames::Mat4> poses;      // the truth: each frame's camera_to_world (OpenCV axes, mm)
     std::vector<double> exposureFactors;  // the per-frame jitter on top of auto-exposure
     shading::BrdfParams brdf;             // the truth's rho and delta (Category4)
     image::Image8 texture;                // the truth's albedo (sRGB, tileable; the mesh's UVs wrap it)

@@ -22,10 +22,10 @@
 #include <string>
 #include <vector>
 
-#include <mucosa/fit/frames.hpp>
-#include <mucosa/fit/raster.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
+#include <mucosa/raster/raster.hpp>
 #include <mucosa/shading/brdf.hpp>
 
 namespace mucosa::fit {
@@ -60,7 +60,7 @@ struct PqOptions {
 // Video side: `linear` is the frame's linear luminance (1 channel) resampled to
 // an undistorted pinhole camera K; `valid` (optional, 1 = usable) marks the
 // field of view and clipped pixels. Light at the optical centre.
-PqField pqFromShading(const image::ImageF& linear, const Intrinsics& K, const PqOptions& options,
+PqField pqFromShading(const image::ImageF& linear, const frames::Intrinsics& K, const PqOptions& options,
                       const std::vector<std::uint8_t>* valid = nullptr);
 
 // Model side at one pose: what the lamp (at `lightOffset`, camera space)
@@ -97,9 +97,10 @@ struct ModelTexture {
 // The luminance (Rec. 709) of a linear RGB atlas spanning uvMin..uvMax, as
 // `mucosa fit` writes it (texture.png with brdf.json's uv_min, uv_max).
 ModelTexture modelTexture(const image::ImageF& linearRgb, std::array<float, 2> uvMin, std::array<float, 2> uvMax);
-ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& cameraToWorld, const Vec3d& lightOffset,
-                      int threads = 1, int supersample = 2, const LampProfile& lamp = {},
-                      const shading::BrdfParams* brdf = nullptr, const ModelTexture* texture = nullptr);
+ModelView renderModel(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& cameraToWorld,
+                      const frames::Vec3d& lightOffset, int threads = 1, int supersample = 2,
+                      const frames::LampProfile& lamp = {}, const shading::BrdfParams* brdf = nullptr,
+                      const ModelTexture* texture = nullptr);
 // The same estimator on the model's shading: like is compared with like, so
 // the estimator's own biases (curvature breaks local planarity; smoothing)
 // and the lamp's offset from the lens are modelled exactly, not assumed away.
@@ -107,7 +108,7 @@ ModelView renderModel(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& c
 // `usable` (optional): the video field's usable pixels; the model's fits
 // then draw on the same pixels as the video's (no lumen or glint the video
 // could not use enters the model's estimate either).
-PqField pqFromModel(const ModelView& view, const Intrinsics& K, const PqOptions& options,
+PqField pqFromModel(const ModelView& view, const frames::Intrinsics& K, const PqOptions& options,
                     const std::vector<std::uint8_t>* usable = nullptr);
 
 // Weighted mean cosine between the normals of two fields over pixels where
@@ -164,8 +165,8 @@ struct RegisterOptions {
     double minSimilarity = 0.93;
     double minCorrelation = 0.8;  // the same for the intensity method
     double saturation = 0.97;     // linear, specular/clipped
-    Vec3d lightOffset{0, 0, 0};
-    LampProfile lamp;  // the lamp's spread and disk (CameraModel::lamp)
+    frames::Vec3d lightOffset{0, 0, 0};
+    frames::LampProfile lamp;  // the lamp's spread and disk (CameraModel::lamp)
     // The model's shading from a fitted brdf.json instead of the lamp
     // (`mucosa register --brdf`; see renderModel).
     std::optional<shading::BrdfParams> brdf;
@@ -267,7 +268,7 @@ struct RegisterOptions {
 };
 
 struct FrameRegistration {
-    Mat4 cameraToWorld{};
+    frames::Mat4 cameraToWorld{};
     double similarity = 0;  // pq: weighted mean cosine; intensity: NCC
     int iterations = 0;     // summed over levels
     int evaluations = 0;    // renders
@@ -287,7 +288,7 @@ struct FrameRegistration {
     // from any start, and its best such pose (a diagnostic, and the pose
     // RegisterOptions::keepMapPose keeps for a flagged frame).
     bool mapConverged = false;
-    Mat4 mapCameraToWorld{};
+    frames::Mat4 mapCameraToWorld{};
     // The method converged, but on a pose the map's step disagrees with
     // (RegisterOptions::mapAgreementMm): flagged for that.
     bool mapDisagreed = false;
@@ -312,7 +313,7 @@ struct FrameRegistration {
 // resampled to an undistorted pinhole camera, with its validity mask.
 struct VideoFrame {
     struct Level {
-        Intrinsics K;
+        frames::Intrinsics K;
         image::ImageF luminance;
         std::vector<std::uint8_t> valid;
         PqOptions pqOptions;  // the estimator's options at this level
@@ -322,21 +323,21 @@ struct VideoFrame {
 };
 // `linear`: the decoded frame (3 channels, linear), `saturated` as from
 // loadFrameImage. Pixels outside the scope's field of view (black) are masked.
-VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* saturated, const Intrinsics& K,
+VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* saturated, const frames::Intrinsics& K,
                         const RegisterOptions& options);
 
 // Registers one frame starting from `initial` (the previous frame's pose).
-FrameRegistration registerFrame(const mesh::Mesh& mesh, const VideoFrame& frame, const Mat4& initial,
+FrameRegistration registerFrame(const mesh::Mesh& mesh, const VideoFrame& frame, const frames::Mat4& initial,
                                 const RegisterOptions& options);
 
 // The triangles within `radiusMm` of a camera centre (the depth pass of a
 // frame's neighbourhood; registration renders many poses near one point).
-std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& mesh, const Vec3d& centre, double radiusMm);
+std::vector<std::uint32_t> trianglesNear(const mesh::Mesh& mesh, const frames::Vec3d& centre, double radiusMm);
 
 // The next frame's starting pose under constant velocity: `last` moved by the
 // motion from `before` to `last` (camera axes), scaled by `damping` (0: stay at
 // `last`, 1: the full motion again).
-Mat4 predictPose(const Mat4& before, const Mat4& last, double damping = 0.5) noexcept;
+frames::Mat4 predictPose(const frames::Mat4& before, const frames::Mat4& last, double damping = 0.5) noexcept;
 
 // Frame-to-frame tracking: each frame starts from the last converged pose
 // moved on by the last converged motion (constant velocity, times
@@ -350,14 +351,14 @@ Mat4 predictPose(const Mat4& before, const Mat4& last, double damping = 0.5) noe
 // that pose alone (anchorOnMap).
 class Tracker {
 public:
-    explicit Tracker(const Mat4& initial, double prediction = 1.0) noexcept
+    explicit Tracker(const frames::Mat4& initial, double prediction = 1.0) noexcept
         : last_(initial), before_(initial), prediction_(prediction) {}
-    Mat4 start() const noexcept { return haveBefore_ ? predictPose(before_, last_, prediction_) : last_; }
+    frames::Mat4 start() const noexcept { return haveBefore_ ? predictPose(before_, last_, prediction_) : last_; }
     // Every start for the next frame: start(), then the last flagged
     // frame's estimate if the frame before this one was flagged (and the
     // track did not move there).
-    std::vector<Mat4> starts() const {
-        std::vector<Mat4> s{start()};
+    std::vector<frames::Mat4> starts() const {
+        std::vector<frames::Mat4> s{start()};
         if (!fresh_ && flagged_ != last_) s.push_back(flagged_);
         return s;
     }
@@ -404,7 +405,7 @@ public:
     }
 
 private:
-    Mat4 last_, before_, flagged_{};
+    frames::Mat4 last_, before_, flagged_{};
     double prediction_;
     bool haveBefore_ = false, started_ = false, fresh_ = true;
 };
@@ -431,7 +432,7 @@ public:
     // Adds a frame registered at `cameraToWorld` (use converged frames only:
     // a frame added at a wrong pose paints the wall where it is not).
     // Returns the pixels used.
-    std::size_t add(const mesh::Mesh& mesh, const VideoFrame& frame, const Mat4& cameraToWorld,
+    std::size_t add(const mesh::Mesh& mesh, const VideoFrame& frame, const frames::Mat4& cameraToWorld,
                     const RegisterOptions& options);
     // The model texture for RegisterOptions::texture.
     std::shared_ptr<const ModelTexture> texture() const;
@@ -457,7 +458,7 @@ private:
 FrameRegistration registerTracked(const mesh::Mesh& mesh, const VideoFrame& frame, Tracker& tracker,
                                   const RegisterOptions& options, AlbedoMap* map = nullptr);
 
-FrameRegistration registerInitial(const mesh::Mesh& mesh, const VideoFrame& frame, const Mat4& initial,
+FrameRegistration registerInitial(const mesh::Mesh& mesh, const VideoFrame& frame, const frames::Mat4& initial,
                                   const RegisterOptions& options, const InitialSearch& search = {});
 
 // Pose error between two camera_to_world matrices: centre distance (mesh
@@ -465,11 +466,12 @@ FrameRegistration registerInitial(const mesh::Mesh& mesh, const VideoFrame& fram
 struct PoseError {
     double position = 0, degrees = 0;
 };
-PoseError poseError(const Mat4& a, const Mat4& b) noexcept;
+PoseError poseError(const frames::Mat4& a, const frames::Mat4& b) noexcept;
 
 // A pose moved by a translation (camera axes, mesh units) and a rotation
 // vector (camera axes, radians): camera_to_world * [R(w) | t].
-Mat4 perturbPose(const Mat4& cameraToWorld, const Vec3d& translation, const Vec3d& rotation) noexcept;
+frames::Mat4 perturbPose(const frames::Mat4& cameraToWorld, const frames::Vec3d& translation,
+                         const frames::Vec3d& rotation) noexcept;
 
 }  // namespace mucosa::fit
 
@@ -483,7 +485,7 @@ struct RegisteredFrame {
     FrameRegistration r;
 };
 struct RegistrationRun {
-    CameraModel camera;
+    frames::CameraModel camera;
     RegistrationMethod method = RegistrationMethod::PqSpace;
     std::string mesh;        // the mesh file, as given
     bool albedoMap = false;  // tracked with an albedo map (AlbedoMap)
@@ -498,8 +500,8 @@ RegistrationRun readRegistration(const std::filesystem::path& path);
 // Refuses a starting view registration cannot work from (one InputError
 // line): the mesh's normals facing out of the lumen, a pose outside the
 // airway, looking out of an open end, or pressed against a wall.
-void checkInitialView(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& pose, const Vec3d& lightOffset,
-                      const std::string& meshFile, const std::string& poseFile);
+void checkInitialView(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& pose,
+                      const frames::Vec3d& lightOffset, const std::string& meshFile, const std::string& poseFile);
 
 // `--report DIR`: index.html with the similarity trace (SVG) and, for up to
 // `samples` frames spread over the run, the frame with the registered model's

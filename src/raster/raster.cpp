@@ -1,4 +1,4 @@
-#include <mucosa/fit/raster.hpp>
+#include <mucosa/raster/raster.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -11,7 +11,7 @@
 #include <mucosa/core/memory.hpp>
 #include <mucosa/core/parallel.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::raster {
 
 namespace {
 
@@ -99,7 +99,7 @@ struct Projected {
 // pixel's margin keeps that true through rounding.
 constexpr std::uint8_t kBehind = 1;
 
-std::uint8_t outcode(const Vec3d& v, const Intrinsics& K, double near) {
+std::uint8_t outcode(const frames::Vec3d& v, const frames::Intrinsics& K, double near) {
     const double x = v[0], y = v[1], z = v[2];
     std::uint8_t c = 0;
     if (z < near) c |= kBehind;
@@ -118,12 +118,12 @@ struct Screen {
     double sx, sy, invz;
 };
 struct Vertices {
-    std::vector<Vec3d> cam;
+    std::vector<frames::Vec3d> cam;
     std::vector<std::uint8_t> code;
     std::vector<Screen> screen;
 
     explicit Vertices(std::size_t n) : cam(n), code(n), screen(n) {}
-    void set(std::size_t i, const Vec3d& c, const Intrinsics& K, double near) {
+    void set(std::size_t i, const frames::Vec3d& c, const frames::Intrinsics& K, double near) {
         cam[i] = c;
         code[i] = outcode(c, K, near);
         if (code[i] & kBehind) return;
@@ -131,14 +131,14 @@ struct Vertices {
         screen[i] = {K.fx * c[0] * iz + K.cx, K.fy * c[1] * iz + K.cy, iz};
     }
 };
-constexpr std::size_t kBytesPerVertex = sizeof(Vec3d) + 1 + sizeof(Screen);
+constexpr std::size_t kBytesPerVertex = sizeof(frames::Vec3d) + 1 + sizeof(Screen);
 
 // False when the triangle is wholly outside the view or its bounding box holds
 // no pixel centre of the image. A triangle with no corner behind the near
 // plane takes its corners' projections as they are (the same numbers the
 // clip would give: it copies such corners unchanged); one that straddles the
 // plane is clipped first.
-bool project(const Vertices& vs, const mesh::Mesh& mesh, std::size_t t, const Intrinsics& K, double near,
+bool project(const Vertices& vs, const mesh::Mesh& mesh, std::size_t t, const frames::Intrinsics& K, double near,
              Projected& u) {
     const std::uint32_t* idx = &mesh.indices[3 * t];
     const std::uint8_t c0 = vs.code[idx[0]], c1 = vs.code[idx[1]], c2 = vs.code[idx[2]];
@@ -152,7 +152,7 @@ bool project(const Vertices& vs, const mesh::Mesh& mesh, std::size_t t, const In
     } else {
         ClipVertex in[3];
         for (int k = 0; k < 3; ++k) {
-            const Vec3d& v = vs.cam[idx[k]];
+            const frames::Vec3d& v = vs.cam[idx[k]];
             in[k] = {v[0], v[1], v[2], k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0};
         }
         ClipVertex poly[4];
@@ -186,7 +186,8 @@ void rasterProjected(const Projected& u, std::int32_t tri, int yBegin, int yEnd,
 
 }  // namespace
 
-GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, double near, int threads) {
+GBuffer rasterize(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& W, double near,
+                  int threads) {
     GBuffer g;
     g.width = K.width;
     g.height = K.height;
@@ -210,7 +211,7 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
     Vertices vs(mesh.vertexCount());
     const auto toCamera = [&](std::size_t i) {
         const auto& p = mesh.positions[i];
-        vs.set(i, transformPoint(W, {p[0], p[1], p[2]}), K, near);
+        vs.set(i, frames::transformPoint(W, {p[0], p[1], p[2]}), K, near);
     };
     if (workers == 1) {
         // One pass, nothing stored: the registration calls this thousands of
@@ -259,4 +260,4 @@ GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& W, do
     return g;
 }
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::raster

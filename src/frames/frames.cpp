@@ -1,4 +1,4 @@
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +13,7 @@
 #include "core/json_parse.hpp"
 #include "frames_json.hpp"
 
-namespace mucosa::fit {
+namespace mucosa::frames {
 
 using json = nlohmann::json;
 namespace fs = std::filesystem;
@@ -380,4 +380,32 @@ std::array<double, 2> unproject(const Intrinsics& K, double px, double py) noexc
     return {x, y};
 }
 
-}  // namespace mucosa::fit
+std::array<float, 16> glViewMatrix(const Mat4& c2w) {
+    // OpenGL eye space = OpenCV camera space with y and z negated.
+    const Mat4 w2c = invertRigid(c2w);
+    std::array<float, 16> m{};
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) {
+            const double s = (r == 1 || r == 2) ? -1.0 : 1.0;
+            m[static_cast<std::size_t>(c * 4 + r)] = static_cast<float>(s * w2c[r][c]);
+        }
+    return m;
+}
+
+std::array<float, 16> glProjectionMatrix(const Intrinsics& K, double n, double f) {
+    // x_ndc = 2 (u + 0.5) / w - 1 with u = fx X/Z + cx; y_ndc = 1 - 2 (v + 0.5) / h
+    // (first row on top); X = xe, Y = -ye, Z = -ze (derivation in docs/theory.md).
+    const double w = K.width, h = K.height;
+    std::array<float, 16> m{};
+    auto set = [&](int r, int c, double v) { m[static_cast<std::size_t>(c * 4 + r)] = static_cast<float>(v); };
+    set(0, 0, 2 * K.fx / w);
+    set(0, 2, 1 - 2 * (K.cx + 0.5) / w);
+    set(1, 1, 2 * K.fy / h);
+    set(1, 2, 2 * (K.cy + 0.5) / h - 1);
+    set(2, 2, -(f + n) / (f - n));
+    set(2, 3, -2 * f * n / (f - n));
+    set(3, 2, -1);
+    return m;
+}
+
+}  // namespace mucosa::frames

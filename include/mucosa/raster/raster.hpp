@@ -6,10 +6,10 @@
 #include <cstdint>
 #include <vector>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/mesh/mesh.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::raster {
 
 struct GBuffer {
     int width = 0, height = 0;
@@ -21,8 +21,8 @@ struct GBuffer {
 
 // Rasterises `mesh` for a pinhole camera with K's fx, fy, cx, cy (pixel centres
 // at integer coordinates, no distortion: distortion is applied when sampling
-// images, see backproject.hpp), clipping at z = near. Both faces are kept.
-GBuffer rasterize(const mesh::Mesh& mesh, const Intrinsics& K, const Mat4& worldToCamera, double near = 0.05,
-                  int threads = 0);
+// images, see src/fit/backproject.cpp), clipping at z = near. Both faces are kept.
+GBuffer rasterize(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& worldToCamera,
+                  double near = 0.05, int threads = 0);
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::raster

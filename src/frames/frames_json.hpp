@@ -5,9 +5,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::frames {
 
 // `target` relative to `folder` ('/' separators), or absolute when it cannot be.
 std::string relativePath(const std::filesystem::path& target, const std::filesystem::path& folder);
@@ -18,4 +18,4 @@ nlohmann::json intrinsicsJson(const Intrinsics& K);
 // "gamma" or "tone_curve", "vignetting" when not 0, "saturation" when not 1.
 void writeResponse(nlohmann::json& j, const Response& response);
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::frames

@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::frames {
 
 using Mat4 = std::array<std::array<double, 4>, 4>;
 using Vec3d = std::array<double, 3>;
@@ -146,4 +146,11 @@ Vec3d transformDirection(const Mat4& m, const Vec3d& d) noexcept;
 std::array<double, 2> project(const Intrinsics& K, double xn, double yn) noexcept;
 std::array<double, 2> unproject(const Intrinsics& K, double px, double py) noexcept;
 
-}  // namespace mucosa::fit
+// The GL camera of a registered frame: OpenCV intrinsics (pixel centres at
+// integer coordinates) and camera_to_world -> column-major view and projection
+// matrices for OpenGL, with the first image row at the top. Distortion is not
+// modelled by the rasteriser (frames with k1/k2 should be undistorted first).
+std::array<float, 16> glViewMatrix(const Mat4& cameraToWorld);
+std::array<float, 16> glProjectionMatrix(const Intrinsics& K, double nearMm, double farMm);
+
+}  // namespace mucosa::frames
