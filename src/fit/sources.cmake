@@ -10,8 +10,6 @@ target_sources(mucosa_fit PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/fit.cpp
   ${CMAKE_CURRENT_LIST_DIR}/report.cpp
   ${CMAKE_CURRENT_LIST_DIR}/categories.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/highlight_stats.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/tune.cpp
   ${CMAKE_CURRENT_LIST_DIR}/register.cpp
   ${CMAKE_CURRENT_LIST_DIR}/register_io.cpp
   ${CMAKE_CURRENT_LIST_DIR}/patient.cpp

@@ -2,7 +2,7 @@
 // blobs, the resize, the summaries and distance of the realism tool, reading
 // targets; and rendered frames checked against the numbers the realism tool
 // itself (realism_stats.py) gives for them.
-#include <mucosa/fit/highlight_stats.hpp>
+#include <mucosa/tune/highlight_stats.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -20,7 +20,7 @@
 namespace {
 
 using namespace mucosa;
-using fit::HighlightStat;
+using tune::HighlightStat;
 namespace fs = std::filesystem;
 
 constexpr std::array<std::uint8_t, 3> kTissue{200, 120, 110};  // salmon: never a highlight
@@ -69,7 +69,7 @@ TEST(HighlightStats, EllipsesGiveTheirCountAreaAndElongation) {
     const int a1 = ellipse(img, 100, 120, 12, 4, 0.5);   // elongation 3
     const int a2 = ellipse(img, 200, 200, 8, 8, 0.0);    // a disc: 1
     const int a3 = ellipse(img, 220, 100, 15, 6, -1.0);  // 2.5
-    const fit::FrameHighlights h = fit::measureHighlights(img);
+    const tune::FrameHighlights h = tune::measureHighlights(img);
     const int nvalid = diskPixels();
     EXPECT_EQ(h[HighlightStat::Count], 3);
     // Each digitised area is within 3 % of pi a b.
@@ -86,7 +86,7 @@ TEST(HighlightStats, EllipsesGiveTheirCountAreaAndElongation) {
 TEST(HighlightStats, ElongationOfAPixelLineUsesTheUnitPixelVariance) {
     image::Image8 img = canvas();
     for (int x = 0; x < 9; ++x) put(img, 150 + x, 160);
-    const fit::FrameHighlights h = fit::measureHighlights(img);
+    const tune::FrameHighlights h = tune::measureHighlights(img);
     // var(0..8) = 7.5 (unbiased) along x; 0 across, plus 1/12 each way.
     EXPECT_NEAR(h[HighlightStat::Elongation], std::sqrt((7.5 + 1.0 / 12) / (1.0 / 12)), 1e-9);
     EXPECT_EQ(h[HighlightStat::Count], 1);
@@ -102,7 +102,7 @@ TEST(HighlightStats, SmallComponentsDiagonalsAndTheDisk) {
     put(img, 3, 2);
     // A 4 px square: counted, but too small for elongation (>= 5 px).
     for (int d = 0; d < 4; ++d) put(img, 200 + d % 2, 150 + d / 2);
-    const fit::FrameHighlights h = fit::measureHighlights(img);
+    const tune::FrameHighlights h = tune::measureHighlights(img);
     EXPECT_EQ(h[HighlightStat::Count], 2);
     EXPECT_DOUBLE_EQ(h[HighlightStat::AreaMedian], 3.0);  // median of {2, 4}
     EXPECT_NEAR(h[HighlightStat::AreaP90], 2 + 0.9 * 2, 1e-12);
@@ -119,13 +119,13 @@ TEST(HighlightStats, ThresholdsAreTheToolsValueAndSaturation) {
     auto one = [](std::array<std::uint8_t, 3> color) {
         image::Image8 img = canvas();
         ellipse(img, 160, 160, 5, 5, 0, color);
-        return fit::measureHighlights(img);
+        return tune::measureHighlights(img);
     };
     EXPECT_EQ(one({235, 235, 235})[HighlightStat::Count], 1);  // V = 0.9216 > 0.92
     EXPECT_EQ(one({234, 234, 234})[HighlightStat::Count], 0);  // V = 0.9176
     EXPECT_EQ(one({255, 200, 200})[HighlightStat::Count], 1);  // S = 0.216
     EXPECT_EQ(one({255, 180, 180})[HighlightStat::Count], 0);  // S = 0.294
-    const fit::FrameHighlights none = one({100, 100, 100});
+    const tune::FrameHighlights none = one({100, 100, 100});
     EXPECT_EQ(none[HighlightStat::Largest], 0.0);
     EXPECT_TRUE(std::isnan(none[HighlightStat::AreaMedian]));
     EXPECT_TRUE(std::isnan(none[HighlightStat::Radius]));
@@ -142,16 +142,16 @@ TEST(HighlightStats, LargerAndNonSquareFramesAreCroppedAndAveraged) {
     ellipse(small, 220, 100, 15, 6, -1.0);
     ellipse(big, 80 + 2 * 100 + 0.5, 2 * 120 + 0.5, 24, 8, 0.5);
     ellipse(big, 80 + 2 * 220 + 0.5, 2 * 100 + 0.5, 30, 12, -1.0);
-    const fit::FrameHighlights a = fit::measureHighlights(small), b = fit::measureHighlights(big);
+    const tune::FrameHighlights a = tune::measureHighlights(small), b = tune::measureHighlights(big);
     EXPECT_EQ(b[HighlightStat::Count], 2);
     EXPECT_NEAR(b[HighlightStat::AreaMedian], a[HighlightStat::AreaMedian], 0.08 * a[HighlightStat::AreaMedian]);
     EXPECT_NEAR(b[HighlightStat::Elongation], a[HighlightStat::Elongation], 0.08 * a[HighlightStat::Elongation]);
     EXPECT_NEAR(b[HighlightStat::Radius], a[HighlightStat::Radius], 0.01);
-    const image::Image8 r = fit::squareResize(big);
+    const image::Image8 r = tune::squareResize(big);
     EXPECT_EQ(r.width(), 320);
     EXPECT_EQ(r.height(), 320);
     // A uniform picture stays uniform through the resize, down and up.
-    const image::Image8 up = fit::squareResize(canvas(100, 90));
+    const image::Image8 up = tune::squareResize(canvas(100, 90));
     EXPECT_EQ(up.at(0, 0, 0), kTissue[0]);
     EXPECT_EQ(up.at(319, 319, 2), kTissue[2]);
 }
@@ -160,42 +160,42 @@ TEST(HighlightStats, AMaskLeavesTooFewPixelsForStatistics) {
     image::Image8 img = canvas();
     ellipse(img, 160, 160, 10, 10, 0);
     image::Image8 mask(320, 320, 1);  // all zero: nothing valid
-    const fit::FrameHighlights h = fit::measureHighlights(img, &mask);
+    const tune::FrameHighlights h = tune::measureHighlights(img, &mask);
     for (double v : h.values) EXPECT_TRUE(std::isnan(v));
     // Half the frame masked: the blob there no longer counts.
     for (int y = 0; y < 320; ++y)
         for (int x = 0; x < 160; ++x) mask.at(x, y) = 255;
     image::Image8 right = canvas();
     ellipse(right, 240, 160, 10, 10, 0);
-    EXPECT_EQ(fit::measureHighlights(right, &mask)[HighlightStat::Count], 0);
-    EXPECT_EQ(fit::measureHighlights(right)[HighlightStat::Count], 1);
+    EXPECT_EQ(tune::measureHighlights(right, &mask)[HighlightStat::Count], 0);
+    EXPECT_EQ(tune::measureHighlights(right)[HighlightStat::Count], 1);
 }
 
 TEST(HighlightStats, PercentilesSummariesAndDistanceAreNumpysAndTheTools) {
-    EXPECT_DOUBLE_EQ(fit::percentile({4, 1, 3, 2}, 50), 2.5);
-    EXPECT_DOUBLE_EQ(fit::percentile({4, 1, 3, 2}, 90), 3.7);
-    EXPECT_DOUBLE_EQ(fit::percentile({4, 1, 3, 2}, 25), 1.75);
-    EXPECT_TRUE(std::isnan(fit::percentile({}, 50)));
-    std::vector<fit::FrameHighlights> frames(5);
+    EXPECT_DOUBLE_EQ(tune::percentile({4, 1, 3, 2}, 50), 2.5);
+    EXPECT_DOUBLE_EQ(tune::percentile({4, 1, 3, 2}, 90), 3.7);
+    EXPECT_DOUBLE_EQ(tune::percentile({4, 1, 3, 2}, 25), 1.75);
+    EXPECT_TRUE(std::isnan(tune::percentile({}, 50)));
+    std::vector<tune::FrameHighlights> frames(5);
     const double counts[] = {2, 0, 5, NAN, 1};
     for (std::size_t i = 0; i < 5; ++i) {
         frames[i].values.fill(NAN);
         frames[i][HighlightStat::Count] = counts[i];
     }
-    const fit::HighlightSummary s = fit::summarise(frames);
+    const tune::HighlightSummary s = tune::summarise(frames);
     EXPECT_EQ(s[HighlightStat::Count].n, 4);
     EXPECT_DOUBLE_EQ(s[HighlightStat::Count].median, 1.5);
     EXPECT_DOUBLE_EQ(s[HighlightStat::Count].iqr(), 2.75 - 0.75);
     EXPECT_EQ(s[HighlightStat::Fraction].n, 0);
     // distance(): |6 - 1.5| / 2 = 2.25; capped at 10; the IQR floored at 5 % of the median.
-    fit::StatSummary ours{6, 6, 6, 3};
-    EXPECT_DOUBLE_EQ(fit::statDistance(ours, s[HighlightStat::Count]), 2.25);
-    EXPECT_DOUBLE_EQ(fit::statDistance(fit::StatSummary{100, 100, 100, 1}, s[HighlightStat::Count]), 10.0);
-    EXPECT_DOUBLE_EQ(fit::statDistance(fit::StatSummary{}, s[HighlightStat::Count]), 10.0);  // ours has none
-    EXPECT_TRUE(std::isnan(fit::statDistance(ours, s[HighlightStat::Fraction])));            // target has none
-    EXPECT_DOUBLE_EQ(fit::statDistance(fit::StatSummary{11, 11, 11, 1}, fit::StatSummary{10, 10, 10, 3}), 2.0);
-    const fit::Distance d =
-        fit::distance(fit::summarise({frames[0]}), s, {HighlightStat::Count, HighlightStat::Fraction});
+    tune::StatSummary ours{6, 6, 6, 3};
+    EXPECT_DOUBLE_EQ(tune::statDistance(ours, s[HighlightStat::Count]), 2.25);
+    EXPECT_DOUBLE_EQ(tune::statDistance(tune::StatSummary{100, 100, 100, 1}, s[HighlightStat::Count]), 10.0);
+    EXPECT_DOUBLE_EQ(tune::statDistance(tune::StatSummary{}, s[HighlightStat::Count]), 10.0);  // ours has none
+    EXPECT_TRUE(std::isnan(tune::statDistance(ours, s[HighlightStat::Fraction])));             // target has none
+    EXPECT_DOUBLE_EQ(tune::statDistance(tune::StatSummary{11, 11, 11, 1}, tune::StatSummary{10, 10, 10, 3}), 2.0);
+    const tune::Distance d =
+        tune::distance(tune::summarise({frames[0]}), s, {HighlightStat::Count, HighlightStat::Fraction});
     EXPECT_EQ(d.terms, 1);
     EXPECT_DOUBLE_EQ(d.total, 0.25);
 }
@@ -210,12 +210,12 @@ TEST(HighlightStats, TargetsAreReadFromAStatisticsFileOrAFolderOfFrames) {
               R"({"about": "x", "frames": [
                    {"name": "a", "stats": {"hl_count": 2.0, "hl_area_med": null, "L_mean": 50}},
                    {"name": "b", "stats": {"hl_count": 4, "hl_area_med": 15.5}}]})");
-    const auto frames = fit::readTargetFrames(t / "stats.json");
+    const auto frames = tune::readTargetFrames(t / "stats.json");
     ASSERT_EQ(frames.size(), 2u);
     EXPECT_EQ(frames[1][HighlightStat::Count], 4);
     EXPECT_TRUE(std::isnan(frames[0][HighlightStat::AreaMedian]));
     EXPECT_TRUE(std::isnan(frames[0][HighlightStat::Elongation]));  // absent = null
-    EXPECT_DOUBLE_EQ(fit::summarise(frames)[HighlightStat::Count].median, 3.0);
+    EXPECT_DOUBLE_EQ(tune::summarise(frames)[HighlightStat::Count].median, 3.0);
 
     fs::create_directories(t / "frames");
     image::Image8 img = canvas();
@@ -224,7 +224,7 @@ TEST(HighlightStats, TargetsAreReadFromAStatisticsFileOrAFolderOfFrames) {
     image::Image8 mask(320, 320, 1);  // masks f1 entirely
     image::writePng(t / "frames" / "f1.mask.png", mask);
     image::writePng(t / "frames" / "f2.png", img);
-    const auto measured = fit::readTargetFrames(t / "frames");
+    const auto measured = tune::readTargetFrames(t / "frames");
     ASSERT_EQ(measured.size(), 2u);  // the mask is not a frame
     EXPECT_TRUE(std::isnan(measured[0][HighlightStat::Count]));
     EXPECT_EQ(measured[1][HighlightStat::Count], 1);
@@ -232,21 +232,21 @@ TEST(HighlightStats, TargetsAreReadFromAStatisticsFileOrAFolderOfFrames) {
 
 TEST(HighlightStats, BadTargetsAreOneClearError) {
     test::TempDir t;
-    EXPECT_THROW(fit::readTargetFrames(t / "missing.json"), IoError);
+    EXPECT_THROW(tune::readTargetFrames(t / "missing.json"), IoError);
     writeText(t / "bad.json", R"({"frames": [ {"stats": {"hl_count": 1}}, ]})");
-    EXPECT_THROW(fit::readTargetFrames(t / "bad.json"), InputError);
+    EXPECT_THROW(tune::readTargetFrames(t / "bad.json"), InputError);
     writeText(t / "nofr.json", R"({"about": "no frames"})");
-    EXPECT_THROW(fit::readTargetFrames(t / "nofr.json"), InputError);
+    EXPECT_THROW(tune::readTargetFrames(t / "nofr.json"), InputError);
     writeText(t / "str.json", R"({"frames": [{"name": "a", "stats": {"hl_count": "two"}}]})");
     try {
-        fit::readTargetFrames(t / "str.json");
+        tune::readTargetFrames(t / "str.json");
         FAIL() << "a string statistic was accepted";
     } catch (const InputError& e) {
         EXPECT_EQ(e.subject(), "frames[0].stats.hl_count");
         EXPECT_EQ(e.file(), (t / "str.json").string());
     }
     fs::create_directories(t / "empty");
-    EXPECT_THROW(fit::readTargetFrames(t / "empty"), InputError);
+    EXPECT_THROW(tune::readTargetFrames(t / "empty"), InputError);
 }
 
 }  // namespace
@@ -258,7 +258,7 @@ namespace {
 // says of them (numpy 1.24, scipy 1.10; printed to 10 digits).
 struct Reference {
     const char* file;
-    std::array<double, fit::kHighlightStatCount> values;
+    std::array<double, tune::kHighlightStatCount> values;
 };
 const Reference kReferences[] = {
     {"phantom_ks2.5_view1.png", {0.01365389915, 51, 5, 50, 2.058663459, 0.5151264885, 0.002493799945, 0.4369323915}},
@@ -268,11 +268,11 @@ const Reference kReferences[] = {
 TEST(HighlightStats, RenderedFramesGiveTheRealismToolsNumbers) {
     for (const Reference& ref : kReferences) {
         const fs::path p = fs::path(MUCOSA_TUNE_TESTDATA) / ref.file;
-        const fit::FrameHighlights h = fit::measureFrameFile(p);
-        for (int k = 0; k < fit::kHighlightStatCount; ++k) {
+        const tune::FrameHighlights h = tune::measureFrameFile(p);
+        for (int k = 0; k < tune::kHighlightStatCount; ++k) {
             const auto i = static_cast<std::size_t>(k);
             EXPECT_NEAR(h.values[i], ref.values[i], 1e-8 * std::abs(ref.values[i]) + 1e-12)
-                << ref.file << " " << fit::statName(static_cast<HighlightStat>(k));
+                << ref.file << " " << tune::statName(static_cast<HighlightStat>(k));
         }
         // The same frame at twice the size (each pixel a 2 x 2 block): area
         // averaging gives back the frame exactly, so the same numbers.
@@ -281,8 +281,8 @@ TEST(HighlightStats, RenderedFramesGiveTheRealismToolsNumbers) {
         for (int y = 0; y < 640; ++y)
             for (int x = 0; x < 640; ++x)
                 for (int c = 0; c < 3; ++c) big.at(x, y, c) = img.at(x / 2, y / 2, c);
-        EXPECT_EQ(fit::squareResize(big), img);
-        EXPECT_EQ(fit::measureHighlights(big).values, h.values);
+        EXPECT_EQ(tune::squareResize(big), img);
+        EXPECT_EQ(tune::measureHighlights(big).values, h.values);
     }
 }
 

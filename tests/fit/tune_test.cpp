@@ -1,7 +1,7 @@
 // mucosa tune (fit/tune.hpp): the tunable parameters, the sweep's values and
 // plots, the preset round trip, parameter recovery with the render in the
 // loop, and the command's errors.
-#include <mucosa/fit/tune.hpp>
+#include <mucosa/tune/tune.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -20,71 +20,71 @@
 namespace {
 
 using namespace mucosa;
-using fit::HighlightStat;
+using tune::HighlightStat;
 
 TEST(Tune, ParametersAreFoundByKeyOrNameAndRefusedWithAHint) {
-    EXPECT_EQ(fit::findTuneParam("material.shininess").key, "material.shininess");
-    EXPECT_EQ(fit::findTuneParam("shininess").key, "material.shininess");
-    EXPECT_EQ(fit::findTuneParam("frequency").key, "reflectance_map.frequency");
+    EXPECT_EQ(tune::findTuneParam("material.shininess").key, "material.shininess");
+    EXPECT_EQ(tune::findTuneParam("shininess").key, "material.shininess");
+    EXPECT_EQ(tune::findTuneParam("frequency").key, "reflectance_map.frequency");
     try {
-        fit::findTuneParam("shinyness");
+        tune::findTuneParam("shinyness");
         FAIL() << "an unknown parameter was accepted";
     } catch (const InputError& e) {
         EXPECT_EQ(e.subject(), "--params");
         EXPECT_NE(std::string(e.reason()).find("did you mean 'material.shininess'"), std::string::npos) << e.reason();
     }
-    EXPECT_EQ(fit::defaultTuneKeys().size(), 6u);
+    EXPECT_EQ(tune::defaultTuneKeys().size(), 6u);
     // Every range lies inside the registry's: its ends can be set.
-    for (const fit::TuneParam& p : fit::tuneParams()) {
+    for (const tune::TuneParam& p : tune::tuneParams()) {
         scene::Scene s = scene::defaultScene();
-        EXPECT_NO_THROW(fit::setTuneValue(s, p, p.min)) << p.key;
-        EXPECT_NEAR(fit::tuneValue(s, p), p.integer ? std::round(p.min) : p.min, 1e-6 * p.min) << p.key;
-        EXPECT_NO_THROW(fit::setTuneValue(s, p, p.max)) << p.key;
+        EXPECT_NO_THROW(tune::setTuneValue(s, p, p.min)) << p.key;
+        EXPECT_NEAR(tune::tuneValue(s, p), p.integer ? std::round(p.min) : p.min, 1e-6 * p.min) << p.key;
+        EXPECT_NO_THROW(tune::setTuneValue(s, p, p.max)) << p.key;
     }
 }
 
 TEST(Tune, ValuesAreRoundedAndCheckedAgainstTheRegistry) {
     scene::Scene s = scene::defaultScene();
-    fit::setTuneValue(s, fit::findTuneParam("octaves"), 3.6);
+    tune::setTuneValue(s, tune::findTuneParam("octaves"), 3.6);
     EXPECT_EQ(s.mapParams.noise.octaves, 4);
-    fit::setTuneValue(s, fit::findTuneParam("frequency"), 23.4);  // a tileable map needs whole cycles
+    tune::setTuneValue(s, tune::findTuneParam("frequency"), 23.4);  // a tileable map needs whole cycles
     EXPECT_EQ(s.mapParams.noise.frequency, 23.0);
     // With 6 octaves, 24 cycles would put 384 in the last (a tileable period
     // above 256 must be a multiple of it): the nearest the lattice takes, the lower on a tie.
-    fit::setTuneValue(s, fit::findTuneParam("octaves"), 6);
-    fit::setTuneValue(s, fit::findTuneParam("frequency"), 24);
+    tune::setTuneValue(s, tune::findTuneParam("octaves"), 6);
+    tune::setTuneValue(s, tune::findTuneParam("frequency"), 24);
     EXPECT_EQ(s.mapParams.noise.frequency, 16.0);
-    fit::setTuneValue(s, fit::findTuneParam("frequency"), 7);
+    tune::setTuneValue(s, tune::findTuneParam("frequency"), 7);
     EXPECT_EQ(s.mapParams.noise.frequency, 7.0);
-    fit::setTuneValue(s, fit::findTuneParam("specular_strength"), 1.5);
+    tune::setTuneValue(s, tune::findTuneParam("specular_strength"), 1.5);
     EXPECT_FLOAT_EQ(s.params[shading::Param::SpecularStrength], 1.5f);
-    EXPECT_THROW(fit::setTuneValue(s, fit::findTuneParam("shininess"), 1e6), InputError);
-    EXPECT_THROW(fit::setTuneValue(s, fit::findTuneParam("gain"), NAN), InputError);
+    EXPECT_THROW(tune::setTuneValue(s, tune::findTuneParam("shininess"), 1e6), InputError);
+    EXPECT_THROW(tune::setTuneValue(s, tune::findTuneParam("gain"), NAN), InputError);
 }
 
 TEST(Tune, SweepValuesSpanTheRangeAndIncludeTheScenesValue) {
-    const fit::TuneParam& f = fit::findTuneParam("frequency");
-    const std::vector<double> v = fit::sweepValues(f, 7, 16);
+    const tune::TuneParam& f = tune::findTuneParam("frequency");
+    const std::vector<double> v = tune::sweepValues(f, 7, 16);
     // 2 .. 128 in equal ratios (x2), rounded; 16 is one of them.
     EXPECT_EQ(v, (std::vector<double>{2, 4, 8, 16, 32, 64, 128}));
-    const std::vector<double> g = fit::sweepValues(fit::findTuneParam("gain"), 4, 0.5);
+    const std::vector<double> g = tune::sweepValues(tune::findTuneParam("gain"), 4, 0.5);
     EXPECT_EQ(g.size(), 5u);
     EXPECT_DOUBLE_EQ(g[0], 0.2);
     EXPECT_DOUBLE_EQ(g[2], 0.5);  // the scene's value, inserted in order
     EXPECT_DOUBLE_EQ(g[4], 0.8);
     EXPECT_TRUE(std::is_sorted(g.begin(), g.end()));
-    const std::vector<double> o = fit::sweepValues(fit::findTuneParam("octaves"), 20, 6);
+    const std::vector<double> o = tune::sweepValues(tune::findTuneParam("octaves"), 20, 6);
     EXPECT_EQ(o, (std::vector<double>{1, 2, 3, 4, 5, 6, 7, 8}));  // distinct whole numbers
 }
 
 TEST(Tune, PresetJsonIsASceneWithTheFittedLook) {
     test::TempDir dir;
     const scene::Scene base = scene::defaultScene();
-    const fit::TuneValues v = {{&fit::findTuneParam("frequency"), 32},
-                               {&fit::findTuneParam("strength"), 0.012},
-                               {&fit::findTuneParam("shininess"), 90}};
+    const tune::TuneValues v = {{&tune::findTuneParam("frequency"), 32},
+                                {&tune::findTuneParam("strength"), 0.012},
+                                {&tune::findTuneParam("shininess"), 90}};
     // A fragment: with a mesh it is a whole scene.
-    nlohmann::json j = nlohmann::json::parse(fit::presetJson(base, v));
+    nlohmann::json j = nlohmann::json::parse(tune::presetJson(base, v));
     EXPECT_EQ(j.size(), 2u);  // reflectance_map and material, nothing else
     j["mesh"] = "phantom";
     writeFileAtomic(dir / "preset.json", j.dump());
@@ -99,27 +99,27 @@ TEST(Tune, PresetJsonIsASceneWithTheFittedLook) {
 }
 
 TEST(Tune, SvgHasOnePanelPerParameterAndTheTargetBand) {
-    fit::SweepResult r;
+    tune::SweepResult r;
     r.views = 2;
     r.size = 320;
     for (const char* k : {"frequency", "shininess"}) {
-        const fit::TuneParam* p = &fit::findTuneParam(k);
+        const tune::TuneParam* p = &tune::findTuneParam(k);
         r.params.push_back(p);
         r.baseValues.push_back(p->min);
         for (double t : {p->min, p->max}) {
-            fit::SweepPoint pt;
+            tune::SweepPoint pt;
             pt.param = p;
             pt.value = t;
             pt.isBase = t == p->min;
-            fit::FrameHighlights h;
+            tune::FrameHighlights h;
             h.values.fill(t);
             pt.views = {h, h};
-            pt.summary = fit::summarise(pt.views);
+            pt.summary = tune::summarise(pt.views);
             r.points.push_back(pt);
         }
     }
-    fit::HighlightSummary target = r.points[0].summary;
-    const std::string svg = fit::sweepSvg(r, HighlightStat::Count, &target);
+    tune::HighlightSummary target = r.points[0].summary;
+    const std::string svg = tune::sweepSvg(r, HighlightStat::Count, &target);
     EXPECT_EQ(svg.rfind("<svg", 0), 0u);
     EXPECT_NE(svg.find("</svg>"), std::string::npos);
     auto countOf = [&](const std::string& what) {
@@ -131,9 +131,9 @@ TEST(Tune, SvgHasOnePanelPerParameterAndTheTargetBand) {
     EXPECT_EQ(countOf("stroke-dasharray"), 2u);  // the scene's value in each
     EXPECT_EQ(countOf("fill=\"#2a2\""), 2u);     // the target band in each
     EXPECT_NE(svg.find("reflectance_map.frequency"), std::string::npos);
-    const std::string tsv = fit::sweepTsv(r);
+    const std::string tsv = tune::sweepTsv(r);
     EXPECT_EQ(std::count(tsv.begin(), tsv.end(), '\n'), 5);  // header + 4 points
-    const nlohmann::json j = nlohmann::json::parse(fit::sweepJson(r, &target));
+    const nlohmann::json j = nlohmann::json::parse(tune::sweepJson(r, &target));
     EXPECT_EQ(j["params"].size(), 2u);
     EXPECT_EQ(j["params"][0]["points"][1]["views"].size(), 2u);
 }
@@ -150,19 +150,19 @@ scene::Scene smallScene() {
 
 TEST(Tune, FitRecoversAShininessFromItsHighlights) {
     const scene::Scene s = smallScene();
-    fit::ProbeOptions po;
+    tune::ProbeOptions po;
     po.views = 4;
     po.size = 320;
-    const fit::TuneParam& shin = fit::findTuneParam("shininess");
+    const tune::TuneParam& shin = tune::findTuneParam("shininess");
     // The target: the same views at a known shininess, 2.5x the scene's 40.
     constexpr double kTrue = 100;
-    fit::HighlightSummary target;
+    tune::HighlightSummary target;
     {
-        fit::HighlightProbe probe(s, po);
-        target = fit::summarise(probe.measure({{&shin, kTrue}}));
+        tune::HighlightProbe probe(s, po);
+        target = tune::summarise(probe.measure({{&shin, kTrue}}));
     }
     ASSERT_GT(target[HighlightStat::Count].median, 0) << "no highlights at the target setting: nothing to fit";
-    fit::TuneFitOptions o;
+    tune::TuneFitOptions o;
     o.params = {"material.shininess"};
     o.probe = po;
     o.maxEvaluations = 24;
@@ -173,7 +173,7 @@ TEST(Tune, FitRecoversAShininessFromItsHighlights) {
         last = done;
         ++calls;
     };
-    const fit::TuneFitResult r = fit::fitToTarget(s, target, o);
+    const tune::TuneFitResult r = tune::fitToTarget(s, target, o);
     ASSERT_EQ(r.best.size(), 1u);
     EXPECT_DOUBLE_EQ(r.start[0].second, 40.0);
     EXPECT_LT(r.after.total, 0.5 * r.before.total);
@@ -185,17 +185,17 @@ TEST(Tune, FitRecoversAShininessFromItsHighlights) {
     EXPECT_EQ(calls, r.evaluations);
     // Deterministic: the same search gives the same answer.
     o.progress = nullptr;
-    const fit::TuneFitResult again = fit::fitToTarget(s, target, o);
+    const tune::TuneFitResult again = tune::fitToTarget(s, target, o);
     EXPECT_EQ(again.best[0].second, r.best[0].second);
     EXPECT_EQ(again.after.total, r.after.total);
 }
 
 TEST(Tune, SweepMeasuresEachValueAndSharesTheScenesOwn) {
-    fit::SweepOptions o;
+    tune::SweepOptions o;
     o.params = {"specular_strength"};
     o.steps = 3;
     o.probe.views = 2;
-    const fit::SweepResult r = fit::sweep(smallScene(), o);
+    const tune::SweepResult r = tune::sweep(smallScene(), o);
     // 0.1, 0.548, 2.5 (the scene's), 3.
     ASSERT_EQ(r.points.size(), 4u);
     EXPECT_TRUE(r.points[2].isBase);

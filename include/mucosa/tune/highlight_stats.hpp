@@ -20,7 +20,7 @@
 
 #include <mucosa/image/image.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::tune {
 
 inline constexpr int kStatsSize = 320;         // frames are measured at 320 x 320
 inline constexpr double kStatsRadius = 152.0;  // analysis disk radius, px (0.95 * 320 / 2)
@@ -112,4 +112,4 @@ FrameHighlights measureFrameFile(const std::filesystem::path& png);
 // highlight statistic that is not a number or null.
 std::vector<FrameHighlights> readTargetFrames(const std::filesystem::path& path);
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::tune

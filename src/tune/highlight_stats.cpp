@@ -1,4 +1,4 @@
-#include <mucosa/fit/highlight_stats.hpp>
+#include <mucosa/tune/highlight_stats.hpp>
 
 #include <algorithm>
 #include <cctype>
@@ -15,7 +15,7 @@
 
 #include "core/json_parse.hpp"
 
-namespace mucosa::fit {
+namespace mucosa::tune {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -388,4 +388,4 @@ std::vector<FrameHighlights> readTargetFrames(const fs::path& path) {
     return out;
 }
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::tune

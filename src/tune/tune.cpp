@@ -1,4 +1,4 @@
-#include <mucosa/fit/tune.hpp>
+#include <mucosa/tune/tune.hpp>
 
 #include <algorithm>
 #include <array>
@@ -17,7 +17,7 @@
 #include <mucosa/scene/scene.hpp>
 #include <mucosa/shading/params.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::tune {
 
 using json = nlohmann::json;
 
@@ -627,4 +627,4 @@ std::string presetJson(const scene::Scene& scene, const TuneValues& values) {
     return j.dump(2) + "\n";
 }
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::tune

@@ -10,7 +10,8 @@
 //   - fitToTarget() searches the parameters (bounded pattern search with the
 //     render in the loop) for the smallest sum over statistics of
 //     |median - target median| / target IQR (the realism tool's distance).
-// Takes a scene::Scene (mucosa::scene): callers link mucosa::mucosa.
+// Takes a scene::Scene (mucosa::scene): callers link mucosa::tune, which
+// brings mucosa::scene (or mucosa::mucosa).
 #include <functional>
 #include <memory>
 #include <span>
@@ -19,13 +20,13 @@
 #include <utility>
 #include <vector>
 
-#include <mucosa/fit/highlight_stats.hpp>
+#include <mucosa/tune/highlight_stats.hpp>
 
 namespace mucosa::scene {
 struct Scene;
 }
 
-namespace mucosa::fit {
+namespace mucosa::tune {
 
 // A parameter the tuner varies: a reflectance map key or a scalar material
 // parameter of the shading registry, with the range swept and searched (inside
@@ -139,4 +140,4 @@ TuneFitResult fitToTarget(const scene::Scene& scene, const HighlightSummary& tar
 // "mesh" added it is a scene file of its own.
 std::string presetJson(const scene::Scene& scene, const TuneValues& values);
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::tune
