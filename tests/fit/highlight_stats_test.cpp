@@ -1,4 +1,4 @@
-// Highlight statistics (fit/highlight_stats.hpp): synthetic frames with known
+// Highlight statistics (tune/highlight_stats.hpp): synthetic frames with known
 // blobs, the resize, the summaries and distance of the realism tool, reading
 // targets; and rendered frames checked against the numbers the realism tool
 // itself (realism_stats.py) gives for them.

@@ -10,9 +10,9 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/fit/fit.hpp>
-#include <mucosa/fit/patient.hpp>
-#include <mucosa/fit/register.hpp>
 #include <mucosa/image/png.hpp>
+#include <mucosa/register/patient.hpp>
+#include <mucosa/register/register.hpp>
 #include <mucosa/shading/reference.hpp>
 
 #include "test_support.hpp"
@@ -30,8 +30,8 @@ const char* kFrame =
                    "camera_to_world": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}])";
 
 // The synthetic patient of the tests: short, small, quick.
-fit::PatientOptions smallPatient() {
-    fit::PatientOptions o;
+registration::PatientOptions smallPatient() {
+    registration::PatientOptions o;
     o.frames = 160;
     o.size = 96;
     o.startMm = 70;
@@ -170,8 +170,8 @@ TEST(FieldOfView, LoadFrameImageMasksItAndSaturation) {
 }
 
 TEST(SyntheticPatient, PathGoesForwardPausesPullsBackAndRollsInsideTheAirway) {
-    const fit::PatientOptions o = smallPatient();
-    const fit::SyntheticPatient p = fit::makeSyntheticPatient(o);
+    const registration::PatientOptions o = smallPatient();
+    const registration::SyntheticPatient p = registration::makeSyntheticPatient(o);
     ASSERT_EQ(p.poses.size(), 160u);
     ASSERT_EQ(p.exposureFactors.size(), 160u);
     int still = 0, back = 0, forward = 0;
@@ -179,7 +179,7 @@ TEST(SyntheticPatient, PathGoesForwardPausesPullsBackAndRollsInsideTheAirway) {
     const frames::Vec3d start = frames::cameraCentre(p.poses.front());
     double lastFromStart = 0;
     for (std::size_t i = 1; i < p.poses.size(); ++i) {
-        const fit::PoseError step = fit::poseError(p.poses[i - 1], p.poses[i]);
+        const registration::PoseError step = registration::poseError(p.poses[i - 1], p.poses[i]);
         EXPECT_LE(step.position, o.speedMm * 1.2 + 0.05) << i;  // a scope, not a jump
         EXPECT_LE(step.degrees, 6.0) << i;
         const frames::Vec3d c = frames::cameraCentre(p.poses[i]);
@@ -206,37 +206,38 @@ TEST(SyntheticPatient, PathGoesForwardPausesPullsBackAndRollsInsideTheAirway) {
     }
     // Every pose is one registration can start from: inside, facing the lumen.
     for (std::size_t i = 0; i < p.poses.size(); i += 20)
-        EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "m", "p")) << i;
+        EXPECT_NO_THROW(registration::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "m", "p"))
+            << i;
     // Deterministic.
-    EXPECT_EQ(fit::makeSyntheticPatient(o).poses, p.poses);
+    EXPECT_EQ(registration::makeSyntheticPatient(o).poses, p.poses);
     // Out of range: refused before any work.
-    fit::PatientOptions bad = o;
+    registration::PatientOptions bad = o;
     bad.exposureJitter = 1.5;
-    EXPECT_THROW(fit::makeSyntheticPatient(bad), InputError);
+    EXPECT_THROW(registration::makeSyntheticPatient(bad), InputError);
     bad = o;
     bad.startMm = 1000;
-    EXPECT_THROW(fit::makeSyntheticPatient(bad), InputError);
+    EXPECT_THROW(registration::makeSyntheticPatient(bad), InputError);
 }
 
 TEST(SyntheticPatient, WritesTheVideoCameraInitialPoseAndTheTruth) {
-    fit::PatientOptions o = smallPatient();
+    registration::PatientOptions o = smallPatient();
     o.frames = 6;
-    const fit::SyntheticPatient p = fit::makeSyntheticPatient(o);
+    const registration::SyntheticPatient p = registration::makeSyntheticPatient(o);
     test::TempDir dir;
     int shown = 0;
-    fit::PatientWriteOptions wo;
+    registration::PatientWriteOptions wo;
     wo.progress = [&](int done, int total) {
         EXPECT_EQ(total, 6);
         shown = done;
     };
-    fit::writeSyntheticPatient(p, dir.path(), wo);
+    registration::writeSyntheticPatient(p, dir.path(), wo);
     EXPECT_EQ(shown, 6);
     const frames::CameraModel cam = frames::readCamera(dir / "camera.json");
     EXPECT_EQ(cam.K.width, 96);
     EXPECT_EQ(cam.response.toneCurve, 1);  // BT.709, the scope's video
     EXPECT_NEAR(cam.lightOffset[1], 1.2, 1e-12);
     // The initial pose is the truth moved by 1 mm and 2 degrees.
-    const fit::PoseError e = fit::poseError(frames::readPose(dir / "init.json"), p.poses.front());
+    const registration::PoseError e = registration::poseError(frames::readPose(dir / "init.json"), p.poses.front());
     EXPECT_NEAR(e.position, 1.0, 1e-6);
     EXPECT_NEAR(e.degrees, 2.0, 0.01);
     const frames::FrameSet truth = frames::readFrames(dir / "truth" / "frames.json");
@@ -276,12 +277,12 @@ TEST(SyntheticPatient, WritesTheVideoCameraInitialPoseAndTheTruth) {
 // leaves the lumen, every pose inside facing along it, and the video
 // renders the tissue there.
 TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
-    fit::PatientOptions o;
+    registration::PatientOptions o;
     o.meshFile = test::testdata("airway/vh_m_airway_lumen.obj");
     o.frames = 300;  // long enough to reach where its centerline leaves the lumen
     o.size = 96;
     o.startMm = 30;
-    const fit::SyntheticPatient p = fit::makeSyntheticPatient(o);
+    const registration::SyntheticPatient p = registration::makeSyntheticPatient(o);
     ASSERT_EQ(p.poses.size(), 300u);
     // The VH airway's longest computed path crosses a gap between its pieces
     // about 130 mm from the start: the scope stops before it.
@@ -290,7 +291,7 @@ TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
     EXPECT_TRUE(p.mesh.hasTangents());
     EXPECT_FALSE(p.branch.empty());
     for (std::size_t i = 1; i < p.poses.size(); ++i) {
-        const fit::PoseError step = fit::poseError(p.poses[i - 1], p.poses[i]);
+        const registration::PoseError step = registration::poseError(p.poses[i - 1], p.poses[i]);
         EXPECT_LE(step.position, o.speedMm * 1.2 + 0.05) << i;
         EXPECT_LE(step.degrees, 6.0) << i;
     }
@@ -299,16 +300,18 @@ TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
     // pauses (8), where it once stood 65 frames facing the wall.
     int still = 0, longest = 0;
     for (std::size_t i = 1; i < p.poses.size(); ++i) {
-        still = fit::poseError(p.poses[i - 1], p.poses[i]).position < 1e-9 ? still + 1 : 0;
+        still = registration::poseError(p.poses[i - 1], p.poses[i]).position < 1e-9 ? still + 1 : 0;
         longest = std::max(longest, still);
     }
     EXPECT_LE(longest, 8);
     for (std::size_t i = 0; i < p.poses.size(); i += 15)
-        EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "ct", "p")) << i;
-    EXPECT_NO_THROW(fit::checkInitialView(p.mesh, p.camera.K, p.poses.back(), p.camera.lightOffset, "ct", "p"));
+        EXPECT_NO_THROW(registration::checkInitialView(p.mesh, p.camera.K, p.poses[i], p.camera.lightOffset, "ct", "p"))
+            << i;
+    EXPECT_NO_THROW(
+        registration::checkInitialView(p.mesh, p.camera.K, p.poses.back(), p.camera.lightOffset, "ct", "p"));
     // The trachea runs along +y (504..660 mm), the scope goes down it.
     EXPECT_LT(frames::cameraCentre(p.poses.back())[1], frames::cameraCentre(p.poses.front())[1] - 20);
-    fit::PatientVideo video(p);
+    registration::PatientVideo video(p);
     const image::Image8 f = video.frame(10);
     int lit = 0;
     for (int y = 20; y < 76; ++y)
@@ -316,7 +319,7 @@ TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
     EXPECT_GT(lit, 56 * 56 / 4);
     // A file that is not there: one InputError/IoError, nothing built.
     o.meshFile = "/nonexistent/airway.obj";
-    EXPECT_THROW(fit::makeSyntheticPatient(o), Error);
+    EXPECT_THROW(registration::makeSyntheticPatient(o), Error);
 }
 
 // The first frame of the synthetic patient as `mucosa register` takes it,
@@ -324,21 +327,21 @@ TEST(SyntheticPatient, FliesAlongACtAirwaysOwnCenterline) {
 namespace {
 
 struct FirstFrame {
-    fit::SyntheticPatient patient;
-    fit::VideoFrame frame;
+    registration::SyntheticPatient patient;
+    registration::VideoFrame frame;
     frames::Mat4 init{}, truth{};
-    fit::RegisterOptions options;
+    registration::RegisterOptions options;
 };
 
-FirstFrame firstFrame(fit::PatientLook look) {
-    fit::PatientOptions o;
+FirstFrame firstFrame(registration::PatientLook look) {
+    registration::PatientOptions o;
     o.look = look;
     o.frames = 2;
     o.size = 320;
     o.startMm = 60;
-    FirstFrame f{fit::makeSyntheticPatient(o), {}, {}, {}, {}};
+    FirstFrame f{registration::makeSyntheticPatient(o), {}, {}, {}, {}};
     test::TempDir dir;
-    fit::writeSyntheticPatient(f.patient, dir.path());
+    registration::writeSyntheticPatient(f.patient, dir.path());
     const frames::FrameSet truth = frames::readFrames(dir / "truth" / "frames.json");
     f.init = frames::readPose(dir / "init.json");
     f.truth = truth.frames[0].cameraToWorld;
@@ -346,8 +349,8 @@ FirstFrame firstFrame(fit::PatientLook look) {
     const image::ImageF linear = fit::loadFrameImage(truth.frames[0], truth.response, &sat, 0.97);
     f.options.lightOffset = truth.lightOffset;
     f.options.lamp = f.patient.camera.lamp;
-    if (look == fit::PatientLook::Category4) f.options.brdf = f.patient.brdf;
-    f.frame = fit::prepareFrame(linear, &sat, f.patient.camera.K, f.options);
+    if (look == registration::PatientLook::Category4) f.options.brdf = f.patient.brdf;
+    f.frame = registration::prepareFrame(linear, &sat, f.patient.camera.K, f.options);
     return f;
 }
 
@@ -362,14 +365,15 @@ FirstFrame firstFrame(fit::PatientLook look) {
 // 2 degrees. The recheck is then forced (thresholds 0): both runs are
 // counted, and the better of the two kept.
 TEST(SyntheticPatient, AFirstFramesCoarseJumpIsRecheckedAtTheFinestLevel) {
-    const FirstFrame f = firstFrame(fit::PatientLook::Category4);
-    const fit::FrameRegistration plain = fit::registerFrame(f.patient.mesh, f.frame, f.init, f.options);
-    fit::RegisterOptions re = f.options;
+    const FirstFrame f = firstFrame(registration::PatientLook::Category4);
+    const registration::FrameRegistration plain =
+        registration::registerFrame(f.patient.mesh, f.frame, f.init, f.options);
+    registration::RegisterOptions re = f.options;
     re.recheck = true;
     re.recheckMm = re.recheckDeg = 0;
-    const fit::FrameRegistration rechecked = fit::registerFrame(f.patient.mesh, f.frame, f.init, re);
-    const fit::PoseError ep = fit::poseError(plain.cameraToWorld, f.truth);
-    const fit::PoseError er = fit::poseError(rechecked.cameraToWorld, f.truth);
+    const registration::FrameRegistration rechecked = registration::registerFrame(f.patient.mesh, f.frame, f.init, re);
+    const registration::PoseError ep = registration::poseError(plain.cameraToWorld, f.truth);
+    const registration::PoseError er = registration::poseError(rechecked.cameraToWorld, f.truth);
     std::printf(
         "from the initial pose: %.2f mm %.2f deg (S %.4f, %d evaluations); rechecked %.2f mm %.2f deg "
         "(S %.4f, %d evaluations)\n",
@@ -388,9 +392,9 @@ TEST(SyntheticPatient, AFirstFramesCoarseJumpIsRecheckedAtTheFinestLevel) {
 // initial one); among results within InitialSearch::tie of the best, the one
 // nearest the initial pose is kept.
 TEST(SyntheticPatient, TheFirstFramesSearchKeepsTheRingNearestTheInitialPose) {
-    const FirstFrame f = firstFrame(fit::PatientLook::Lamp);
-    const fit::FrameRegistration r = fit::registerInitial(f.patient.mesh, f.frame, f.init, f.options);
-    const fit::PoseError e = fit::poseError(r.cameraToWorld, f.truth);
+    const FirstFrame f = firstFrame(registration::PatientLook::Lamp);
+    const registration::FrameRegistration r = registration::registerInitial(f.patient.mesh, f.frame, f.init, f.options);
+    const registration::PoseError e = registration::poseError(r.cameraToWorld, f.truth);
     std::printf("searched: %.2f mm %.2f deg (S %.4f)\n", e.position, e.degrees, r.similarity);
     EXPECT_TRUE(r.converged);
     EXPECT_LT(e.position, 1.0);

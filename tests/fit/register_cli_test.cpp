@@ -8,11 +8,11 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include <mucosa/fit/register.hpp>
 #include <mucosa/frames/frames.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/repair.hpp>
+#include <mucosa/register/register.hpp>
 
 #include "register_scene.hpp"
 #include "test_support.hpp"
@@ -69,7 +69,7 @@ struct Patient {
                  {"gamma", 1.0}}
                 .dump());
         writeText(dir / "init.json",
-                  poseJson(fit::perturbPose(scene.poses[0], {0.8, -0.6, 0.5}, {0.02, -0.02, 0.01})).dump());
+                  poseJson(registration::perturbPose(scene.poses[0], {0.8, -0.6, 0.5}, {0.02, -0.02, 0.01})).dump());
     }
     // The command line; `over` replaces a file option (--mesh, --video, --camera, --init).
     std::string args(const std::string& extra = "", const std::map<std::string, fs::path>& over = {}) const {
@@ -112,7 +112,7 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     const frames::FrameSet set = frames::readFrames(p.dir / "out" / "frames.json");
     ASSERT_EQ(set.frames.size(), 5u);
     for (std::size_t i = 0; i < 5; ++i) {
-        const fit::PoseError e = fit::poseError(set.frames[i].cameraToWorld, p.scene.poses[i]);
+        const registration::PoseError e = registration::poseError(set.frames[i].cameraToWorld, p.scene.poses[i]);
         EXPECT_LT(e.position, 0.8) << i;
         EXPECT_LT(e.degrees, 2.5) << i;
         EXPECT_FALSE(set.frames[i].flagged);
@@ -129,7 +129,7 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     for (const json& f : j["frames"]) {
         EXPECT_EQ(f["registration"]["no_lumen"], false);
         EXPECT_EQ(f["registration"]["searched"], false);
-        EXPECT_GT(f["registration"]["depth_range"].get<double>(), fit::RegisterOptions{}.minDepthRange);
+        EXPECT_GT(f["registration"]["depth_range"].get<double>(), registration::RegisterOptions{}.minDepthRange);
     }
     // The pose's standard deviations per frame (camera axes): finite and
     // small on this bumpy airway, and the frame's error within a few of them.
@@ -144,13 +144,13 @@ TEST(RegisterCli, RegistersResumesAndReports) {
             EXPECT_GT(sd["rotation_deg"][k].get<double>(), 0.0);
             EXPECT_LT(sd["rotation_deg"][k].get<double>(), 3.0);
         }
-        const fit::PoseError e = fit::poseError(set.frames[i].cameraToWorld, p.scene.poses[i]);
+        const registration::PoseError e = registration::poseError(set.frames[i].cameraToWorld, p.scene.poses[i]);
         const double sdMm = std::hypot(sd["position_mm"][0].get<double>(), sd["position_mm"][1].get<double>(),
                                        sd["position_mm"][2].get<double>());
         EXPECT_LT(e.position, 5 * sdMm + 0.1) << i;
     }
     // Read back as written (a resumed run keeps them).
-    const fit::RegistrationRun back = fit::readRegistration(p.dir / "out" / "frames.json");
+    const registration::RegistrationRun back = registration::readRegistration(p.dir / "out" / "frames.json");
     EXPECT_NEAR(back.frames[3].r.poseSd[5], j["frames"][3]["registration"]["pose_sd"]["rotation_deg"][2].get<double>(),
                 1e-12);
     // The report: the trace and the sampled frames' overlays.
@@ -176,10 +176,10 @@ TEST(RegisterCli, RegistersResumesAndReports) {
     const json k = json::parse(test::readBytes(p.dir / "out" / "frames.json"));
     ASSERT_EQ(k["frames"].size(), 5u);
     EXPECT_EQ(k["frames"][1]["camera_to_world"], cut["frames"][1]["camera_to_world"]);  // kept, not redone
-    EXPECT_LT(
-        fit::poseError(frames::readFrames(p.dir / "out" / "frames.json").frames[4].cameraToWorld, p.scene.poses[4])
-            .position,
-        0.8);
+    EXPECT_LT(registration::poseError(frames::readFrames(p.dir / "out" / "frames.json").frames[4].cameraToWorld,
+                                      p.scene.poses[4])
+                  .position,
+              0.8);
 
     // Another method, or the albedo map set otherwise, on the same output is
     // refused; --restart overwrites.

@@ -3,10 +3,10 @@
 #include <cmath>
 #include <random>
 
-#include <mucosa/fit/register.hpp>
 #include <mucosa/mesh/primitives.hpp>
 #include <mucosa/mesh/repair.hpp>
 #include <mucosa/raster/raster.hpp>
+#include <mucosa/register/register.hpp>
 
 namespace mucosa::test {
 

@@ -1,4 +1,4 @@
-// Registration (fit/register.hpp): the pq estimator against analytic scenes,
+// Registration (register/register.hpp): the pq estimator against analytic scenes,
 // the model side, the lamp offset, and tracking recovery on rendered frames.
 #include <gtest/gtest.h>
 
@@ -9,10 +9,10 @@
 #include <random>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/register.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/primitives.hpp>
 #include <mucosa/mesh/repair.hpp>
+#include <mucosa/register/register.hpp>
 
 #include "register_scene.hpp"
 #include "synthetic.hpp"
@@ -44,14 +44,15 @@ double angleDeg(double pa, double qa, double pb, double qb) {
 
 // Registrations written to a frames file (frame_0.png, frame_1.png, ...)
 // and read back.
-fit::RegistrationRun writtenAndRead(const Intrinsics& K, const std::vector<fit::FrameRegistration>& rs) {
+registration::RegistrationRun writtenAndRead(const Intrinsics& K,
+                                             const std::vector<registration::FrameRegistration>& rs) {
     const test::TempDir dir;
-    fit::RegistrationRun run;
+    registration::RegistrationRun run;
     run.camera.K = K;
     for (std::size_t i = 0; i < rs.size(); ++i)
         run.frames.push_back({dir / ("frame_" + std::to_string(i) + ".png"), rs[i]});
-    fit::writeRegistration(dir / "frames.json", run);
-    return fit::readRegistration(dir / "frames.json");
+    registration::writeRegistration(dir / "frames.json", run);
+    return registration::readRegistration(dir / "frames.json");
 }
 
 }  // namespace
@@ -76,10 +77,10 @@ TEST(RegisterPq, PlaneShadingGivesTheTrueGradient) {
                 }
                 E.at(x, y) = static_cast<float>(e);
             }
-        fit::PqOptions o;
+        registration::PqOptions o;
         o.darkFraction = 0;
         o.saturation = 1e30;
-        const fit::PqField f = fit::pqFromShading(E, K, o);
+        const registration::PqField f = registration::pqFromShading(E, K, o);
         std::vector<double> dp, dq;
         for (std::size_t i = 0; i < f.weight.size(); ++i)
             if (f.weight[i] > 0) dp.push_back(std::abs(f.p[i] - p)), dq.push_back(std::abs(f.q[i] - q));
@@ -136,10 +137,10 @@ TEST(RegisterPq, CylinderShadingGivesTheTrueGradient) {
             E.at(x, y) = static_cast<float>(cosine / (r * r));
             truth[i] = n;
         }
-    fit::PqOptions o;
+    registration::PqOptions o;
     o.darkFraction = 0.01;
     o.saturation = 1e30;
-    const fit::PqField f = fit::pqFromShading(E, K, o);
+    const registration::PqField f = registration::pqFromShading(E, K, o);
     // Split where the wall's gradient stops being a useful description: up to
     // |(p, q)| = 6, and steeper or turned past parallel to the optical axis
     // (where only the normal is defined).
@@ -176,9 +177,9 @@ TEST(RegisterPq, ModelSideOfAPlaneIsItsGradient) {
     mesh::Mesh quad = mesh::makeQuad(200.0f, 20);  // z = 0, normal +z
     const Intrinsics K = pinhole(101, 80);
     const Mat4 pose = frames::lookAtPose({12, -8, 25}, {1, 2, 0}, {0, 1, 0});
-    const fit::ModelView v = fit::renderModel(quad, K, pose, {0, 0, 0});
-    fit::PqOptions o;
-    const fit::PqField f = fit::pqFromModel(v, K, o);
+    const registration::ModelView v = registration::renderModel(quad, K, pose, {0, 0, 0});
+    registration::PqOptions o;
+    const registration::PqField f = registration::pqFromModel(v, K, o);
     // Plane normal +z (world) in camera space.
     const Mat4 W = frames::invertRigid(pose);
     const auto n = frames::transformDirection(W, {0, 0, 1});
@@ -202,18 +203,19 @@ TEST(RegisterPose, PerturbAndErrorAreConsistent) {
     EXPECT_NEAR(z[1], 0.8, 1e-12);
     const auto y = frames::transformDirection(a, {0, 1, 0});
     EXPECT_NEAR(y[2], -1, 1e-12);
-    const Mat4 b = fit::perturbPose(a, {0.3, -0.4, 1.2}, {0, 0, 10 * M_PI / 180});
-    const fit::PoseError e = fit::poseError(a, b);
+    const Mat4 b = registration::perturbPose(a, {0.3, -0.4, 1.2}, {0, 0, 10 * M_PI / 180});
+    const registration::PoseError e = registration::poseError(a, b);
     EXPECT_NEAR(e.position, 1.3, 1e-9);
     EXPECT_NEAR(e.degrees, 10, 1e-9);
-    EXPECT_NEAR(fit::poseError(b, b).degrees, 0, 1e-6);
+    EXPECT_NEAR(registration::poseError(b, b).degrees, 0, 1e-6);
     // Constant velocity: the motion from a to b, applied again after b.
-    const Mat4 c = fit::predictPose(a, b, 1.0);
-    const fit::PoseError ec = fit::poseError(c, fit::perturbPose(b, {0.3, -0.4, 1.2}, {0, 0, 10 * M_PI / 180}));
+    const Mat4 c = registration::predictPose(a, b, 1.0);
+    const registration::PoseError ec =
+        registration::poseError(c, registration::perturbPose(b, {0.3, -0.4, 1.2}, {0, 0, 10 * M_PI / 180}));
     EXPECT_NEAR(ec.position, 0, 1e-9);
     EXPECT_NEAR(ec.degrees, 0, 1e-6);
-    EXPECT_NEAR(fit::poseError(fit::predictPose(a, b, 0.0), b).position, 0, 1e-12);
-    const fit::PoseError half = fit::poseError(fit::predictPose(a, b, 0.5), b);
+    EXPECT_NEAR(registration::poseError(registration::predictPose(a, b, 0.0), b).position, 0, 1e-12);
+    const registration::PoseError half = registration::poseError(registration::predictPose(a, b, 0.5), b);
     EXPECT_NEAR(half.position, 0.65, 1e-9);
     EXPECT_NEAR(half.degrees, 5, 1e-9);
 }
@@ -231,17 +233,19 @@ TEST(RegisterPq, LampOffsetIsModelledExactly) {
     vo.specular = 0;
     vo.albedoContrast = 0;
     const image::ImageF frame = test::renderVideoFrame(scene.mesh, K, pose, vo, 1);  // the model's own surface
-    fit::RegisterOptions ro;
+    registration::RegisterOptions ro;
     ro.levels = {160};
     ro.lightOffset = offset;
-    const fit::VideoFrame vf = fit::prepareFrame(frame, nullptr, K, ro);
+    const registration::VideoFrame vf = registration::prepareFrame(frame, nullptr, K, ro);
     // Point-sampled like the frame (supersample 1): only the lamp differs.
-    const fit::PqField withOffset = fit::pqFromModel(fit::renderModel(scene.mesh, K, pose, offset, 1, 1), K,
-                                                     vf.levels[0].pqOptions, &vf.levels[0].pq.usable);
-    const fit::PqField without = fit::pqFromModel(fit::renderModel(scene.mesh, K, pose, {0, 0, 0}, 1, 1), K,
-                                                  vf.levels[0].pqOptions, &vf.levels[0].pq.usable);
-    const double sOff = fit::pqSimilarity(vf.levels[0].pq, withOffset);
-    const double sNo = fit::pqSimilarity(vf.levels[0].pq, without);
+    const registration::PqField withOffset =
+        registration::pqFromModel(registration::renderModel(scene.mesh, K, pose, offset, 1, 1), K,
+                                  vf.levels[0].pqOptions, &vf.levels[0].pq.usable);
+    const registration::PqField without =
+        registration::pqFromModel(registration::renderModel(scene.mesh, K, pose, {0, 0, 0}, 1, 1), K,
+                                  vf.levels[0].pqOptions, &vf.levels[0].pq.usable);
+    const double sOff = registration::pqSimilarity(vf.levels[0].pq, withOffset);
+    const double sNo = registration::pqSimilarity(vf.levels[0].pq, without);
     std::printf("similarity at the true pose: lamp offset modelled %.5f, ignored %.5f\n", sOff, sNo);
     EXPECT_GT(sOff, 0.995);
     EXPECT_GT(sOff - sNo, 0.005);
@@ -250,19 +254,19 @@ TEST(RegisterPq, LampOffsetIsModelledExactly) {
 // Tracking: frames rendered along a bumpy, curved airway with albedo texture,
 // glints, sensor noise and exposure changing +-30 % frame to frame; the first
 // pose off by 2 mm and 4 degrees.
-class RegisterTracking : public ::testing::TestWithParam<fit::RegistrationMethod> {};
+class RegisterTracking : public ::testing::TestWithParam<registration::RegistrationMethod> {};
 
 TEST_P(RegisterTracking, RecoversTheSequence) {
     const test::RegisterScene scene = test::makeRegisterScene();
     const Intrinsics K = pinhole(160, 90);
-    fit::RegisterOptions ro;
+    registration::RegisterOptions ro;
     ro.method = GetParam();
     ro.levels = {40, 80};
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> gain(0.7, 1.3);
-    const Mat4 pose = fit::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
-    fit::Tracker tracker(pose);
-    const fit::PoseError start = fit::poseError(pose, scene.poses[0]);
+    const Mat4 pose = registration::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
+    registration::Tracker tracker(pose);
+    const registration::PoseError start = registration::poseError(pose, scene.poses[0]);
     ASSERT_GT(start.position, 1.9);
     ASSERT_GT(start.degrees, 3.9);
     std::vector<double> mm, deg;
@@ -272,12 +276,12 @@ TEST_P(RegisterTracking, RecoversTheSequence) {
         vo.seed = static_cast<unsigned>(i + 1);
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[i], vo, 1, &sat);
-        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
-        const fit::FrameRegistration r = fit::registerTracked(scene.mesh, vf, tracker, ro);
-        const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[i]);
+        const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, K, ro);
+        const registration::FrameRegistration r = registration::registerTracked(scene.mesh, vf, tracker, ro);
+        const registration::PoseError e = registration::poseError(r.cameraToWorld, scene.poses[i]);
         std::printf("%s frame %zu: %.3f mm %.3f deg, similarity %.4f, %d iterations, %d renders, converged %d\n",
-                    fit::methodName(ro.method), i, e.position, e.degrees, r.similarity, r.iterations, r.evaluations,
-                    r.converged);
+                    registration::methodName(ro.method), i, e.position, e.degrees, r.similarity, r.iterations,
+                    r.evaluations, r.converged);
         mm.push_back(e.position);
         deg.push_back(e.degrees);
         EXPECT_TRUE(r.converged) << i;
@@ -288,7 +292,7 @@ TEST_P(RegisterTracking, RecoversTheSequence) {
     // differences only.
     const double worstMm = *std::max_element(mm.begin(), mm.end());
     const double worstDeg = *std::max_element(deg.begin(), deg.end());
-    if (ro.method == fit::RegistrationMethod::PqSpace) {
+    if (ro.method == registration::RegistrationMethod::PqSpace) {
         EXPECT_LT(median(mm), 0.3);
         EXPECT_LT(median(deg), 1.0);
         EXPECT_LT(worstMm, 0.6);
@@ -302,8 +306,9 @@ TEST_P(RegisterTracking, RecoversTheSequence) {
 }
 
 INSTANTIATE_TEST_SUITE_P(BothMethods, RegisterTracking,
-                         ::testing::Values(fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity),
-                         [](const auto& p) { return std::string(fit::methodName(p.param)); });
+                         ::testing::Values(registration::RegistrationMethod::PqSpace,
+                                           registration::RegistrationMethod::Intensity),
+                         [](const auto& p) { return std::string(registration::methodName(p.param)); });
 
 // The similarity peaks at the true pose: moving 1 mm or 2 degrees along any
 // axis lowers it, at every level (the objective is informative in all six
@@ -324,9 +329,9 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
     const Mat4 truth = frames::lookAtPose({1.2, -0.8, 20}, {0.3, 0.2, 120}, {0, -1, 0});
     // 1. The model's field against the cylinder's normals.
     {
-        const fit::ModelView v = fit::renderModel(tube, K, truth, {0, 0, 0}, 1, 2);
-        fit::PqOptions o;
-        const fit::PqField f = fit::pqFromModel(v, K, o);
+        const registration::ModelView v = registration::renderModel(tube, K, truth, {0, 0, 0}, 1, 2);
+        registration::PqOptions o;
+        const registration::PqField f = registration::pqFromModel(v, K, o);
         const Mat4 W = frames::invertRigid(truth);
         const frames::Vec3d c = frames::cameraCentre(truth);
         std::vector<double> err, steepErr;
@@ -371,14 +376,15 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
     // 2. The video (albedo, glints, noise): the similarity peaks at the truth
     // against lateral shifts, each with the turn that keeps the far lumen
     // where it was (the tube's flat valley).
-    fit::RegisterOptions ro;
+    registration::RegisterOptions ro;
     image::Image8 sat;
     const image::ImageF frame = test::renderVideoFrame(tube, pinhole(160, 56), truth, {}, 1, &sat);
-    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, pinhole(160, 56), ro);
+    const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, pinhole(160, 56), ro);
     const auto& L = vf.levels.back();
     auto sim = [&](const Mat4& pose) {
-        return fit::pqSimilarity(
-            L.pq, fit::pqFromModel(fit::renderModel(tube, L.K, pose, {0, 0, 0}, 1, 2), L.K, ro.pq, &L.pq.usable));
+        return registration::pqSimilarity(
+            L.pq, registration::pqFromModel(registration::renderModel(tube, L.K, pose, {0, 0, 0}, 1, 2), L.K, ro.pq,
+                                            &L.pq.usable));
     };
     const double s0 = sim(truth);
     std::printf("at the truth %.4f, shifted:", s0);
@@ -389,7 +395,7 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
             // Turned back towards the lumen 100 mm ahead: about y for an x shift.
             const double turn = std::atan(mm / 100);
             w[1 - axis] = axis == 0 ? -turn : turn;
-            const double s = sim(fit::perturbPose(truth, t, w));
+            const double s = sim(registration::perturbPose(truth, t, w));
             std::printf(" %.4f", s);
             EXPECT_LT(s, s0) << "shift " << mm << " mm along camera axis " << axis;
         }
@@ -399,16 +405,17 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
 TEST(RegisterPq, SimilarityPeaksAtTheTruePose) {
     const test::RegisterScene scene = test::makeRegisterScene();
     const Intrinsics K = pinhole(160, 90);
-    fit::RegisterOptions ro;
+    registration::RegisterOptions ro;
     ro.levels = {40, 80, 160};
     for (int f : {0, 3, 6}) {
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[f], {}, 1, &sat);
-        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
+        const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, K, ro);
         for (const auto& L : vf.levels) {
             auto sim = [&](const Mat4& pose) {
-                return fit::pqSimilarity(L.pq, fit::pqFromModel(fit::renderModel(scene.mesh, L.K, pose, {0, 0, 0}), L.K,
-                                                                ro.pq, &L.pq.usable));
+                return registration::pqSimilarity(
+                    L.pq, registration::pqFromModel(registration::renderModel(scene.mesh, L.K, pose, {0, 0, 0}), L.K,
+                                                    ro.pq, &L.pq.usable));
             };
             const double s0 = sim(scene.poses[f]);
             std::printf("frame %d, width %d: at the truth %.4f, moved:", f, L.K.width, s0);
@@ -419,7 +426,7 @@ TEST(RegisterPq, SimilarityPeaksAtTheTruePose) {
                         t[axis] = sign * 1.0;
                     else
                         w[axis - 3] = sign * 2.0 * M_PI / 180;
-                    const double s = sim(fit::perturbPose(scene.poses[f], t, w));
+                    const double s = sim(registration::perturbPose(scene.poses[f], t, w));
                     std::printf(" %.4f", s);
                     EXPECT_LT(s, s0) << "frame " << f << " width " << L.K.width << " axis " << axis << " " << sign;
                 }
@@ -434,11 +441,11 @@ TEST(RegisterPq, ModelShadingFollowsTheLampsSpreadAndDisk) {
     mesh::Mesh quad = mesh::makeQuad(400.0f, 40);  // z = 0, normal +z
     const Intrinsics K = pinhole(81, 81);
     const Mat4 pose = frames::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});  // 20 mm above, facing it
-    const fit::ModelView point = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1);
+    const registration::ModelView point = registration::renderModel(quad, K, pose, {0, 0, 0}, 1, 1);
     frames::LampProfile lamp;
     lamp.spread = 0.8;
     lamp.radiusMm = 1.5;
-    const fit::ModelView spot = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
+    const registration::ModelView spot = registration::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
     int checked = 0;
     for (int y = 0; y < K.height; y += 10)
         for (int x = 0; x < K.width; x += 10) {
@@ -461,15 +468,15 @@ namespace {
 struct OffStart {
     test::RegisterScene scene = test::makeRegisterScene();
     Intrinsics K = pinhole(160, 90);
-    Mat4 start = fit::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
-    fit::VideoFrame vf;
+    Mat4 start = registration::perturbPose(scene.poses[0], {1.2, -1.2, 1.0}, {0.04, -0.05, 0.03});
+    registration::VideoFrame vf;
     OffStart() {
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[0], {}, 1, &sat);
-        vf = fit::prepareFrame(frame, &sat, K, fit::RegisterOptions{});
+        vf = registration::prepareFrame(frame, &sat, K, registration::RegisterOptions{});
     }
-    Mat4 registered(const fit::RegisterOptions& o) const {
-        return fit::registerFrame(scene.mesh, vf, start, o).cameraToWorld;
+    Mat4 registered(const registration::RegisterOptions& o) const {
+        return registration::registerFrame(scene.mesh, vf, start, o).cameraToWorld;
     }
 };
 
@@ -484,15 +491,15 @@ TEST(RegisterPose, MotionPriorHoldsThePoseNearItsStart) {
     const OffStart off;
     const Mat4& start = off.start;
     const Mat4& truth = off.scene.poses[0];
-    fit::RegisterOptions ro;
+    registration::RegisterOptions ro;
     auto run = [&](double prior) {
-        fit::RegisterOptions o = ro;
+        registration::RegisterOptions o = ro;
         o.motionPrior = prior;
         return off.registered(o);
     };
-    const fit::PoseError free = fit::poseError(run(0.0), truth);
-    const fit::PoseError held = fit::poseError(run(1e4), start);
-    const fit::PoseError some = fit::poseError(run(0.05), truth);
+    const registration::PoseError free = registration::poseError(run(0.0), truth);
+    const registration::PoseError held = registration::poseError(run(1e4), start);
+    const registration::PoseError some = registration::poseError(run(0.05), truth);
     std::printf(
         "prior off: %.3f mm %.2f deg from the truth; 1e4: %.4f mm %.3f deg from the start; 0.05: %.3f mm "
         "%.2f deg from the truth\n",
@@ -501,12 +508,12 @@ TEST(RegisterPose, MotionPriorHoldsThePoseNearItsStart) {
     EXPECT_LT(held.position, 0.05);
     EXPECT_LT(held.degrees, 0.1);
     EXPECT_GT(some.position, free.position);
-    EXPECT_LT(some.position, fit::poseError(start, truth).position);
+    EXPECT_LT(some.position, registration::poseError(start, truth).position);
     // After a flagged frame the prediction is stale: no prior.
-    fit::Tracker t(start);
+    registration::Tracker t(start);
     ro.motionPrior = 0.01;
     EXPECT_DOUBLE_EQ(t.options(ro).motionPrior, 0.01);
-    fit::FrameRegistration flagged;
+    registration::FrameRegistration flagged;
     flagged.converged = false;
     t.update(flagged);
     EXPECT_DOUBLE_EQ(t.options(ro).motionPrior, 0.0);
@@ -528,13 +535,14 @@ TEST(RegisterPose, RollPriorHoldsOnlyTheRoll) {
         return std::atan2(r[1][0] - r[0][1], r[0][0] + r[1][1]) * 180 / M_PI;
     };
     auto run = [&](double rollPrior) {
-        fit::RegisterOptions o;
+        registration::RegisterOptions o;
         o.rollPrior = rollPrior;
         return off.registered(o);
     };
     const Mat4 free = run(0.0), held = run(1e4);
     const double needed = roll(start, truth);
-    const fit::PoseError eFree = fit::poseError(free, truth), eHeld = fit::poseError(held, truth);
+    const registration::PoseError eFree = registration::poseError(free, truth),
+                                  eHeld = registration::poseError(held, truth);
     std::printf(
         "roll needed %.2f deg; prior off: rolled %.2f deg, %.3f mm from the truth; 1e4: rolled %.3f deg, "
         "%.3f mm from the truth\n",
@@ -558,7 +566,8 @@ TEST(RegisterPose, RollPriorHoldsOnlyTheRoll) {
 TEST(RegisterPose, TheFramesUncertaintyShowsTheAxesItDoesNotFix) {
     const OffStart off;
     const Mat4& truth = off.scene.poses[0];
-    const fit::FrameRegistration r = fit::registerFrame(off.scene.mesh, off.vf, off.start, fit::RegisterOptions{});
+    const registration::FrameRegistration r =
+        registration::registerFrame(off.scene.mesh, off.vf, off.start, registration::RegisterOptions{});
     // The estimate's error in the true camera's axes: position (mm), then the
     // small rotation about x, y, z (degrees).
     double err[6] = {0, 0, 0, 0, 0, 0};
@@ -590,13 +599,13 @@ TEST(RegisterPose, TheFramesUncertaintyShowsTheAxesItDoesNotFix) {
     // to about half (measured 0.49-0.70 of the 80-pixel level's); a grid
     // that forgot the lags it skips would narrow them to about a quarter.
     {
-        fit::RegisterOptions fine;
+        registration::RegisterOptions fine;
         fine.levels = {40, 80, 160};
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(off.scene.truth, off.K, truth, {}, 1, &sat);
-        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, off.K, fine);
+        const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, off.K, fine);
         ASSERT_EQ(vf.levels.back().K.width, 160);
-        const fit::FrameRegistration f = fit::registerFrame(off.scene.mesh, vf, truth, fine);
+        const registration::FrameRegistration f = registration::registerFrame(off.scene.mesh, vf, truth, fine);
         std::printf("finest level 160 pixels: sd");
         for (double sd : f.poseSd) std::printf(" %.3f", sd);
         std::printf("\n");
@@ -614,8 +623,9 @@ TEST(RegisterPose, TheFramesUncertaintyShowsTheAxesItDoesNotFix) {
         plain.albedoContrast = 0;
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(tube, K, pose, plain, 1, &sat);
-        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, fit::RegisterOptions{});
-        const fit::FrameRegistration t = fit::registerFrame(tube, vf, pose, fit::RegisterOptions{});
+        const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, K, registration::RegisterOptions{});
+        const registration::FrameRegistration t =
+            registration::registerFrame(tube, vf, pose, registration::RegisterOptions{});
         std::printf("round tube: sd");
         for (double sd : t.poseSd) std::printf(" %.3f", sd);
         std::printf("\n");
@@ -638,21 +648,22 @@ TEST(RegisterPose, TheFramesUncertaintyShowsTheAxesItDoesNotFix) {
 TEST(RegisterPose, AFrameFacingTheWallIsFlaggedNoLumen) {
     const mesh::Mesh tube = test::makeTube(5, 160, 256, 320);
     const Intrinsics K = pinhole(160, 56);
-    auto run = [&](const Mat4& pose, const fit::RegisterOptions& o) {
+    auto run = [&](const Mat4& pose, const registration::RegisterOptions& o) {
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(tube, K, pose, {}, 1, &sat);
-        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, o);
-        return fit::registerFrame(tube, vf, fit::perturbPose(pose, {0.3, -0.2, 0.2}, {0.01, 0.01, 0}), o);
+        const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, K, o);
+        return registration::registerFrame(tube, vf, registration::perturbPose(pose, {0.3, -0.2, 0.2}, {0.01, 0.01, 0}),
+                                           o);
     };
-    const fit::RegisterOptions o;
+    const registration::RegisterOptions o;
     ASSERT_GT(o.minDepthRange, 1.0);
     const Mat4 down = frames::lookAtPose({0, 0, 20}, {0, 0, 120}, {0, -1, 0});
     const Mat4 wall = frames::lookAtPose({0, 0, 60}, {5, 0, 60}, {0, 0, 1});
-    const fit::FrameRegistration a = run(down, o);
-    const fit::FrameRegistration b = run(wall, o);
-    fit::RegisterOptions off = o;
+    const registration::FrameRegistration a = run(down, o);
+    const registration::FrameRegistration b = run(wall, o);
+    registration::RegisterOptions off = o;
     off.minDepthRange = 0;
-    const fit::FrameRegistration c = run(wall, off);
+    const registration::FrameRegistration c = run(wall, off);
     std::printf(
         "depth range: down the tube %.2f (converged %d), facing the wall %.2f (converged %d, no lumen %d); "
         "check off: converged %d, similarity %.3f\n",
@@ -668,7 +679,7 @@ TEST(RegisterPose, AFrameFacingTheWallIsFlaggedNoLumen) {
     EXPECT_EQ(c.converged, c.similarity >= o.minSimilarity);
     EXPECT_NEAR(c.depthRange, b.depthRange, 1e-9);
     // The frames file carries the flag and the depth range, and reads them back.
-    const fit::RegistrationRun back = writtenAndRead(K, {b, a});
+    const registration::RegistrationRun back = writtenAndRead(K, {b, a});
     ASSERT_EQ(back.frames.size(), 2u);
     EXPECT_TRUE(back.frames[0].r.noLumen);
     EXPECT_FALSE(back.frames[0].r.converged);
@@ -692,7 +703,7 @@ TEST(RegisterPose, AFrameWithNoLumenInViewIsSearchedForAroundTheTrack) {
                       {0.529999315113779, -0.44958690960348546, -0.7190078836091525, 545.4920654296875},
                       {0.5718466739579506, 0.8155784876736735, -0.08844835740223213, -5.862580299377441},
                       {0.0, 0.0, 0.0, 1.0}}};
-    const Mat4 start = fit::perturbPose(truth, {0.6, -0.5, 0.4}, {0.12, -0.2, 0.1});
+    const Mat4 start = registration::perturbPose(truth, {0.6, -0.5, 0.4}, {0.12, -0.2, 0.1});
     image::Image8 sat;
     // A uniform albedo: the video's normals are the model's, so that the
     // truth's valley is the best (with the test's vessels and blotches the
@@ -701,18 +712,20 @@ TEST(RegisterPose, AFrameWithNoLumenInViewIsSearchedForAroundTheTrack) {
     test::VideoOptions vo;
     vo.albedoContrast = 0;
     const image::ImageF frame = test::renderVideoFrame(ct, K, truth, vo, 1, &sat);
-    const fit::RegisterOptions on;
-    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, on);
-    EXPECT_EQ(fit::noLumenSearchCandidates(on), fit::kNoLumenSearchCandidates) << "pq searches by default";
-    fit::RegisterOptions intensity = on;
-    intensity.method = fit::RegistrationMethod::Intensity;
-    EXPECT_EQ(fit::noLumenSearchCandidates(intensity), 0) << "the baseline does not";
-    fit::RegisterOptions off = on;
+    const registration::RegisterOptions on;
+    const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, K, on);
+    EXPECT_EQ(registration::noLumenSearchCandidates(on), registration::kNoLumenSearchCandidates)
+        << "pq searches by default";
+    registration::RegisterOptions intensity = on;
+    intensity.method = registration::RegistrationMethod::Intensity;
+    EXPECT_EQ(registration::noLumenSearchCandidates(intensity), 0) << "the baseline does not";
+    registration::RegisterOptions off = on;
     off.noLumenSearch.candidates = 0;
-    fit::Tracker t0(start), t1(start);
-    const fit::FrameRegistration a = fit::registerTracked(ct, vf, t0, off);
-    const fit::FrameRegistration b = fit::registerTracked(ct, vf, t1, on);
-    const fit::PoseError ea = fit::poseError(a.cameraToWorld, truth), eb = fit::poseError(b.cameraToWorld, truth);
+    registration::Tracker t0(start), t1(start);
+    const registration::FrameRegistration a = registration::registerTracked(ct, vf, t0, off);
+    const registration::FrameRegistration b = registration::registerTracked(ct, vf, t1, on);
+    const registration::PoseError ea = registration::poseError(a.cameraToWorld, truth),
+                                  eb = registration::poseError(b.cameraToWorld, truth);
     std::printf(
         "no lumen in view (depth range %.2f): from the track alone %.2f mm %.1f deg (similarity %.4f, %d renders); "
         "searched %.2f mm %.1f deg (similarity %.4f, %d renders)\n",
@@ -729,18 +742,18 @@ TEST(RegisterPose, AFrameWithNoLumenInViewIsSearchedForAroundTheTrack) {
     EXPECT_LT(eb.degrees, 0.5);
     EXPECT_LT(eb.position, 0.1);
     // The track moves to the searched pose: the next frame starts there.
-    EXPECT_LT(fit::poseError(t1.start(), b.cameraToWorld).position, 1e-9);
+    EXPECT_LT(registration::poseError(t1.start(), b.cameraToWorld).position, 1e-9);
     // A frame down the lumen is not searched: the same result, the same renders.
     const OffStart down;
-    fit::Tracker t2(down.start), t3(down.start);
-    const fit::FrameRegistration c = fit::registerTracked(down.scene.mesh, down.vf, t2, off);
-    const fit::FrameRegistration d = fit::registerTracked(down.scene.mesh, down.vf, t3, on);
+    registration::Tracker t2(down.start), t3(down.start);
+    const registration::FrameRegistration c = registration::registerTracked(down.scene.mesh, down.vf, t2, off);
+    const registration::FrameRegistration d = registration::registerTracked(down.scene.mesh, down.vf, t3, on);
     EXPECT_FALSE(d.noLumen);
     EXPECT_FALSE(d.searched);
     EXPECT_EQ(c.evaluations, d.evaluations);
-    EXPECT_LT(fit::poseError(c.cameraToWorld, d.cameraToWorld).position, 1e-12);
+    EXPECT_LT(registration::poseError(c.cameraToWorld, d.cameraToWorld).position, 1e-12);
     // The frames file carries the flag and reads it back.
-    const fit::RegistrationRun back = writtenAndRead(K, {b, d});
+    const registration::RegistrationRun back = writtenAndRead(K, {b, d});
     ASSERT_EQ(back.frames.size(), 2u);
     EXPECT_TRUE(back.frames[0].r.searched);
     EXPECT_FALSE(back.frames[1].r.searched);
@@ -754,29 +767,29 @@ TEST(RegisterPose, AFrameWithNoLumenInViewIsSearchedForAroundTheTrack) {
 TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
     const OffStart off;  // its frame; the starts are this test's own
     const test::RegisterScene& scene = off.scene;
-    const fit::VideoFrame& vf = off.vf;
+    const registration::VideoFrame& vf = off.vf;
     const Mat4& truth = scene.poses[0];
-    const Mat4 far = fit::perturbPose(truth, {2.5, -2.0, 5.0}, {0.12, -0.15, 0.1});
-    const Mat4 near = fit::perturbPose(truth, {0.3, -0.2, 0.2}, {0.01, 0.01, -0.01});
-    fit::RegisterOptions ro;
+    const Mat4 far = registration::perturbPose(truth, {2.5, -2.0, 5.0}, {0.12, -0.15, 0.1});
+    const Mat4 near = registration::perturbPose(truth, {0.3, -0.2, 0.2}, {0.01, 0.01, -0.01});
+    registration::RegisterOptions ro;
 
-    fit::Tracker fresh(far);
+    registration::Tracker fresh(far);
     ASSERT_EQ(fresh.starts().size(), 1u);
-    const fit::FrameRegistration alone = fit::registerFrame(scene.mesh, vf, far, ro);
-    const fit::PoseError eAlone = fit::poseError(alone.cameraToWorld, truth);
+    const registration::FrameRegistration alone = registration::registerFrame(scene.mesh, vf, far, ro);
+    const registration::PoseError eAlone = registration::poseError(alone.cameraToWorld, truth);
     ASSERT_GT(eAlone.position, 1.0) << "the far start must be outside the capture range for this test to mean anything";
 
-    fit::Tracker t(far);
-    fit::FrameRegistration flagged;
+    registration::Tracker t(far);
+    registration::FrameRegistration flagged;
     flagged.cameraToWorld = near;
     flagged.converged = false;
     t.update(flagged);
     const std::vector<Mat4> starts = t.starts();
     ASSERT_EQ(starts.size(), 2u);
-    EXPECT_LT(fit::poseError(starts[0], far).position, 1e-9);
-    EXPECT_LT(fit::poseError(starts[1], near).position, 1e-9);
-    const fit::FrameRegistration r = fit::registerTracked(scene.mesh, vf, t, ro);
-    const fit::PoseError e = fit::poseError(r.cameraToWorld, truth);
+    EXPECT_LT(registration::poseError(starts[0], far).position, 1e-9);
+    EXPECT_LT(registration::poseError(starts[1], near).position, 1e-9);
+    const registration::FrameRegistration r = registration::registerTracked(scene.mesh, vf, t, ro);
+    const registration::PoseError e = registration::poseError(r.cameraToWorld, truth);
     std::printf(
         "from the track alone: %.2f mm %.1f deg (similarity %.3f); with the flagged start: %.3f mm %.2f deg "
         "(similarity %.3f, %d renders)\n",
@@ -788,7 +801,7 @@ TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
     EXPECT_GT(r.evaluations, alone.evaluations);  // both starts were registered, and counted
     // The converged frame makes the track fresh again: one start, from it.
     ASSERT_EQ(t.starts().size(), 1u);
-    EXPECT_LT(fit::poseError(t.start(), r.cameraToWorld).position, 1e-9);
+    EXPECT_LT(registration::poseError(t.start(), r.cameraToWorld).position, 1e-9);
 }
 
 // The tracker's constant velocity is taken between consecutive converged
@@ -798,12 +811,12 @@ TEST(RegisterPose, TrackerRetriesFromAFlaggedFramesEstimate) {
 // flagged frame that kept the albedo map's pose moves the track there.
 TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
     auto at = [](double z, bool converged) {
-        fit::FrameRegistration r;
+        registration::FrameRegistration r;
         r.cameraToWorld = frames::lookAtPose({0, 0, z}, {0, 0, z - 10}, {0, 1, 0});
         r.converged = converged;
         return r;
     };
-    fit::Tracker t(at(0, true).cameraToWorld);
+    registration::Tracker t(at(0, true).cameraToWorld);
     t.update(at(0, true));
     t.update(at(-1, true));  // 1 mm a frame along -z
     EXPECT_NEAR(frames::cameraCentre(t.start())[2], -2.0, 1e-9);
@@ -816,10 +829,10 @@ TEST(RegisterPose, TrackerTakesNoVelocityAcrossAFlaggedStretch) {
     // A flagged frame that kept the albedo map's pose moves the track there,
     // without velocity, and the next frame starts there alone; without
     // anchorOnMap the track stays and the kept pose is a second start.
-    fit::FrameRegistration kept = at(-16, false);
+    registration::FrameRegistration kept = at(-16, false);
     kept.mapPoseKept = true;
     for (bool anchor : {true, false}) {
-        fit::Tracker a(at(0, true).cameraToWorld);
+        registration::Tracker a(at(0, true).cameraToWorld);
         a.anchorOnMap = anchor;
         a.update(at(-1, true));
         a.update(at(-2, true));
@@ -841,9 +854,9 @@ TEST(RegisterPq, ModelShadingAddsTheWallsBackScatter) {
     const Mat4 pose = frames::lookAtPose({0, 0, 20}, {0, 0, 0}, {0, 1, 0});
     frames::LampProfile lamp;
     lamp.spread = 0.5;
-    const fit::ModelView direct = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
+    const registration::ModelView direct = registration::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
     lamp.ambient = 0.2;
-    const fit::ModelView both = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
+    const registration::ModelView both = registration::renderModel(quad, K, pose, {0, 0, 0}, 1, 1, lamp);
     int checked = 0;
     for (int y = 0; y < K.height; y += 4)
         for (int x = 0; x < K.width; x += 4) {
@@ -868,7 +881,7 @@ TEST(RegisterPq, ModelShadedByAFittedBrdfIsRhoTimesDelta) {
     b.zmax = 40.0;
     frames::LampProfile lamp;
     lamp.spread = 0.8;
-    const fit::ModelView v = fit::renderModel(quad, K, pose, {0, 3, 0}, 1, 1, lamp, &b);
+    const registration::ModelView v = registration::renderModel(quad, K, pose, {0, 3, 0}, 1, 1, lamp, &b);
     int checked = 0;
     for (int y = 0; y < K.height; y += 8)
         for (int x = 0; x < K.width; x += 8) {
@@ -926,13 +939,14 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
     };
     int missed = 0;
     for (const auto& [t, w] : offsets) {
-        const Mat4 start = fit::perturbPose(truth, t, w);
-        const fit::PoseError from = fit::poseError(start, truth);
-        const fit::FrameRegistration one = fit::registerFrame(off.scene.mesh, off.vf, start, fit::RegisterOptions{});
-        const fit::FrameRegistration searched =
-            fit::registerInitial(off.scene.mesh, off.vf, start, fit::RegisterOptions{});
-        const fit::PoseError e1 = fit::poseError(one.cameraToWorld, truth);
-        const fit::PoseError es = fit::poseError(searched.cameraToWorld, truth);
+        const Mat4 start = registration::perturbPose(truth, t, w);
+        const registration::PoseError from = registration::poseError(start, truth);
+        const registration::FrameRegistration one =
+            registration::registerFrame(off.scene.mesh, off.vf, start, registration::RegisterOptions{});
+        const registration::FrameRegistration searched =
+            registration::registerInitial(off.scene.mesh, off.vf, start, registration::RegisterOptions{});
+        const registration::PoseError e1 = registration::poseError(one.cameraToWorld, truth);
+        const registration::PoseError es = registration::poseError(searched.cameraToWorld, truth);
         std::printf(
             "from %.1f mm %.1f deg: one start %.2f mm %.2f deg (S %.3f), searched %.2f mm %.2f deg (S %.3f, "
             "%d renders)\n",
@@ -943,21 +957,23 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
         EXPECT_LT(es.position, 0.5);
         EXPECT_LT(es.degrees, 1.5);
         // Results within InitialSearch::tie of the best are equal: the nearest is kept.
-        EXPECT_GE(searched.similarity, one.similarity - fit::InitialSearch{}.tie);
+        EXPECT_GE(searched.similarity, one.similarity - registration::InitialSearch{}.tie);
         if (&t == &offsets.front().first) {
             // The candidates are draws, not predictions: no motion or roll
             // prior holds their refinement (the same pose with either on; a
             // small search, which is what takes the time under sanitizers).
-            fit::InitialSearch small;
+            registration::InitialSearch small;
             small.candidates = 16;
             small.refine = 1;
-            fit::RegisterOptions held;
+            registration::RegisterOptions held;
             held.motionPrior = held.rollPrior = 1e4;
-            const fit::FrameRegistration free = fit::registerInitial(off.scene.mesh, off.vf, start, {}, small);
-            const fit::FrameRegistration h = fit::registerInitial(off.scene.mesh, off.vf, start, held, small);
-            EXPECT_GT(fit::poseError(free.cameraToWorld, start).position, 0.5);  // it moved from the start
-            EXPECT_LT(fit::poseError(h.cameraToWorld, free.cameraToWorld).position, 1e-9);
-            EXPECT_LT(fit::poseError(h.cameraToWorld, free.cameraToWorld).degrees, 1e-4);  // acos near 1
+            const registration::FrameRegistration free =
+                registration::registerInitial(off.scene.mesh, off.vf, start, {}, small);
+            const registration::FrameRegistration h =
+                registration::registerInitial(off.scene.mesh, off.vf, start, held, small);
+            EXPECT_GT(registration::poseError(free.cameraToWorld, start).position, 0.5);  // it moved from the start
+            EXPECT_LT(registration::poseError(h.cameraToWorld, free.cameraToWorld).position, 1e-9);
+            EXPECT_LT(registration::poseError(h.cameraToWorld, free.cameraToWorld).degrees, 1e-4);  // acos near 1
         }
     }
     EXPECT_EQ(missed, 2);  // the search is what captures them
@@ -966,7 +982,7 @@ TEST(RegisterPose, TheInitialSearchCapturesAFirstFrameOneStartMisses) {
 // A model texture multiplies the model's shading by the albedo at the
 // surface's UVs: bilinear in the atlas rectangle, clamped or wrapped.
 TEST(RegisterPq, AModelTextureMultipliesTheShadingByTheAlbedoAtTheUvs) {
-    fit::ModelTexture t;
+    registration::ModelTexture t;
     t.luminance = image::ImageF(2, 1, 1);
     t.luminance.at(0, 0) = 0.2f;
     t.luminance.at(1, 0) = 0.6f;
@@ -985,11 +1001,12 @@ TEST(RegisterPq, AModelTextureMultipliesTheShadingByTheAlbedoAtTheUvs) {
     ASSERT_TRUE(quad.hasUvs());
     const Intrinsics K = pinhole(61, 80);
     const Mat4 pose = frames::lookAtPose({12, -8, 25}, {1, 2, 0}, {0, 1, 0});
-    fit::ModelTexture flat;
+    registration::ModelTexture flat;
     flat.luminance = image::ImageF(1, 1, 1);
     flat.luminance.at(0, 0) = 0.4f;
-    const fit::ModelView plain = fit::renderModel(quad, K, pose, {0, 0, 0});
-    const fit::ModelView textured = fit::renderModel(quad, K, pose, {0, 0, 0}, 1, 2, {}, nullptr, &flat);
+    const registration::ModelView plain = registration::renderModel(quad, K, pose, {0, 0, 0});
+    const registration::ModelView textured =
+        registration::renderModel(quad, K, pose, {0, 0, 0}, 1, 2, {}, nullptr, &flat);
     std::size_t seen = 0;
     for (std::size_t i = 0; i < plain.seen.size(); ++i) {
         if (!plain.seen[i]) continue;
@@ -1008,18 +1025,18 @@ TEST(RegisterPq, AModelTextureMultipliesTheShadingByTheAlbedoAtTheUvs) {
 TEST(RegisterAlbedo, AMapLearntAlongTheTrackFollowsTheWallsAlbedo) {
     const test::RegisterScene scene = test::makeRegisterScene(8);
     const Intrinsics K = pinhole(160, 90);
-    fit::RegisterOptions ro;
-    ro.method = fit::RegistrationMethod::Intensity;
+    registration::RegisterOptions ro;
+    ro.method = registration::RegistrationMethod::Intensity;
     test::VideoOptions vo;
     vo.albedoContrast = 0.5;
-    fit::AlbedoMap map(scene.mesh.vertexCount());
+    registration::AlbedoMap map(scene.mesh.vertexCount());
     const double gains[] = {0.7, 1.3, 0.9, 1.2, 0.75, 1.1};
     for (int f = 0; f < 6; ++f) {
         vo.gain = gains[f];
         vo.seed = static_cast<unsigned>(f + 1);
         image::Image8 sat;
         const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[f], vo, 1, &sat);
-        const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
+        const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, K, ro);
         EXPECT_GT(map.add(scene.mesh, vf, scene.poses[f], ro), 2000u);
     }
     EXPECT_EQ(map.frames(), 6u);
@@ -1061,18 +1078,18 @@ TEST(RegisterAlbedo, AMapLearntAlongTheTrackFollowsTheWallsAlbedo) {
     vo.gain = 1.0;
     image::Image8 sat;
     const image::ImageF frame = test::renderVideoFrame(scene.truth, K, scene.poses[6], vo, 1, &sat);
-    const fit::VideoFrame vf = fit::prepareFrame(frame, &sat, K, ro);
+    const registration::VideoFrame vf = registration::prepareFrame(frame, &sat, K, ro);
     const auto& L = vf.levels.back();
-    const double plain = fit::normalisedCrossCorrelation(
-        L.luminance, fit::renderModel(scene.mesh, L.K, scene.poses[6], {0, 0, 0}).shading, L.valid);
-    const double textured = fit::normalisedCrossCorrelation(
+    const double plain = registration::normalisedCrossCorrelation(
+        L.luminance, registration::renderModel(scene.mesh, L.K, scene.poses[6], {0, 0, 0}).shading, L.valid);
+    const double textured = registration::normalisedCrossCorrelation(
         L.luminance,
-        fit::renderModel(scene.mesh, L.K, scene.poses[6], {0, 0, 0}, 1, 2, {}, nullptr, texture.get()).shading,
+        registration::renderModel(scene.mesh, L.K, scene.poses[6], {0, 0, 0}, 1, 2, {}, nullptr, texture.get()).shading,
         L.valid);
     std::printf("an unseen frame at its pose: NCC %.4f untextured, %.4f with the map\n", plain, textured);
     EXPECT_LT(1 - textured, 0.7 * (1 - plain));  // measured 0.013 against 0.025
     // A map for another mesh, or a mesh without normals, is refused.
-    fit::AlbedoMap other(10);
+    registration::AlbedoMap other(10);
     EXPECT_THROW(other.add(scene.mesh, vf, scene.poses[6], ro), InputError);
     mesh::Mesh bare = scene.mesh;
     bare.normals.clear();
@@ -1092,10 +1109,10 @@ TEST(RegisterAlbedo, AMapLearntAlongTheTrackFollowsTheWallsAlbedo) {
 struct SmoothTubeTrack {
     mesh::Mesh model, truth;
     std::vector<Mat4> poses;
-    std::vector<fit::VideoFrame> frames;
+    std::vector<registration::VideoFrame> frames;
 };
 
-SmoothTubeTrack smoothTubeTrack(const fit::RegisterOptions& ro) {
+SmoothTubeTrack smoothTubeTrack(const registration::RegisterOptions& ro) {
     auto smoothTube = [](int around, int along) {
         mesh::Mesh m = mesh::makeTube(7.0f, 70.0f, around, along);
         m.tangents.clear();
@@ -1119,29 +1136,30 @@ SmoothTubeTrack smoothTubeTrack(const fit::RegisterOptions& ro) {
         vo.seed = static_cast<unsigned>(f + 1);
         vo.gain = 1.0 + 0.2 * std::sin(1.7 * static_cast<double>(f));
         image::Image8 sat;
-        t.frames.push_back(fit::prepareFrame(test::renderVideoFrame(t.truth, K, t.poses[f], vo, 0, &sat), &sat, K, ro));
+        t.frames.push_back(
+            registration::prepareFrame(test::renderVideoFrame(t.truth, K, t.poses[f], vo, 0, &sat), &sat, K, ro));
     }
     return t;
 }
 
 TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
-    fit::RegisterOptions ro;
-    ro.method = fit::RegistrationMethod::Intensity;
+    registration::RegisterOptions ro;
+    ro.method = registration::RegistrationMethod::Intensity;
     const SmoothTubeTrack scene = smoothTubeTrack(ro);
     const mesh::Mesh& model = scene.model;
     const std::vector<Mat4>& poses = scene.poses;
-    const std::vector<fit::VideoFrame>& frames = scene.frames;
+    const std::vector<registration::VideoFrame>& frames = scene.frames;
     // The first frame is registered (here: at its true pose, as the initial
     // search would give it) and painted into the map; the rest is tracked.
     auto track = [&](bool withMap) {
-        fit::Tracker tracker(poses[0]);
-        fit::AlbedoMap map(model.vertexCount());
+        registration::Tracker tracker(poses[0]);
+        registration::AlbedoMap map(model.vertexCount());
         if (withMap) map.add(model, frames[0], poses[0], ro);
-        fit::PoseError worst;
+        registration::PoseError worst;
         for (std::size_t f = 1; f < poses.size(); ++f) {
-            const fit::FrameRegistration r =
-                fit::registerTracked(model, frames[f], tracker, ro, withMap ? &map : nullptr);
-            const fit::PoseError e = fit::poseError(r.cameraToWorld, poses[f]);
+            const registration::FrameRegistration r =
+                registration::registerTracked(model, frames[f], tracker, ro, withMap ? &map : nullptr);
+            const registration::PoseError e = registration::poseError(r.cameraToWorld, poses[f]);
             std::printf("%s frame %zu: %.2f mm %.2f deg (S %.3f)\n", withMap ? "map" : "shape", f, e.position,
                         e.degrees, r.similarity);
             worst.position = std::max(worst.position, e.position);
@@ -1152,7 +1170,7 @@ TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
         }
         return worst;
     };
-    const fit::PoseError shapeOnly = track(false), mapped = track(true);
+    const registration::PoseError shapeOnly = track(false), mapped = track(true);
     std::printf("worst error: shape alone %.2f mm %.1f deg, with the albedo map %.2f mm %.1f deg\n", shapeOnly.position,
                 shapeOnly.degrees, mapped.position, mapped.degrees);
     // Measured: 5.5 mm and 27 degrees alone, 0.45 mm and 1.3 degrees with the map.
@@ -1161,12 +1179,12 @@ TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
     EXPECT_LT(mapped.position, 0.7);
     EXPECT_LT(mapped.degrees, 2.0);
     // A frame that converges but scores under minPaintSimilarity paints nothing.
-    fit::RegisterOptions strict = ro;
+    registration::RegisterOptions strict = ro;
     strict.minPaintSimilarity = 1.01;  // over any NCC
-    fit::Tracker tracker(poses[0]);
-    fit::AlbedoMap map(model.vertexCount());
+    registration::Tracker tracker(poses[0]);
+    registration::AlbedoMap map(model.vertexCount());
     map.add(model, frames[0], poses[0], strict);
-    EXPECT_TRUE(fit::registerTracked(model, frames[1], tracker, strict, &map).converged);
+    EXPECT_TRUE(registration::registerTracked(model, frames[1], tracker, strict, &map).converged);
     EXPECT_EQ(map.frames(), 1u);
 }
 
@@ -1178,21 +1196,22 @@ TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
 // map's pose 0.05 mm / 0.18 deg); comparing normals, it converges within
 // 0.15 mm, so here a threshold no frame reaches flags every frame.
 TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
-    fit::RegisterOptions ro;  // pq
+    registration::RegisterOptions ro;  // pq
     const SmoothTubeTrack scene = smoothTubeTrack(ro);
     ro.minSimilarity = 1.01;
     auto track = [&](bool keep) {
-        fit::RegisterOptions o = ro;
+        registration::RegisterOptions o = ro;
         o.keepMapPose = keep;
-        fit::Tracker tracker(scene.poses[0]);
-        fit::AlbedoMap map(scene.model.vertexCount());
+        registration::Tracker tracker(scene.poses[0]);
+        registration::AlbedoMap map(scene.model.vertexCount());
         map.add(scene.model, scene.frames[0], scene.poses[0], o);
-        fit::PoseError first, worst;
+        registration::PoseError first, worst;
         // The scope's advance: frames 1-3.
         for (std::size_t f = 1; f < 4; ++f) {
             const std::vector<Mat4> starts = tracker.starts();
-            const fit::FrameRegistration r = fit::registerTracked(scene.model, scene.frames[f], tracker, o, &map);
-            const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[f]);
+            const registration::FrameRegistration r =
+                registration::registerTracked(scene.model, scene.frames[f], tracker, o, &map);
+            const registration::PoseError e = registration::poseError(r.cameraToWorld, scene.poses[f]);
             std::printf("%s frame %zu: %.2f mm %.2f deg (S %.3f, %s)\n", keep ? "keep" : "pq's own", f, e.position,
                         e.degrees, r.similarity, r.converged ? "converged" : "flagged");
             if (f == 1) first = e;
@@ -1207,24 +1226,26 @@ TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
             // Flagged (so the map is as it was): the map's step from each of
             // the tracker's starts, as registerTracked runs it; the best
             // converged one.
-            fit::RegisterOptions byMap = o;
-            byMap.method = fit::RegistrationMethod::Intensity;
+            registration::RegisterOptions byMap = o;
+            byMap.method = registration::RegistrationMethod::Intensity;
             byMap.texture = map.texture();
-            std::optional<fit::FrameRegistration> m;
+            std::optional<registration::FrameRegistration> m;
             for (const Mat4& start : starts) {
-                const fit::FrameRegistration s = fit::registerFrame(scene.model, scene.frames[f], start, byMap);
+                const registration::FrameRegistration s =
+                    registration::registerFrame(scene.model, scene.frames[f], start, byMap);
                 if (s.converged && (!m || s.similarity > m->similarity)) m = s;
             }
             if (!m) ADD_FAILURE() << "frame " << f << ": the map's step did not converge";
             if (m) {
                 // The map's own pose, and pq's similarity evaluated there.
-                const fit::PoseError d = fit::poseError(r.cameraToWorld, m->cameraToWorld);
+                const registration::PoseError d = registration::poseError(r.cameraToWorld, m->cameraToWorld);
                 EXPECT_LT(d.position, 1e-9) << f;
                 EXPECT_LT(d.degrees, 1e-4) << f;  // acos near 1
-                fit::RegisterOptions at = o;
+                registration::RegisterOptions at = o;
                 at.maxIterations = 0;
-                EXPECT_DOUBLE_EQ(r.similarity,
-                                 fit::registerFrame(scene.model, scene.frames[f], r.cameraToWorld, at).similarity);
+                EXPECT_DOUBLE_EQ(
+                    r.similarity,
+                    registration::registerFrame(scene.model, scene.frames[f], r.cameraToWorld, at).similarity);
                 // Said so, and the track moves there: the next frame starts
                 // from the kept pose alone (Tracker::anchorOnMap).
                 EXPECT_TRUE(r.mapPoseKept);
@@ -1258,17 +1279,18 @@ TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
 // kept. Here the step moves the pose by hundredths of a millimetre; a reach
 // under that discards it, and a flagged frame keeps pq's own estimate.
 TEST(RegisterAlbedo, TheMapsStepCountsOnlyWithinReachOfTheStart) {
-    fit::RegisterOptions o;  // pq
+    registration::RegisterOptions o;  // pq
     const SmoothTubeTrack scene = smoothTubeTrack(o);
     o.minSimilarity = 1.01;  // every frame flagged: the map's pose would be kept
     for (const double reach : {0.0, 1e-4}) {
-        fit::RegisterOptions r = o;
+        registration::RegisterOptions r = o;
         r.mapReachMm = reach;  // 0: no limit
         r.mapReachDegrees = 0;
-        fit::Tracker tracker(scene.poses[0]);
-        fit::AlbedoMap map(scene.model.vertexCount());
+        registration::Tracker tracker(scene.poses[0]);
+        registration::AlbedoMap map(scene.model.vertexCount());
         map.add(scene.model, scene.frames[0], scene.poses[0], r);
-        const fit::FrameRegistration f = fit::registerTracked(scene.model, scene.frames[1], tracker, r, &map);
+        const registration::FrameRegistration f =
+            registration::registerTracked(scene.model, scene.frames[1], tracker, r, &map);
         std::printf("reach %g mm: the map's step %s, the map's pose %s\n", reach,
                     f.mapConverged ? "converged" : "not counted", f.mapPoseKept ? "kept" : "not kept");
         EXPECT_FALSE(f.converged);
@@ -1276,10 +1298,10 @@ TEST(RegisterAlbedo, TheMapsStepCountsOnlyWithinReachOfTheStart) {
         EXPECT_EQ(f.mapPoseKept, reach == 0.0);
         if (reach > 0) {
             // pq ran from the track's start, not the map's pose.
-            const fit::Tracker fresh(scene.poses[0]);
-            const fit::FrameRegistration p =
-                fit::registerFrame(scene.model, scene.frames[1], fresh.start(), fresh.options(r));
-            EXPECT_LT(fit::poseError(p.cameraToWorld, f.cameraToWorld).position, 1e-9);
+            const registration::Tracker fresh(scene.poses[0]);
+            const registration::FrameRegistration p =
+                registration::registerFrame(scene.model, scene.frames[1], fresh.start(), fresh.options(r));
+            EXPECT_LT(registration::poseError(p.cameraToWorld, f.cameraToWorld).position, 1e-9);
         }
     }
 }
@@ -1291,19 +1313,20 @@ TEST(RegisterAlbedo, TheMapsStepCountsOnlyWithinReachOfTheStart) {
 // every frame left converged lies within the agreement of the map's pose.
 // The estimate stays the method's own (keepMapPose is off).
 TEST(RegisterAlbedo, AFrameTheMapsPoseDisagreesWithIsFlaggedAndPaintsNothing) {
-    fit::RegisterOptions o;  // pq
+    registration::RegisterOptions o;  // pq
     const SmoothTubeTrack scene = smoothTubeTrack(o);
     o.mapAgreementMm = 0.02;
     o.mapAgreementDegrees = 0.03;
     o.keepMapPose = false;
     o.minPaintSimilarity = 0;
-    fit::Tracker tracker(scene.poses[0]);
-    fit::AlbedoMap map(scene.model.vertexCount());
+    registration::Tracker tracker(scene.poses[0]);
+    registration::AlbedoMap map(scene.model.vertexCount());
     map.add(scene.model, scene.frames[0], scene.poses[0], o);
     std::size_t converged = 0, disagreed = 0;
     for (std::size_t f = 1; f < 4; ++f) {
-        const fit::FrameRegistration r = fit::registerTracked(scene.model, scene.frames[f], tracker, o, &map);
-        const fit::PoseError apart = fit::poseError(r.cameraToWorld, r.mapCameraToWorld);
+        const registration::FrameRegistration r =
+            registration::registerTracked(scene.model, scene.frames[f], tracker, o, &map);
+        const registration::PoseError apart = registration::poseError(r.cameraToWorld, r.mapCameraToWorld);
         std::printf("frame %zu: %s, %.2f mm %.2f deg from the map's pose (S %.3f)\n", f,
                     r.converged      ? "converged"
                     : r.mapDisagreed ? "flagged: disagrees"
@@ -1325,11 +1348,11 @@ TEST(RegisterAlbedo, AFrameTheMapsPoseDisagreesWithIsFlaggedAndPaintsNothing) {
     }
     EXPECT_GE(disagreed, 1u);
     // The frames file carries the reason, and reads it back.
-    fit::FrameRegistration r;
+    registration::FrameRegistration r;
     r.cameraToWorld = scene.poses[1];
     r.mapDisagreed = true;
     r.mapPoseKept = true;
-    const fit::RegistrationRun back = writtenAndRead(scene.frames[1].levels.back().K, {r});
+    const registration::RegistrationRun back = writtenAndRead(scene.frames[1].levels.back().K, {r});
     ASSERT_EQ(back.frames.size(), 1u);
     EXPECT_TRUE(back.frames[0].r.mapDisagreed);
     EXPECT_TRUE(back.frames[0].r.mapPoseKept);

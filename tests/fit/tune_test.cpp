@@ -1,4 +1,4 @@
-// mucosa tune (fit/tune.hpp): the tunable parameters, the sweep's values and
+// mucosa tune (tune/tune.hpp): the tunable parameters, the sweep's values and
 // plots, the preset round trip, parameter recovery with the render in the
 // loop, and the command's errors.
 #include <mucosa/tune/tune.hpp>

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/video.hpp>
+#include <mucosa/register/video.hpp>
 
 #include "test_support.hpp"
 #include "video_encode.hpp"
@@ -53,7 +53,7 @@ TEST(Video, LosslessFramesComeBackExactlyInOrder) {
     test::TempDir dir;
     const auto frames = testFrames(12, 48, 32);
     test::encodeVideo(dir / "v.mkv", frames, {});
-    fit::VideoReader r(dir / "v.mkv");
+    registration::VideoReader r(dir / "v.mkv");
     EXPECT_EQ(r.info().width, 48);
     EXPECT_EQ(r.info().height, 32);
     EXPECT_NEAR(r.info().fps, 25.0, 1e-9);
@@ -91,7 +91,7 @@ TEST(Video, YuvRangeAndMatrixAreHonoured) {
     for (const Case& c : cases) {
         SCOPED_TRACE(c.file);
         test::encodeVideo(dir / c.file, frames, c.e);
-        fit::VideoReader r(dir / c.file);
+        registration::VideoReader r(dir / c.file);
         image::Image8 got;
         int n = 0;
         while (r.next(got)) {
@@ -111,7 +111,7 @@ TEST(Video, BadFilesAreRefusedNamingTheFile) {
     auto refused = [&](const fs::path& p, const std::string& needle) {
         SCOPED_TRACE(p.string());
         try {
-            fit::VideoReader r(p);
+            registration::VideoReader r(p);
             image::Image8 f;
             while (r.next(f)) {
             }
@@ -155,7 +155,7 @@ TEST(Video, ATruncatedFileEndsEarlyOrFailsInOneErrorNeverCrashes) {
                 .write(bytes.data(), static_cast<std::streamsize>(keep * static_cast<double>(bytes.size())));
             int n = 0;
             try {
-                fit::VideoReader r(cut);
+                registration::VideoReader r(cut);
                 image::Image8 f;
                 while (r.next(f)) {
                     ++n;

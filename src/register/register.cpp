@@ -1,4 +1,4 @@
-#include <mucosa/fit/register.hpp>
+#include <mucosa/register/register.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -16,7 +16,7 @@
 #include <mucosa/core/parallel.hpp>
 #include <mucosa/fit/fit.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::registration {
 
 namespace {
 
@@ -475,7 +475,7 @@ double shadeSample(const mesh::Mesh& mesh, std::int32_t t, const double (&bs)[3]
         const double z = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]), gamma = -dot3(nc, P) / z;
         if (gamma <= 0) return 0.0;
         lit = true;
-        return albedo * fittedShading(*brdf, gamma, z);
+        return albedo * fit::fittedShading(*brdf, gamma, z);
     }
     // The walls' back-scatter: the renderer's ambient, k_a x the lamp at 10 mm.
     double sum = albedo * lamp.ambient / 100.0;
@@ -722,7 +722,7 @@ VideoFrame prepareFrame(const image::ImageF& linear, const image::Image8* satura
             const float r = linear.at(x, y, 0), g = linear.at(x, y, c > 1 ? 1 : 0), b = linear.at(x, y, c > 2 ? 2 : 0);
             lum[static_cast<std::size_t>(y) * W + x] = 0.2126f * r + 0.7152f * g + 0.0722f * b;
         }
-    const std::vector<std::uint8_t> outside = outsideFieldOfView(linear);
+    const std::vector<std::uint8_t> outside = fit::outsideFieldOfView(linear);
 
     VideoFrame f;
     for (int width : o.levels) {
@@ -1360,4 +1360,4 @@ frames::Mat4 perturbPose(const frames::Mat4& m, const frames::Vec3d& t, const fr
     return o;
 }
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::registration

@@ -9,7 +9,7 @@
 
 #include <mucosa/image/image.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::registration {
 
 struct VideoInfo {
     int width = 0, height = 0;
@@ -43,4 +43,4 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::registration

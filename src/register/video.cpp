@@ -1,7 +1,7 @@
 // Video decoding with FFmpeg: demux (libavformat), decode (libavcodec), and
 // convert to full-range RGB24 (libswscale) with the stream's own YUV matrix
 // and range, so that a frame reads as the scope's processor encoded it.
-#include <mucosa/fit/video.hpp>
+#include <mucosa/register/video.hpp>
 
 #include <cmath>
 #include <cstring>
@@ -19,7 +19,7 @@ extern "C" {
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/memory.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::registration {
 
 namespace {
 
@@ -225,4 +225,4 @@ std::int64_t VideoReader::framesRead() const noexcept {
     return impl_->read;
 }
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::registration

@@ -13,14 +13,14 @@
 #include <mucosa/core/text.hpp>
 #include <mucosa/core/version.hpp>
 #include <mucosa/fit/fit.hpp>
-#include <mucosa/fit/register.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/analysis.hpp>
+#include <mucosa/register/register.hpp>
 
 #include "core/json_parse.hpp"
-#include "frames_json.hpp"
+#include "frames/frames_json.hpp"
 
-namespace mucosa::fit {
+namespace mucosa::registration {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -258,7 +258,7 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
         fr.image = f.image;
         fr.K = run.camera.K;
         image::Image8 sat;
-        const image::ImageF linear = loadFrameImage(fr, run.camera.response, &sat, o.saturation);
+        const image::ImageF linear = fit::loadFrameImage(fr, run.camera.response, &sat, o.saturation);
         const VideoFrame vf = prepareFrame(linear, &sat, run.camera.K, o);
         const VideoFrame::Level& L = vf.levels.back();
         const ModelView mv = renderModel(mesh, L.K, f.r.cameraToWorld, run.camera.lightOffset, 0, 2, run.camera.lamp,
@@ -345,4 +345,4 @@ void writeRegistrationReport(const fs::path& dir, const RegistrationRun& run, co
     for (const fs::path& f : stale) fs::remove(f, ec);
 }
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::registration

@@ -28,7 +28,7 @@
 #include <mucosa/raster/raster.hpp>
 #include <mucosa/shading/brdf.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::registration {
 
 enum class RegistrationMethod { PqSpace, Intensity };
 const char* methodName(RegistrationMethod m) noexcept;
@@ -473,9 +473,9 @@ PoseError poseError(const frames::Mat4& a, const frames::Mat4& b) noexcept;
 frames::Mat4 perturbPose(const frames::Mat4& cameraToWorld, const frames::Vec3d& translation,
                          const frames::Vec3d& rotation) noexcept;
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::registration
 
-namespace mucosa::fit {
+namespace mucosa::registration {
 
 // A run of `mucosa register` over a video, as written after every frame (a
 // long run resumes where it stopped): the frames file `mucosa fit` reads, each
@@ -510,4 +510,4 @@ void checkInitialView(const mesh::Mesh& mesh, const frames::Intrinsics& K, const
 void writeRegistrationReport(const std::filesystem::path& dir, const RegistrationRun& run, const mesh::Mesh& mesh,
                              const RegisterOptions& options, int samples = 6);
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::registration

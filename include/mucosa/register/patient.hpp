@@ -24,7 +24,7 @@
 #include <mucosa/shading/brdf.hpp>
 #include <mucosa/shading/params.hpp>
 
-namespace mucosa::fit {
+namespace mucosa::registration {
 
 // How the video is shaded.
 enum class PatientLook {
@@ -114,4 +114,4 @@ void writeSyntheticPatient(const SyntheticPatient& patient, const std::filesyste
 // The truth's albedo at texture coordinates (u, v) (wrapping), linear RGB.
 std::array<double, 3> truthAlbedo(const SyntheticPatient& patient, double u, double v);
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::registration

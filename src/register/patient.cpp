@@ -1,4 +1,4 @@
-#include <mucosa/fit/patient.hpp>
+#include <mucosa/register/patient.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -8,20 +8,19 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
-#include <mucosa/fit/categories.hpp>
-#include <mucosa/fit/register.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/phantom.hpp>
 #include <mucosa/mesh/tangents.hpp>
 #include <mucosa/mesh/uv.hpp>
+#include <mucosa/register/register.hpp>
 #include <mucosa/render/offscreen.hpp>
 #include <mucosa/scene/scene.hpp>
 #include <mucosa/shading/reference.hpp>
 
-#include "frames_json.hpp"
+#include "frames/frames_json.hpp"
 
-namespace mucosa::fit {
+namespace mucosa::registration {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -383,4 +382,4 @@ void writeSyntheticPatient(const SyntheticPatient& p, const fs::path& dir, const
     image::writePng(dir / "truth" / "texture.png", p.texture);
 }
 
-}  // namespace mucosa::fit
+}  // namespace mucosa::registration
