@@ -3,7 +3,7 @@
 // range, and seconds per frame split into renders, similarity and optimiser,
 // for the pq-space method and the intensity baseline in the same run.
 //   bench_register [frames=60] [size=320] [working widths, coarse to fine...]
-// The airway, frames and lighting are those of tests/fit/register_scene.hpp:
+// The airway, frames and lighting are those of tests/register/register_scene.hpp:
 // a curved airway with rings and a fold, vessels over blotches, glints,
 // Gaussian noise, exposure +-30 % frame to frame, 8-bit gamma-2.2 frames.
 #include <sys/resource.h>
