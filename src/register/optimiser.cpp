@@ -335,7 +335,7 @@ FrameRegistration registerFrame(const mesh::Mesh& fullMesh, const VideoFrame& fr
     // A coarse level can prefer a pose the finest one does not (a bias of the
     // blurred field: on the category-4 phantom's first frame, 40 pixels
     // across preferred a roll 24 degrees off that scored 0.90 at 80 against
-    // 0.94 where the finest level alone went, until session 25's normals). When the coarse levels moved
+    // 0.94 where the finest level alone went, before the fields compared normals). When the coarse levels moved
     // the pose further than `recheckMm` / `recheckDeg`, the finest level is
     // also run from the start, and the better of the two kept (with
     // options.recheck: registerInitial's refinement).
