@@ -1,3 +1,5 @@
+#include <mucosa/fit/fit.hpp>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -5,7 +7,6 @@
 #include <fmt/format.h>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/fit.hpp>
 #include <mucosa/image/png.hpp>
 
 #include "surface.hpp"

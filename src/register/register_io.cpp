@@ -1,5 +1,7 @@
 // `mucosa register`'s files: the registered frames file (resumable), the
 // starting-view checks, and the HTML report.
+#include <mucosa/register/register.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <regex>
@@ -15,7 +17,6 @@
 #include <mucosa/fit/fit.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/analysis.hpp>
-#include <mucosa/register/register.hpp>
 
 #include "core/json_parse.hpp"
 #include "frames/frames_json.hpp"
