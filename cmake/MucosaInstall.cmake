@@ -2,7 +2,7 @@ include(CMakePackageConfigHelpers)
 
 # One export set per layer, so find_package(mucosa COMPONENTS core) loads (and,
 # for a static build, finds the dependencies of) that layer alone.
-foreach(layer IN ITEMS core scene render fit study)
+foreach(layer IN ITEMS core scene render dataset tune fit register study)
   install(TARGETS mucosa_${layer} EXPORT mucosa_${layer}_targets
     LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
     ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
@@ -16,7 +16,7 @@ install(FILES ${PROJECT_BINARY_DIR}/include/mucosa/version.hpp
   DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/mucosa)
 
 set(MUCOSA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/mucosa)
-foreach(layer IN ITEMS core scene render fit study mucosa)
+foreach(layer IN ITEMS core scene render dataset tune fit register study mucosa)
   install(EXPORT mucosa_${layer}_targets NAMESPACE mucosa:: DESTINATION ${MUCOSA_CMAKE_DIR}
     FILE mucosa-${layer}-targets.cmake)
 endforeach()

@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/io.hpp>

@@ -45,7 +45,7 @@ void addCategoriesCommand(CLI::App& app, Global& g) {
                 std::fprintf(stderr, tty ? "\r[categories] pose %d/%d" : "[categories] pose %d/%d\n", done, total);
                 if (tty && done == total) std::fprintf(stderr, "\n");
             };
-        const fit::FrameSet frames = fit::readFrames(a->frames);
+        const frames::FrameSet frames = frames::readFrames(a->frames);
         const fit::FittedModel model = fit::readFitDirectory(a->fitDir);
         const mesh::Mesh m = mesh::load(a->mesh);
         const auto images = fit::renderCategories(m, frames, model, a->out, a->o);

@@ -21,7 +21,7 @@
 #include <mucosa/core/file.hpp>
 #include <mucosa/core/version.hpp>
 #include <mucosa/dataset/export.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/shading/params.hpp>
@@ -48,7 +48,7 @@ std::string writtenFiles(const dataset::Export& e) {
 
 void runExport(const ExportArgs& a, const Global& g) {
     const dataset::ExportFormat format = dataset::parseExportFormat(a.format, "--format");
-    const fit::FrameSet set = fit::readFrames(a.frames, true);
+    const frames::FrameSet set = frames::readFrames(a.frames, true);
     dataset::ExportOptions o;
     // A dataset rendered through a lens (mucosa render --lens) carries it.
     const nlohmann::json j = nlohmann::json::parse(readTextFile(a.frames), nullptr, false);

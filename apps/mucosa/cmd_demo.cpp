@@ -13,10 +13,10 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/fit/categories.hpp>
-#include <mucosa/fit/patient.hpp>
-#include <mucosa/fit/register.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/reflectance/map.hpp>
+#include <mucosa/register/patient.hpp>
+#include <mucosa/register/register.hpp>
 #include <mucosa/render/offscreen.hpp>
 
 #include "commands.hpp"
@@ -37,11 +37,11 @@ struct PoseScore {
     std::size_t converged = 0, frames = 0;
 };
 PoseScore scorePoses(const fs::path& registered, const fs::path& truth) {
-    const fit::FrameSet r = fit::readFrames(registered), t = fit::readFrames(truth);
+    const frames::FrameSet r = frames::readFrames(registered), t = frames::readFrames(truth);
     std::vector<double> mm, deg;
     PoseScore s;
     for (std::size_t i = 0; i < std::min(r.frames.size(), t.frames.size()); ++i) {
-        const fit::PoseError e = fit::poseError(r.frames[i].cameraToWorld, t.frames[i].cameraToWorld);
+        const registration::PoseError e = registration::poseError(r.frames[i].cameraToWorld, t.frames[i].cameraToWorld);
         mm.push_back(e.position);
         deg.push_back(e.degrees);
         s.converged += r.frames[i].flagged ? 0 : 1;
@@ -63,7 +63,7 @@ struct TexturePsnr {
     double psnr = 0, gain = 1;
     std::size_t texels = 0;
 };
-TexturePsnr texturePsnr(const fit::SyntheticPatient& patient, const fs::path& fitDir) {
+TexturePsnr texturePsnr(const registration::SyntheticPatient& patient, const fs::path& fitDir) {
     const fit::FittedModel m = fit::readFitDirectory(fitDir);
     const image::PngImage coverage = image::readPng(fitDir / "coverage.png");
     const int w = m.texture.width(), h = m.texture.height();
@@ -76,7 +76,7 @@ TexturePsnr texturePsnr(const fit::SyntheticPatient& patient, const fs::path& fi
             if (coverage.pixels.at(x, y, 0) == 0) continue;
             const double u = m.uvMin[0] + (x + 0.5) / w * (m.uvMax[0] - m.uvMin[0]);
             const double v = m.uvMax[1] - (y + 0.5) / h * (m.uvMax[1] - m.uvMin[1]);  // first row = top
-            const std::array<double, 3> a = fit::truthAlbedo(patient, u, v);
+            const std::array<double, 3> a = registration::truthAlbedo(patient, u, v);
             std::array<double, 3> f{};
             for (int c = 0; c < 3; ++c) {
                 f[static_cast<std::size_t>(c)] = m.texture.at(x, y, c);
@@ -108,12 +108,12 @@ TexturePsnr texturePsnr(const fit::SyntheticPatient& patient, const fs::path& fi
 void patientPipeline(const fs::path& dir, int frames, Global& g) {
     const fs::path input = dir / "input";
     info(g, fmt::format("patient: the phantom as the CT airway, {} frames of bronchoscopy at hidden poses", frames));
-    fit::PatientOptions po;
+    registration::PatientOptions po;
     po.frames = frames;
     po.startMm = 85;  // the lower trachea: a short video still reaches the carina
     po.threads = g.threads;
-    const fit::SyntheticPatient patient = fit::makeSyntheticPatient(po);
-    fit::PatientWriteOptions wo;
+    const registration::SyntheticPatient patient = registration::makeSyntheticPatient(po);
+    registration::PatientWriteOptions wo;
     const bool tty = ::isatty(STDERR_FILENO) != 0;
     if (!g.quiet)
         wo.progress = [tty](int done, int total) {
@@ -121,7 +121,7 @@ void patientPipeline(const fs::path& dir, int frames, Global& g) {
                 std::fprintf(stderr, tty ? "\r[video] frame %d/%d\x1b[K" : "[video] %d frames\n", done, total);
             if (tty && done == total) std::fprintf(stderr, "\n");
         };
-    fit::writeSyntheticPatient(patient, input, wo);
+    registration::writeSyntheticPatient(patient, input, wo);
     const std::string mesh = (input / "airway.glb").string(), registered = (dir / "frames.json").string();
     // The steps, as a user types them.
     runCommand(g, {"register", "--mesh", mesh, "--video", (input / "video").string(), "--camera",

@@ -59,9 +59,9 @@ void addFitCommand(CLI::App& app, Global& g) {
             report(stage, kFitFrom + (kFitTo - kFitFrom) * std::clamp(fraction, 0.0, 1.0));
         };
         report("reading " + a->frames + " and " + a->mesh, 0.0);
-        fit::FrameSet frames = fit::readFrames(a->frames);
+        frames::FrameSet frames = frames::readFrames(a->frames);
         // Frames `mucosa register` could not register carry a wrong pose.
-        const auto flagged = std::erase_if(frames.frames, [](const fit::Frame& f) { return f.flagged; });
+        const auto flagged = std::erase_if(frames.frames, [](const frames::Frame& f) { return f.flagged; });
         if (flagged > 0)
             warn(fmt::format("skipping {} of {} that mucosa register flagged as not converged", count(flagged, "frame"),
                              a->frames));

@@ -18,10 +18,10 @@
 #include <mucosa/core/file.hpp>
 #include <mucosa/core/memory.hpp>
 #include <mucosa/fit/fit.hpp>
-#include <mucosa/fit/register.hpp>
-#include <mucosa/fit/video.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
+#include <mucosa/register/register.hpp>
+#include <mucosa/register/video.hpp>
 #include <mucosa/shading/brdf.hpp>
 
 #include "commands.hpp"
@@ -40,12 +40,13 @@ struct RegisterArgs {
     int maxIterations = 12, reportSamples = 6, step = 1,
         noLumenSearch = -1;  // -1: not given (the method's default)
     std::size_t maxFrames = 0;
-    double searchRadius = fit::InitialSearch{}.radiusMm, searchDegrees = fit::InitialSearch{}.degrees;
-    double albedoFilter = 0.0, prediction = 1.0, motionPrior = fit::RegisterOptions{}.motionPrior,
-           rollPrior = fit::RegisterOptions{}.rollPrior, albedoPrior = fit::RegisterOptions{}.albedoPrior,
+    double searchRadius = registration::InitialSearch{}.radiusMm, searchDegrees = registration::InitialSearch{}.degrees;
+    double albedoFilter = 0.0, prediction = 1.0, motionPrior = registration::RegisterOptions{}.motionPrior,
+           rollPrior = registration::RegisterOptions{}.rollPrior,
+           albedoPrior = registration::RegisterOptions{}.albedoPrior,
            paintMin = -1,    // -1: not given (RegisterOptions' default)
         minSimilarity = -1,  // -1: not given (the method's default)
-        minDepthRange = fit::RegisterOptions{}.minDepthRange;
+        minDepthRange = registration::RegisterOptions{}.minDepthRange;
     bool restart = false, noAlbedoMap = false, keepMapPose = false, noKeepMapPose = false;
 };
 
@@ -80,14 +81,14 @@ public:
             for (std::size_t k = 0; k < all.size() && names_.size() < limit_; k += step_) names_.push_back(all[k]);
             return;
         }
-        video_ = std::make_unique<fit::VideoReader>(a.video);
+        video_ = std::make_unique<registration::VideoReader>(a.video);
         dir_ = a.framesDir.empty() ? out.parent_path() / (out.stem().string() + "_frames") : fs::path(a.framesDir);
-        const fit::VideoInfo& v = video_->info();
+        const registration::VideoInfo& v = video_->info();
         if (v.frameCount > 0)
             estimate_ = std::min(limit_, (static_cast<std::size_t>(v.frameCount) + step_ - 1) / step_);
     }
     bool isVideo() const noexcept { return video_ != nullptr; }
-    const fit::VideoInfo& videoInfo() const { return video_->info(); }
+    const registration::VideoInfo& videoInfo() const { return video_->info(); }
     const fs::path& framesDir() const noexcept { return dir_; }
     // Frames to register: exact for a folder, the container's estimate for a
     // video (0: unknown).
@@ -112,18 +113,18 @@ public:
 
 private:
     std::vector<fs::path> names_;
-    std::unique_ptr<fit::VideoReader> video_;
+    std::unique_ptr<registration::VideoReader> video_;
     fs::path dir_;
     std::size_t step_ = 1, limit_ = 0, estimate_ = 0;
     image::Image8 rgb_;
 };
 
 void run(const RegisterArgs& a, const Global& g) {
-    fit::RegisterOptions o;
+    registration::RegisterOptions o;
     if (a.method == "pq")
-        o.method = fit::RegistrationMethod::PqSpace;
+        o.method = registration::RegistrationMethod::PqSpace;
     else if (a.method == "intensity")
-        o.method = fit::RegistrationMethod::Intensity;
+        o.method = registration::RegistrationMethod::Intensity;
     else
         throw InputError("--method", "", "must be pq or intensity, got '" + a.method + "'");
     if (!a.levels.empty()) o.levels = a.levels;
@@ -138,7 +139,7 @@ void run(const RegisterArgs& a, const Global& g) {
         throw InputError("--keep-map-pose", "", "and --no-keep-map-pose contradict each other");
     if (a.noKeepMapPose) o.keepMapPose = false;
     if (a.minSimilarity >= 0)
-        (o.method == fit::RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation) = a.minSimilarity;
+        (o.method == registration::RegistrationMethod::PqSpace ? o.minSimilarity : o.minCorrelation) = a.minSimilarity;
     o.minDepthRange = a.minDepthRange;
     if (a.noLumenSearch >= 0) o.noLumenSearch.candidates = a.noLumenSearch;
     if (a.paintMin >= 0) {
@@ -168,7 +169,7 @@ void run(const RegisterArgs& a, const Global& g) {
     if (!a.report.empty()) requireOutputDir(a.report);
 
     // Everything is checked before anything is written.
-    const fit::CameraModel cam = fit::readCamera(a.camera);
+    const frames::CameraModel cam = frames::readCamera(a.camera);
     o.lightOffset = cam.lightOffset;
     o.lamp = cam.lamp;
     if (!a.brdf.empty()) o.brdf = shading::readBrdf(a.brdf);
@@ -176,10 +177,10 @@ void run(const RegisterArgs& a, const Global& g) {
         throw InputError("field 'intrinsics.cx/cy'", a.camera,
                          fmt::format("the principal point ({}, {}) lies outside the {}x{} image", cam.K.cx, cam.K.cy,
                                      cam.K.width, cam.K.height));
-    const fit::Mat4 init = fit::readPose(a.init);
+    const frames::Mat4 init = frames::readPose(a.init);
     FrameSource source(a, out);
     if (source.isVideo()) {
-        const fit::VideoInfo& v = source.videoInfo();
+        const registration::VideoInfo& v = source.videoInfo();
         if (v.width != cam.K.width || v.height != cam.K.height)
             throw InputError(
                 "frame size", a.video,
@@ -201,19 +202,19 @@ void run(const RegisterArgs& a, const Global& g) {
         }
     }
     const mesh::Mesh m = mesh::load(a.mesh);
-    fit::checkInitialView(m, cam.K, init, cam.lightOffset, a.mesh, a.init);
+    registration::checkInitialView(m, cam.K, init, cam.lightOffset, a.mesh, a.init);
 
     // Resume: frames already registered in OUT (same method, same frames) are kept.
-    fit::RegistrationRun run;
+    registration::RegistrationRun run;
     run.camera = cam;
     run.method = o.method;
     run.mesh = a.mesh;
     run.albedoMap = !a.noAlbedoMap;
     std::error_code ec;
     if (fs::exists(out, ec) && !a.restart) {
-        fit::RegistrationRun old;
+        registration::RegistrationRun old;
         try {
-            old = fit::readRegistration(out);
+            old = registration::readRegistration(out);
         } catch (const Error& e) {
             throw InputError("--output", a.out,
                              "exists and is not a registration to resume (" + e.reason() +
@@ -237,21 +238,21 @@ void run(const RegisterArgs& a, const Global& g) {
     const auto t0 = std::chrono::steady_clock::now();
     auto lastWrite = t0;
     // The track: resumed from the frames already registered.
-    fit::Tracker tracker(init, a.prediction);
+    registration::Tracker tracker(init, a.prediction);
     for (const auto& f : run.frames) tracker.update(f.r);
     const std::size_t first = run.frames.size();
     // The albedo learnt along the track (on by default): resumed by adding
     // the kept frames again at their registered poses.
-    fit::AlbedoMap map(m.vertexCount());
+    registration::AlbedoMap map(m.vertexCount());
     auto prepare = [&](const fs::path& image) {
-        fit::Frame fr;
+        frames::Frame fr;
         fr.image = image;
         fr.K = cam.K;
         image::Image8 sat;
         const image::ImageF linear = fit::loadFrameImage(fr, cam.response, &sat, o.saturation);
-        return fit::prepareFrame(linear, &sat, cam.K, o);
+        return registration::prepareFrame(linear, &sat, cam.K, o);
     };
-    fit::InitialSearch search;
+    registration::InitialSearch search;
     search.radiusMm = a.searchRadius;
     search.degrees = a.searchDegrees;
     if (source.isVideo()) {
@@ -268,7 +269,7 @@ void run(const RegisterArgs& a, const Global& g) {
         // Each kept frame is read and prepared again (tens of ms a frame).
         info(g, fmt::format("albedo map: repainting from the {} kept", count(first, "frame")));
         for (std::size_t i = 0; i < first; ++i)
-            if (fit::paintsAlbedoMap(run.frames[i].r, o))
+            if (registration::paintsAlbedoMap(run.frames[i].r, o))
                 map.add(m, prepare(run.frames[i].image), run.frames[i].r.cameraToWorld, o);
         info(g, fmt::format("albedo map: rebuilt from {} ({:.0f} % of the mesh's vertices seen)",
                             count(map.frames(), "registered frame"), 100 * map.seenFraction()));
@@ -276,15 +277,15 @@ void run(const RegisterArgs& a, const Global& g) {
     for (std::size_t i = first;; ++i) {
         const std::optional<fs::path> name = source.get(i, true);
         if (!name) break;
-        const fit::VideoFrame vf = prepare(*name);
+        const registration::VideoFrame vf = prepare(*name);
         // From the last converged pose moved on by the last converged
         // motion (a lost frame does not drag the track away), and after a
         // flagged frame also from where that frame ended; the better is kept.
         // The first frame from the given pose, which is rough: searched around it.
         const bool searched = i == 0 && search.radiusMm + search.degrees > 0;
-        fit::AlbedoMap* learn = run.albedoMap ? &map : nullptr;
-        const fit::FrameRegistration r =
-            searched ? fit::registerInitial(m, vf, init, o, search) : fit::registerTracked(m, vf, tracker, o, learn);
+        registration::AlbedoMap* learn = run.albedoMap ? &map : nullptr;
+        const registration::FrameRegistration r = searched ? registration::registerInitial(m, vf, init, o, search)
+                                                           : registration::registerTracked(m, vf, tracker, o, learn);
         if (searched) {
             tracker.update(r);
             if (learn && r.converged) learn->add(m, vf, r.cameraToWorld, o);
@@ -292,7 +293,7 @@ void run(const RegisterArgs& a, const Global& g) {
         run.frames.push_back({*name, r});
         const auto now = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(now - lastWrite).count() > 2.0) {
-            fit::writeRegistration(out, run);
+            registration::writeRegistration(out, run);
             lastWrite = now;
         }
         if (!g.quiet) {
@@ -318,7 +319,7 @@ void run(const RegisterArgs& a, const Global& g) {
     }
     if (tty) std::fprintf(stderr, "\n");
     if (run.frames.empty()) throw InputError("video", a.video, "holds no frames");
-    fit::writeRegistration(out, run);  // the last frames (or, with nothing new, this run's description)
+    registration::writeRegistration(out, run);  // the last frames (or, with nothing new, this run's description)
 
     std::size_t converged = 0;
     std::vector<double> sims;
@@ -331,7 +332,7 @@ void run(const RegisterArgs& a, const Global& g) {
     std::sort(sims.begin(), sims.end());
     const std::size_t total = run.frames.size(), done = total - first;
     info(g, fmt::format("registered {} ({} converged) with method {}; median similarity {:.3f}", count(total, "frame"),
-                        converged, fit::methodName(o.method), sims[sims.size() / 2]));
+                        converged, registration::methodName(o.method), sims[sims.size() / 2]));
     if (done > 0)
         info(g, fmt::format("per frame: {:.2f} s rendering, {:.2f} s similarity, {:.2f} s optimiser",
                             render / static_cast<double>(done), similarity / static_cast<double>(done),
@@ -367,7 +368,7 @@ void run(const RegisterArgs& a, const Global& g) {
             a.out));
     }
     if (!a.report.empty()) {
-        fit::writeRegistrationReport(a.report, run, m, o, a.reportSamples);
+        registration::writeRegistrationReport(a.report, run, m, o, a.reportSamples);
         info(g, "wrote " + joinPath(a.report, "index.html"));
     }
     info(g, "wrote " + a.out);
@@ -430,10 +431,11 @@ void addRegisterCommand(CLI::App& app, Global& g) {
                 "its estimate, still flagged, and the next frame starts there [on]");
     c->add_flag("--no-keep-map-pose", a->noKeepMapPose,
                 "A frame the method does not converge on keeps where the method's own iterations ended");
-    c->add_option("--min-similarity", a->minSimilarity,
-                  fmt::format("A frame whose similarity at the end is below this is flagged not converged [pq {:.2f}, "
-                              "intensity {:.2f}]",
-                              fit::RegisterOptions{}.minSimilarity, fit::RegisterOptions{}.minCorrelation))
+    c->add_option(
+         "--min-similarity", a->minSimilarity,
+         fmt::format("A frame whose similarity at the end is below this is flagged not converged [pq {:.2f}, "
+                     "intensity {:.2f}]",
+                     registration::RegisterOptions{}.minSimilarity, registration::RegisterOptions{}.minCorrelation))
         ->check(CLI::Range(0.0, 1.0));
     c->add_option("--min-depth-range", a->minDepthRange,
                   "A frame whose view at the estimate reaches no farther than this many times its median depth "
@@ -447,30 +449,33 @@ void addRegisterCommand(CLI::App& app, Global& g) {
          fmt::format("A frame with no lumen in view is searched for around the track: this many poses "
                      "within {:.0f} mm and {:.0f} degrees are scored, the best {} refined, and the "
                      "best-scoring pose kept (still flagged) [pq {}, intensity 0; 0 = off]",
-                     fit::RegisterOptions{}.noLumenSearch.radiusMm, fit::RegisterOptions{}.noLumenSearch.degrees,
-                     fit::RegisterOptions{}.noLumenSearch.refine, fit::kNoLumenSearchCandidates))
+                     registration::RegisterOptions{}.noLumenSearch.radiusMm,
+                     registration::RegisterOptions{}.noLumenSearch.degrees,
+                     registration::RegisterOptions{}.noLumenSearch.refine, registration::kNoLumenSearchCandidates))
         ->check(CLI::Range(0, 100000));
     c->add_option("--paint-min", a->paintMin,
                   fmt::format("A converged frame paints the albedo map only if its similarity is at least this "
                               "[{:.2f}; 0 = every converged frame]",
-                              fit::RegisterOptions{}.minPaintSimilarity))
+                              registration::RegisterOptions{}.minPaintSimilarity))
         ->check(CLI::Range(0.0, 1.0));
     c->add_option("--map-agreement", a->mapAgreement,
                   fmt::format("MM DEG: a frame the method converges on farther than this from the albedo map's "
                               "converged pose is flagged (neither painted nor fitted) [{} {}; 0 0 = off]",
-                              fit::RegisterOptions{}.mapAgreementMm, fit::RegisterOptions{}.mapAgreementDegrees))
+                              registration::RegisterOptions{}.mapAgreementMm,
+                              registration::RegisterOptions{}.mapAgreementDegrees))
         ->expected(2)
         ->check(CLI::Range(0.0, 1000.0));
-    c->add_option("--map-reach", a->mapReach,
-                  fmt::format("MM DEG: the albedo map's step counts only within this of where the frame started "
-                              "(farther, it found another wall alike) [{} {}; 0 0 = off]",
-                              fit::RegisterOptions{}.mapReachMm, fit::RegisterOptions{}.mapReachDegrees))
+    c->add_option(
+         "--map-reach", a->mapReach,
+         fmt::format("MM DEG: the albedo map's step counts only within this of where the frame started "
+                     "(farther, it found another wall alike) [{} {}; 0 0 = off]",
+                     registration::RegisterOptions{}.mapReachMm, registration::RegisterOptions{}.mapReachDegrees))
         ->expected(2)
         ->check(CLI::Range(0.0, 1000.0));
     c->add_option("--roll-prior", a->rollPrior,
                   fmt::format("Weight of the same prior on the roll alone (the rotation about the optical axis, 2 "
                               "degrees), which a round airway leaves free [{}; 0 = off]",
-                              fit::RegisterOptions{}.rollPrior))
+                              registration::RegisterOptions{}.rollPrior))
         ->check(CLI::Range(0.0, 1.0));
     c->add_option("--search-radius", a->searchRadius,
                   "First frame: search this far (mm) around --init, and --search-degrees of rotation, before "

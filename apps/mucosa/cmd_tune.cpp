@@ -15,7 +15,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
-#include <mucosa/fit/tune.hpp>
+#include <mucosa/tune/tune.hpp>
 
 #include "scene_options.hpp"
 
@@ -67,7 +67,7 @@ std::vector<std::string> splitList(const std::string& s) {
 // The keys of --params, checked (each must be a tunable parameter), with their groups.
 std::vector<std::string> paramKeys(const std::string& list) {
     std::vector<std::string> keys;
-    for (const std::string& k : splitList(list)) keys.emplace_back(fit::findTuneParam(k, "--params").key);
+    for (const std::string& k : splitList(list)) keys.emplace_back(tune::findTuneParam(k, "--params").key);
     return keys;
 }
 
@@ -101,8 +101,8 @@ private:
     std::chrono::steady_clock::time_point t0_;
 };
 
-fit::ProbeOptions probeOptions(const ProbeArgs& a, const Global& g) {
-    fit::ProbeOptions o;
+tune::ProbeOptions probeOptions(const ProbeArgs& a, const Global& g) {
+    tune::ProbeOptions o;
     o.views = a.views;
     o.size = a.size;
     o.threads = g.threads;
@@ -117,45 +117,45 @@ std::string fmtStat(double v) {
 
 void runSweep(const SweepArgs& a, const Global& g) {
     const scene::Scene scene = resolveScene(a.probe.scene);
-    fit::SweepOptions o;
+    tune::SweepOptions o;
     o.params = paramKeys(a.probe.params);
     o.steps = a.steps;
     o.probe = probeOptions(a.probe, g);
-    std::optional<fit::HighlightSummary> target;
-    if (!a.target.empty()) target = fit::summarise(fit::readTargetFrames(a.target));
+    std::optional<tune::HighlightSummary> target;
+    if (!a.target.empty()) target = tune::summarise(tune::readTargetFrames(a.target));
     requireOutputDir(a.output);  // before the work, not after it
     std::error_code ec;
     fs::create_directory(a.output, ec);
     if (ec) throw IoError("output folder", a.output, ec.message());
     Progress progress(g);
     o.progress = [&](int done, int total) { progress(done, total, "sweeping"); };
-    const fit::SweepResult r = fit::sweep(scene, o);
+    const tune::SweepResult r = tune::sweep(scene, o);
     const fs::path dir = a.output;
-    writeFileAtomic(dir / "sweep.tsv", fit::sweepTsv(r));
-    writeFileAtomic(dir / "sweep.json", fit::sweepJson(r, target ? &*target : nullptr));
-    for (int k = 0; k < fit::kHighlightStatCount; ++k) {
-        const auto stat = static_cast<fit::HighlightStat>(k);
-        writeFileAtomic(dir / fmt::format("sweep_{}.svg", fit::statName(stat)),
-                        fit::sweepSvg(r, stat, target ? &*target : nullptr));
+    writeFileAtomic(dir / "sweep.tsv", tune::sweepTsv(r));
+    writeFileAtomic(dir / "sweep.json", tune::sweepJson(r, target ? &*target : nullptr));
+    for (int k = 0; k < tune::kHighlightStatCount; ++k) {
+        const auto stat = static_cast<tune::HighlightStat>(k);
+        writeFileAtomic(dir / fmt::format("sweep_{}.svg", tune::statName(stat)),
+                        tune::sweepSvg(r, stat, target ? &*target : nullptr));
     }
     // The relationship in one line per parameter: each statistic's median at
     // the lowest and the highest value swept.
-    for (const fit::TuneParam* p : r.params) {
-        const fit::SweepPoint *lo = nullptr, *hi = nullptr;
-        for (const fit::SweepPoint& pt : r.points)
+    for (const tune::TuneParam* p : r.params) {
+        const tune::SweepPoint *lo = nullptr, *hi = nullptr;
+        for (const tune::SweepPoint& pt : r.points)
             if (pt.param == p) {
                 if (lo == nullptr) lo = &pt;
                 hi = &pt;
             }
         std::string line = fmt::format("{} {} -> {}:", p->key, fmtStat(lo->value), fmtStat(hi->value));
-        for (int k = 0; k < fit::kHighlightStatCount; ++k)
-            line += fmt::format(" {} {} -> {}", fit::statName(static_cast<fit::HighlightStat>(k)),
+        for (int k = 0; k < tune::kHighlightStatCount; ++k)
+            line += fmt::format(" {} {} -> {}", tune::statName(static_cast<tune::HighlightStat>(k)),
                                 fmtStat(lo->summary.stats[static_cast<std::size_t>(k)].median),
                                 fmtStat(hi->summary.stats[static_cast<std::size_t>(k)].median));
         info(g, line);
     }
     info(g, fmt::format("wrote {}, sweep.json and {} plots sweep_<statistic>.svg ({} x {} views at {}x{})",
-                        joinPath(dir, "sweep.tsv"), fit::kHighlightStatCount, count(r.points.size(), "setting"),
+                        joinPath(dir, "sweep.tsv"), tune::kHighlightStatCount, count(r.points.size(), "setting"),
                         r.views, r.size, r.size));
 }
 
@@ -163,23 +163,23 @@ void runFit(const FitArgs& a, const Global& g) {
     const scene::Scene scene = resolveScene(a.probe.scene);
     const fs::path out = a.output;
     if (out.extension() != ".json") throw InputError("--output", out.string(), "must end in .json");
-    fit::TuneFitOptions o;
+    tune::TuneFitOptions o;
     o.params = paramKeys(a.probe.params);
     for (const std::string& s : splitList(a.stats)) {
-        fit::HighlightStat st{};
-        if (!fit::findStat(s, st)) {
+        tune::HighlightStat st{};
+        if (!tune::findStat(s, st)) {
             std::string known;
-            for (int k = 0; k < fit::kHighlightStatCount; ++k)
-                known += (k ? ", " : "") + std::string(fit::statName(static_cast<fit::HighlightStat>(k)));
+            for (int k = 0; k < tune::kHighlightStatCount; ++k)
+                known += (k ? ", " : "") + std::string(tune::statName(static_cast<tune::HighlightStat>(k)));
             throw InputError("--stats", "", fmt::format("unknown statistic '{}' (known: {})", s, known));
         }
         o.stats.push_back(st);
     }
     o.probe = probeOptions(a.probe, g);
     o.maxEvaluations = a.maxEvals;
-    const fit::HighlightSummary target = [&] {
+    const tune::HighlightSummary target = [&] {
         try {
-            return fit::summarise(fit::readTargetFrames(a.target));
+            return tune::summarise(tune::readTargetFrames(a.target));
         } catch (const InputError& e) {
             if (e.file().empty()) throw InputError(e.subject(), a.target, e.reason());
             throw;
@@ -192,15 +192,15 @@ void runFit(const FitArgs& a, const Global& g) {
     o.progress = [&](int done, int total, double best) {
         progress(done, total, fmt::format("best distance {:.3f}", best));
     };
-    const fit::TuneFitResult r = fit::fitToTarget(scene, target, o);
+    const tune::TuneFitResult r = tune::fitToTarget(scene, target, o);
     progress.finish();
 
     info(g, fmt::format("{:<14} {:>10} {:>10} | {:>10} {:>7} | {:>10} {:>7}", "statistic", "target", "IQR", "before",
                         "dist", "after", "dist"));
-    for (int k = 0; k < fit::kHighlightStatCount; ++k) {
-        const auto s = static_cast<fit::HighlightStat>(k);
+    for (int k = 0; k < tune::kHighlightStatCount; ++k) {
+        const auto s = static_cast<tune::HighlightStat>(k);
         const auto i = static_cast<std::size_t>(k);
-        info(g, fmt::format("{:<14} {:>10} {:>10} | {:>10} {:>7} | {:>10} {:>7}", fit::statName(s),
+        info(g, fmt::format("{:<14} {:>10} {:>10} | {:>10} {:>7} | {:>10} {:>7}", tune::statName(s),
                             fmtStat(target[s].median), target[s].n ? fmtStat(target[s].iqr()) : "-",
                             fmtStat(r.beforeSummary[s].median), fmtStat(r.before.perStat[i]),
                             fmtStat(r.afterSummary[s].median), fmtStat(r.after.perStat[i])));
@@ -214,30 +214,30 @@ void runFit(const FitArgs& a, const Global& g) {
                         count(r.after.terms, "statistic"), r.before.total, r.after.total,
                         count(r.evaluations, "render", "renders") + " of the view set"));
 
-    writeFileAtomic(out, fit::presetJson(scene, r.best));
+    writeFileAtomic(out, tune::presetJson(scene, r.best));
     nlohmann::json rep;
-    auto summary = [](const fit::HighlightSummary& s) {
+    auto summary = [](const tune::HighlightSummary& s) {
         nlohmann::json j = nlohmann::json::object();
-        for (int k = 0; k < fit::kHighlightStatCount; ++k) {
-            const auto st = static_cast<fit::HighlightStat>(k);
+        for (int k = 0; k < tune::kHighlightStatCount; ++k) {
+            const auto st = static_cast<tune::HighlightStat>(k);
             if (s[st].n == 0) {
-                j[std::string(fit::statName(st))] = nullptr;
+                j[std::string(tune::statName(st))] = nullptr;
                 continue;
             }
-            j[std::string(fit::statName(st))] = {{"median", s[st].median}, {"iqr", s[st].iqr()}, {"n", s[st].n}};
+            j[std::string(tune::statName(st))] = {{"median", s[st].median}, {"iqr", s[st].iqr()}, {"n", s[st].n}};
         }
         return j;
     };
-    auto values = [](const fit::TuneValues& v) {
+    auto values = [](const tune::TuneValues& v) {
         nlohmann::json j = nlohmann::json::object();
         for (const auto& [p, x] : v) j[std::string(p->key)] = x;
         return j;
     };
-    auto perStat = [](const fit::Distance& d) {
+    auto perStat = [](const tune::Distance& d) {
         nlohmann::json j = nlohmann::json::object();
-        for (int k = 0; k < fit::kHighlightStatCount; ++k)
+        for (int k = 0; k < tune::kHighlightStatCount; ++k)
             if (std::isfinite(d.perStat[static_cast<std::size_t>(k)]))
-                j[std::string(fit::statName(static_cast<fit::HighlightStat>(k)))] =
+                j[std::string(tune::statName(static_cast<tune::HighlightStat>(k)))] =
                     d.perStat[static_cast<std::size_t>(k)];
         return j;
     };
@@ -265,26 +265,26 @@ void runStats(const std::vector<std::string>& inputs, const Global& g) {
         std::error_code ec;
         if (!fs::exists(in, ec)) throw IoError("frames", in, "no such file or folder");
         if (fs::is_directory(in, ec)) {
-            const std::vector<fs::path> f = fit::listFrames(in);
+            const std::vector<fs::path> f = tune::listFrames(in);
             files.insert(files.end(), f.begin(), f.end());
         } else {
             files.emplace_back(in);
         }
     }
     std::string header = "frame";
-    for (int k = 0; k < fit::kHighlightStatCount; ++k)
-        header += fmt::format("\t{}", fit::statName(static_cast<fit::HighlightStat>(k)));
+    for (int k = 0; k < tune::kHighlightStatCount; ++k)
+        header += fmt::format("\t{}", tune::statName(static_cast<tune::HighlightStat>(k)));
     info(g, header);
-    std::vector<fit::FrameHighlights> frames;
+    std::vector<tune::FrameHighlights> frames;
     for (const fs::path& f : files) {
-        frames.push_back(fit::measureFrameFile(f));
+        frames.push_back(tune::measureFrameFile(f));
         std::string line = f.filename().string();
         for (double v : frames.back().values) line += fmt::format("\t{:.10g}", v);
         info(g, line);
     }
-    const fit::HighlightSummary s = fit::summarise(frames);
+    const tune::HighlightSummary s = tune::summarise(frames);
     std::string med = "median", iqr = "iqr";
-    for (const fit::StatSummary& st : s.stats) {
+    for (const tune::StatSummary& st : s.stats) {
         med += "\t" + (st.n ? fmt::format("{:.6g}", st.median) : std::string("nan"));
         iqr += "\t" + (st.n ? fmt::format("{:.6g}", st.iqr()) : std::string("nan"));
     }
@@ -295,7 +295,7 @@ void runStats(const std::vector<std::string>& inputs, const Global& g) {
 void addProbeOptions(CLI::App* c, ProbeArgs& a) {
     addSceneOptions(c, a.scene, false);
     std::string keys;
-    for (const fit::TuneParam& p : fit::tuneParams()) keys += (keys.empty() ? "" : ", ") + std::string(p.key);
+    for (const tune::TuneParam& p : tune::tuneParams()) keys += (keys.empty() ? "" : ", ") + std::string(p.key);
     c->add_option("--params", a.params,
                   "Parameters, comma-separated, with or without their group (" + keys + ") [the first six]");
     c->add_option("--views", a.views, "Views along the scene's camera path [8]")->check(wholeNumber(1, 64));

@@ -67,7 +67,7 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
                           const std::vector<std::filesystem::path>& names, const dataset::Outputs& outputs,
                           double depthScaleMm, const nlohmann::json& settings, const mesh::Centerline& tree,
                           const std::optional<dataset::Lens>& lens) {
-    fit::FrameSet set;
+    frames::FrameSet set;
     // Each frame's exposure, from its record where it is on disk (the
     // manifest is written again once every frame is).
     std::vector<double> exposures(names.size(), 0.0);
@@ -99,13 +99,13 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
     }
     // The renderer's tip light is in x right, y up, z forward; OpenCV's y is down.
     set.lightOffset = {scene.light.offset[0], -scene.light.offset[1], scene.light.offset[2]};
-    fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
+    frames::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
     if (lens && lens->model != dataset::LensModel::Omnidirectional) {
         K.fx = lens->fx, K.fy = lens->fy, K.cx = lens->cx, K.cy = lens->cy;
         if (lens->model == dataset::LensModel::Pinhole) K.k1 = lens->k1, K.k2 = lens->k2;
     }
     for (std::size_t i = 0; i < poses.size(); ++i) {
-        fit::Frame f;
+        frames::Frame f;
         f.image = names[i];
         f.K = K;
         f.cameraToWorld = dataset::cameraToWorldOf(poses[i]);
@@ -139,7 +139,7 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
             dataset::lensModelName(lens->model));
     }
     extra["dataset"] = {{"made_by", "mucosa render"}, {"mucosa", std::string(version())}, {"settings", settings}};
-    fit::writeFrames(manifestFile, set, extra);
+    frames::writeFrames(manifestFile, set, extra);
 }
 
 // What a run renders: the scene with its overrides, the lens, the outputs
@@ -201,7 +201,7 @@ void warnIfBackFacesFace(const scene::Scene& scene, const scene::SceneAssets& as
                          int threads) {
     constexpr int kWidth = 64;
     const int height = std::max(1, static_cast<int>(std::lround(double(kWidth) * scene.height / scene.width)));
-    const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, kWidth, height);
+    const frames::Intrinsics K = dataset::intrinsicsOf(scene.lens, kWidth, height);
     const dataset::GroundTruth truth =
         dataset::groundTruth(assets.mesh, K, dataset::cameraToWorldOf(pose), scene.lens.nearMm, threads);
     const dataset::BackFaceView v = dataset::backFacesSeen(
@@ -328,7 +328,7 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
     int written = 0, firstWritten = 0, lastWritten = frames - 1;
     shading::ExposureState exposure;
     // The ground truth of frame i: the manifest's camera on the scene's mesh.
-    const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
+    const frames::Intrinsics K = dataset::intrinsicsOf(scene.lens, scene.width, scene.height);
     auto cameraToWorld = [&](int i) { return dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]); };
     // Through a lens: exact per pixel-centre ray (the rays the frame is drawn
     // along), cast into a tree of the mesh built once.
@@ -418,7 +418,7 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
                 // rendered, else computed: the first frame of a resumed run).
                 if (i > 0 && previousIndex != i - 1)
                     previous = std::make_shared<const dataset::GroundTruth>(truthOf(i - 1)), previousIndex = i - 1;
-                const fit::Mat4 before = i > 0 ? cameraToWorld(i - 1) : cameraToWorld(i);
+                const frames::Mat4 before = i > 0 ? cameraToWorld(i - 1) : cameraToWorld(i);
                 if (lens)
                     dataset::flowToPrevious(*truth, *lens, cameraToWorld(i), i > 0 ? previous.get() : nullptr, before,
                                             scene.lens.nearMm);

@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
         const scene::SceneAssets assets = scene::loadAssets(scene);
         const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, frames);
         render::OffscreenSession session(scene, assets, w, h);
-        const fit::Intrinsics K = dataset::intrinsicsOf(scene.lens, w, h);
+        const frames::Intrinsics K = dataset::intrinsicsOf(scene.lens, w, h);
         const auto t0 = Clock::now();
         const std::vector<std::int32_t> vertexBranch = dataset::vertexBranches(assets.mesh, assets.centerlineTree);
         const double branchSetup = since(t0);
@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
                 t.png += since(s);
                 if (!withTruth) continue;
                 s = Clock::now();
-                const fit::Mat4 c2w = dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]);
+                const frames::Mat4 c2w = dataset::cameraToWorldOf(poses[static_cast<std::size_t>(i)]);
                 dataset::GroundTruth g = dataset::groundTruth(assets.mesh, K, c2w, scene.lens.nearMm);
                 raster += since(s);
                 g.inView = dataset::fieldOfView(f);

@@ -1,4 +1,4 @@
-// Registration along the phantom's airway (fit/patient.hpp): the synthetic
+// Registration along the phantom's airway (register/patient.hpp): the synthetic
 // patient's bronchoscopy from the lower trachea through the carina into the
 // right main and lobar bronchi, with roll, pauses, pull-backs, sensor noise
 // and the exposure jittered +-30 % frame to frame; the pq-space method and
@@ -18,8 +18,8 @@
 // (PatientOptions::params; e.g. specular_strength=0,sheen_strength=0);
 // MUCOSA_PQ_ONLY=1 runs pq alone, without the capture test;
 // by default each run registers as `mucosa register` does: the first frame
-// searched around the initial pose (fit::registerInitial), then tracked with
-// an albedo learnt along the track (fit::AlbedoMap);
+// searched around the initial pose (registration::registerInitial), then tracked with
+// an albedo learnt along the track (registration::AlbedoMap);
 // MUCOSA_NO_SEARCH_FIRST=1 registers the first frame from the initial pose
 // alone, MUCOSA_NO_ALBEDO_MAP=1 tracks without the map,
 // MUCOSA_ALBEDO_PRIOR=K sets RegisterOptions::albedoPrior,
@@ -66,8 +66,8 @@
 #include <string>
 
 #include <mucosa/fit/fit.hpp>
-#include <mucosa/fit/patient.hpp>
-#include <mucosa/fit/register.hpp>
+#include <mucosa/register/patient.hpp>
+#include <mucosa/register/register.hpp>
 #include <mucosa/shading/params.hpp>
 #include <mucosa/shading/reference.hpp>
 
@@ -80,9 +80,9 @@ namespace {
 // its 5th, 50th, 95th and 99th percentiles, mm (pixels beyond the rendered
 // neighbourhood count at farMm). A view down a lumen spans a wide range, a
 // wall seen face on a narrow one.
-std::array<double, 4> viewDepths(const mesh::Mesh& m, const fit::VideoFrame::Level& lv, const fit::Mat4& pose,
-                                 const fit::RegisterOptions& o) {
-    const fit::ModelView v = fit::renderModel(m, lv.K, pose, o.lightOffset, 2, 1, o.lamp);
+std::array<double, 4> viewDepths(const mesh::Mesh& m, const registration::VideoFrame::Level& lv,
+                                 const frames::Mat4& pose, const registration::RegisterOptions& o) {
+    const registration::ModelView v = registration::renderModel(m, lv.K, pose, o.lightOffset, 2, 1, o.lamp);
     std::vector<double> z;
     for (std::size_t i = 0; i < lv.valid.size(); ++i)
         if (lv.valid[i]) z.push_back(std::min<double>(v.depth.data()[i], o.farMm));  // inf: nothing hit
@@ -96,7 +96,7 @@ std::array<double, 4> viewDepths(const mesh::Mesh& m, const fit::VideoFrame::Lev
 
 // The rotation taking b's camera axes to a's, as a rotation vector in b's
 // camera axes (degrees).
-std::array<double, 3> rotationBetween(const fit::Mat4& a, const fit::Mat4& b) {
+std::array<double, 3> rotationBetween(const frames::Mat4& a, const frames::Mat4& b) {
     double R[3][3];  // b^T a
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) {
@@ -120,8 +120,8 @@ double quantile(std::vector<double> v, double q) {
 
 int main(int argc, char** argv) {
     const std::string look = argc > 1 ? argv[1] : "lamp";
-    fit::PatientOptions po;
-    po.look = look == "lamp" ? fit::PatientLook::Lamp : fit::PatientLook::Category4;
+    registration::PatientOptions po;
+    po.look = look == "lamp" ? registration::PatientLook::Lamp : registration::PatientLook::Category4;
     po.frames = argc > 2 ? std::atoi(argv[2]) : 300;
     po.size = argc > 3 ? std::atoi(argv[3]) : 320;
     po.startMm = argc > 4 ? std::atof(argv[4]) : 60.0;
@@ -150,24 +150,24 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "usage: bench_patient [lamp|category4] [frames] [size] [start_mm] [lamp|brdf] [mesh]\n");
         return 2;
     }
-    const fit::SyntheticPatient patient = fit::makeSyntheticPatient(po);
+    const registration::SyntheticPatient patient = registration::makeSyntheticPatient(po);
     const fs::path dir = fs::temp_directory_path() / ("mucosa_bench_patient_" + std::to_string(::getpid()));
-    fit::writeSyntheticPatient(patient, dir);
+    registration::writeSyntheticPatient(patient, dir);
     std::printf("%s: %zu triangles; %s look, %d frames %dx%d from %.0f mm to the %s; model shaded by the %s\n",
                 po.meshFile.empty() ? "phantom" : po.meshFile.string().c_str(), patient.mesh.triangleCount(),
                 look.c_str(), po.frames, po.size, po.size, po.startMm, patient.branch.c_str(),
                 model == "lamp" ? "lamp model" : "truth's brdf");
     if (patient.pathStopMm > 0)
         std::printf("the centerline's path leaves the lumen: the scope stops at %.1f mm\n", patient.pathStopMm);
-    const fit::FrameSet truth = fit::readFrames(dir / "truth" / "frames.json");
-    const fit::Mat4 init = fit::readPose(dir / "init.json");
+    const frames::FrameSet truth = frames::readFrames(dir / "truth" / "frames.json");
+    const frames::Mat4 init = frames::readPose(dir / "init.json");
     std::vector<image::ImageF> linear;
     std::vector<image::Image8> sat(truth.frames.size());
     for (std::size_t i = 0; i < truth.frames.size(); ++i)
         linear.push_back(fit::loadFrameImage(truth.frames[i], truth.response, &sat[i], 0.97));
     std::fflush(stdout);
 
-    auto modelTexture = std::make_shared<fit::ModelTexture>();
+    auto modelTexture = std::make_shared<registration::ModelTexture>();
     {
         const image::Image8& t = patient.texture;
         modelTexture->luminance = image::ImageF(t.width(), t.height(), 1);
@@ -183,8 +183,8 @@ int main(int argc, char** argv) {
                 modelTexture->luminance.at(x, y) = static_cast<float>(l);
             }
     }
-    auto options = [&](fit::RegistrationMethod method) {
-        fit::RegisterOptions o;
+    auto options = [&](registration::RegistrationMethod method) {
+        registration::RegisterOptions o;
         o.method = method;
         o.lightOffset = truth.lightOffset;
         o.lamp = patient.camera.lamp;
@@ -211,56 +211,58 @@ int main(int argc, char** argv) {
     const bool pqOnly = std::getenv("MUCOSA_PQ_ONLY") != nullptr;
     const bool singleStart = std::getenv("MUCOSA_SINGLE_START") != nullptr;
     // One tracked run: its statistics printed, its registrations returned.
-    // An albedo learnt along the track (fit::AlbedoMap; off: MUCOSA_NO_ALBEDO_MAP=1).
+    // An albedo learnt along the track (registration::AlbedoMap; off: MUCOSA_NO_ALBEDO_MAP=1).
     const bool online = std::getenv("MUCOSA_NO_ALBEDO_MAP") == nullptr;
-    auto track = [&](const fit::RegisterOptions& o, const char* label) {
-        fit::AlbedoMap map(patient.mesh.vertexCount());
-        std::vector<fit::FrameRegistration> out;
+    auto track = [&](const registration::RegisterOptions& o, const char* label) {
+        registration::AlbedoMap map(patient.mesh.vertexCount());
+        std::vector<registration::FrameRegistration> out;
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0;
         int converged = 0, losses = 0, lostFor = 0;
-        fit::Tracker tracker(init, 1.0);
+        registration::Tracker tracker(init, 1.0);
         if (const char* k = std::getenv("MUCOSA_ANCHOR")) tracker.anchorOnMap = std::atoi(k) != 0;
         for (std::size_t i = 0; i < truth.frames.size(); ++i) {
             const auto t0 = std::chrono::steady_clock::now();
-            const fit::VideoFrame vf = fit::prepareFrame(linear[i], &sat[i], patient.camera.K, o);
-            fit::FrameRegistration r;
+            const registration::VideoFrame vf = registration::prepareFrame(linear[i], &sat[i], patient.camera.K, o);
+            registration::FrameRegistration r;
             if (i == 0 && !std::getenv("MUCOSA_NO_SEARCH_FIRST")) {
                 // The first frame as `mucosa register` takes it: searched
-                // around the initial pose (fit::registerInitial).
-                r = fit::registerInitial(patient.mesh, vf, init, o);
+                // around the initial pose (registration::registerInitial).
+                r = registration::registerInitial(patient.mesh, vf, init, o);
                 tracker.update(r);
                 if (online && r.converged) map.add(patient.mesh, vf, r.cameraToWorld, o);
             } else if (singleStart) {
-                r = fit::registerFrame(patient.mesh, vf, tracker.start(), tracker.options(o));
+                r = registration::registerFrame(patient.mesh, vf, tracker.start(), tracker.options(o));
                 tracker.update(r);
             } else {
-                r = fit::registerTracked(patient.mesh, vf, tracker, o, online ? &map : nullptr);
+                r = registration::registerTracked(patient.mesh, vf, tracker, o, online ? &map : nullptr);
             }
             out.push_back(r);
             wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
             converged += r.converged;
-            const fit::PoseError e = fit::poseError(r.cameraToWorld, truth.frames[i].cameraToWorld);
+            const registration::PoseError e = registration::poseError(r.cameraToWorld, truth.frames[i].cameraToWorld);
             mm.push_back(e.position);
             deg.push_back(e.degrees);
             if (trace) {
                 // The viewing direction's error alone (the rest of e.degrees is roll about it).
-                const fit::Mat4& a = r.cameraToWorld;
-                const fit::Mat4& b = truth.frames[i].cameraToWorld;
+                const frames::Mat4& a = r.cameraToWorld;
+                const frames::Mat4& b = truth.frames[i].cameraToWorld;
                 const double dot = a[0][2] * b[0][2] + a[1][2] * b[1][2] + a[2][2] * b[2][2];
                 // Then the albedo map's step: its pose's error (-1: it did not converge).
-                fit::PoseError m{-1, -1};
-                if (r.mapConverged) m = fit::poseError(r.mapCameraToWorld, b);
-                fit::RegisterOptions atTruth = o;
+                registration::PoseError m{-1, -1};
+                if (r.mapConverged) m = registration::poseError(r.mapCameraToWorld, b);
+                registration::RegisterOptions atTruth = o;
                 atTruth.maxIterations = 0;
                 atTruth.recheck = false;
-                const double truthSimilarity = fit::registerFrame(patient.mesh, vf, b, atTruth).similarity;
+                const double truthSimilarity = registration::registerFrame(patient.mesh, vf, b, atTruth).similarity;
                 // And at two wrong poses: the truth moved 5 mm sideways, and turned 10 degrees.
                 const double offSimilarity[2] = {
-                    fit::registerFrame(patient.mesh, vf, fit::perturbPose(b, {5, 0, 0}, {0, 0, 0}), atTruth).similarity,
-                    fit::registerFrame(patient.mesh, vf, fit::perturbPose(b, {0, 0, 0}, {0, 10 * M_PI / 180, 0}),
-                                       atTruth)
+                    registration::registerFrame(patient.mesh, vf, registration::perturbPose(b, {5, 0, 0}, {0, 0, 0}),
+                                                atTruth)
+                        .similarity,
+                    registration::registerFrame(
+                        patient.mesh, vf, registration::perturbPose(b, {0, 0, 0}, {0, 10 * M_PI / 180, 0}), atTruth)
                         .similarity};
                 // The position's error in the true camera's axes (x right, y down, z forward).
                 double off[3] = {0, 0, 0};
@@ -291,7 +293,7 @@ int main(int argc, char** argv) {
                                          (std::getenv("MUCOSA_DUMP_FRAMES") ? std::getenv("MUCOSA_DUMP_FRAMES") : "") +
                                          ",";
                 if (list.find("," + std::to_string(i) + ",") != std::string::npos && !vf.levels.empty()) {
-                    const fit::VideoFrame::Level& lv = vf.levels.back();
+                    const registration::VideoFrame::Level& lv = vf.levels.back();
                     auto raw = [&](const std::string& name, const float* v, std::size_t n) {
                         FILE* f = std::fopen(
                             (fs::path(dumpDir) / (label + std::string("_") + std::to_string(i) + "_" + name + ".f32"))
@@ -304,13 +306,14 @@ int main(int argc, char** argv) {
                     std::vector<float> valid(lv.valid.begin(), lv.valid.end());
                     raw("valid", valid.data(), n);
                     raw("vp", lv.pq.p.data(), n), raw("vq", lv.pq.q.data(), n), raw("vw", lv.pq.weight.data(), n);
-                    const fit::Mat4* poses[2] = {&truth.frames[i].cameraToWorld, &r.cameraToWorld};
+                    const frames::Mat4* poses[2] = {&truth.frames[i].cameraToWorld, &r.cameraToWorld};
                     const char* names[2] = {"t", "e"};
                     for (int k = 0; k < 2; ++k) {
-                        const fit::ModelView mv =
-                            fit::renderModel(patient.mesh, lv.K, *poses[k], o.lightOffset, 2, o.supersample, o.lamp,
-                                             o.brdf ? &*o.brdf : nullptr, o.texture.get());
-                        const fit::PqField m = fit::pqFromModel(mv, lv.K, lv.pqOptions, &lv.pq.usable);
+                        const registration::ModelView mv =
+                            registration::renderModel(patient.mesh, lv.K, *poses[k], o.lightOffset, 2, o.supersample,
+                                                      o.lamp, o.brdf ? &*o.brdf : nullptr, o.texture.get());
+                        const registration::PqField m =
+                            registration::pqFromModel(mv, lv.K, lv.pqOptions, &lv.pq.usable);
                         raw(std::string(names[k]) + "p", m.p.data(), n),
                             raw(std::string(names[k]) + "q", m.q.data(), n);
                         raw(std::string(names[k]) + "w", m.weight.data(), n),
@@ -334,23 +337,24 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
         return out;
     };
-    std::vector<fit::FrameRegistration> pqRun;
-    for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
-        if (pqOnly && method != fit::RegistrationMethod::PqSpace) continue;
-        if (std::getenv("MUCOSA_INTENSITY_ONLY") && method != fit::RegistrationMethod::Intensity) continue;
-        auto r = track(options(method), fit::methodName(method));
-        if (method == fit::RegistrationMethod::PqSpace) pqRun = std::move(r);
+    std::vector<registration::FrameRegistration> pqRun;
+    for (registration::RegistrationMethod method :
+         {registration::RegistrationMethod::PqSpace, registration::RegistrationMethod::Intensity}) {
+        if (pqOnly && method != registration::RegistrationMethod::PqSpace) continue;
+        if (std::getenv("MUCOSA_INTENSITY_ONLY") && method != registration::RegistrationMethod::Intensity) continue;
+        auto r = track(options(method), registration::methodName(method));
+        if (method == registration::RegistrationMethod::PqSpace) pqRun = std::move(r);
     }
     // MUCOSA_PIPELINE=1: the patient pipeline's second pass. The texture is
     // fitted from pq's poses (converged frames; mucosa fit), then every frame
     // is registered again by intensity against the model carrying that
     // texture (mucosa register --fit).
     if (std::getenv("MUCOSA_PIPELINE") && !pqRun.empty()) {
-        fit::FrameSet registered = truth;
+        frames::FrameSet registered = truth;
         registered.frames.clear();
         for (std::size_t i = 0; i < truth.frames.size(); ++i)
             if (pqRun[i].converged) {
-                fit::Frame f = truth.frames[i];
+                frames::Frame f = truth.frames[i];
                 f.cameraToWorld = pqRun[i].cameraToWorld;
                 registered.frames.push_back(f);
             }
@@ -360,11 +364,12 @@ int main(int argc, char** argv) {
                     registered.frames.size(),
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                     100 * fitted.coveredFraction);
-        auto tex = std::make_shared<fit::ModelTexture>(fit::modelTexture(fitted.texture, fitted.uvMin, fitted.uvMax));
-        fit::RegisterOptions o = options(fit::RegistrationMethod::Intensity);
+        auto tex = std::make_shared<registration::ModelTexture>(
+            registration::modelTexture(fitted.texture, fitted.uvMin, fitted.uvMax));
+        registration::RegisterOptions o = options(registration::RegistrationMethod::Intensity);
         o.texture = tex;
         track(o, "intensity, fitted texture");
-        o = options(fit::RegistrationMethod::PqSpace);
+        o = options(registration::RegistrationMethod::PqSpace);
         o.texture = tex;
         track(o, "pq, fitted texture");
     }
@@ -374,22 +379,24 @@ int main(int argc, char** argv) {
     // 6 random directions each; success = within 1 mm and 2 degrees.
     std::mt19937 dirRng(3);
     std::normal_distribution<double> g(0, 1);
-    const fit::Mat4& first = truth.frames[0].cameraToWorld;
-    for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
+    const frames::Mat4& first = truth.frames[0].cameraToWorld;
+    for (registration::RegistrationMethod method :
+         {registration::RegistrationMethod::PqSpace, registration::RegistrationMethod::Intensity}) {
         if (pqOnly) break;
-        const fit::RegisterOptions o = options(method);
-        const fit::VideoFrame vf = fit::prepareFrame(linear[0], &sat[0], patient.camera.K, o);
-        std::printf("%-9s capture:", fit::methodName(method));
+        const registration::RegisterOptions o = options(method);
+        const registration::VideoFrame vf = registration::prepareFrame(linear[0], &sat[0], patient.camera.K, o);
+        std::printf("%-9s capture:", registration::methodName(method));
         for (const auto& [emm, edeg] : {std::pair{2.0, 5.0}, std::pair{5.0, 10.0}, std::pair{10.0, 20.0}}) {
             int ok = 0;
             const int tries = 6;
             for (int t = 0; t < tries; ++t) {
-                fit::Vec3d a{g(dirRng), g(dirRng), g(dirRng)}, b{g(dirRng), g(dirRng), g(dirRng)};
+                frames::Vec3d a{g(dirRng), g(dirRng), g(dirRng)}, b{g(dirRng), g(dirRng), g(dirRng)};
                 const double na = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
                 const double nb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
                 for (int k = 0; k < 3; ++k) a[k] *= emm / na, b[k] *= edeg * M_PI / 180 / nb;
-                const fit::FrameRegistration r = fit::registerFrame(patient.mesh, vf, fit::perturbPose(first, a, b), o);
-                const fit::PoseError e = fit::poseError(r.cameraToWorld, first);
+                const registration::FrameRegistration r =
+                    registration::registerFrame(patient.mesh, vf, registration::perturbPose(first, a, b), o);
+                const registration::PoseError e = registration::poseError(r.cameraToWorld, first);
                 ok += e.position < 1 && e.degrees < 2;
             }
             std::printf(" %.0f mm/%.0f deg: %d/%d", emm, edeg, ok, tries);

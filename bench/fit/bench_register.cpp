@@ -3,7 +3,7 @@
 // range, and seconds per frame split into renders, similarity and optimiser,
 // for the pq-space method and the intensity baseline in the same run.
 //   bench_register [frames=60] [size=320] [working widths, coarse to fine...]
-// The airway, frames and lighting are those of tests/fit/register_scene.hpp:
+// The airway, frames and lighting are those of tests/register/register_scene.hpp:
 // a curved airway with rings and a fold, vessels over blotches, glints,
 // Gaussian noise, exposure +-30 % frame to frame, 8-bit gamma-2.2 frames.
 #include <sys/resource.h>
@@ -15,7 +15,7 @@
 #include <cstdlib>
 #include <random>
 
-#include <mucosa/fit/register.hpp>
+#include <mucosa/register/register.hpp>
 
 #include "register_scene.hpp"
 
@@ -56,17 +56,17 @@ int main(int argc, char** argv) {
     }
     // MUCOSA_PREDICTION: the tracker's constant-velocity factor (default 1).
     const double prediction = std::getenv("MUCOSA_PREDICTION") ? std::atof(std::getenv("MUCOSA_PREDICTION")) : 1.0;
-    std::vector<int> levels = fit::RegisterOptions{}.levels;
+    std::vector<int> levels = registration::RegisterOptions{}.levels;
     if (argc > 3) levels.clear();
     for (int i = 3; i < argc; ++i) levels.push_back(std::atoi(argv[i]));
     const test::RegisterScene scene = test::makeRegisterScene(frames);
-    fit::Intrinsics K;
+    frames::Intrinsics K;
     K.width = K.height = size;
     K.fx = K.fy = 0.5625 * size;  // 83 degrees across
     K.cx = K.cy = (size - 1) / 2.0;
     std::printf("airway: %zu triangles (video rendered from %zu); %d frames %dx%d, 0.6 mm and ~2 deg per frame\n",
                 scene.mesh.triangleCount(), scene.truth.triangleCount(), frames, size, size);
-    std::vector<fit::VideoFrame> pqFrames, ncFrames;
+    std::vector<registration::VideoFrame> pqFrames, ncFrames;
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> gain(0.7, 1.3);
     std::vector<image::ImageF> linear(static_cast<std::size_t>(frames));
@@ -80,26 +80,28 @@ int main(int argc, char** argv) {
                         sat[static_cast<std::size_t>(i)]);
     }
 
-    for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
-        fit::RegisterOptions o;
+    for (registration::RegistrationMethod method :
+         {registration::RegistrationMethod::PqSpace, registration::RegistrationMethod::Intensity}) {
+        registration::RegisterOptions o;
         o.method = method;
         o.levels = levels;
         // Tracking from a first pose 1.5 mm and 3 degrees off.
-        const fit::Mat4 pose = fit::perturbPose(scene.poses[0], {0.9, -0.9, 0.7}, {0.03, -0.03, 0.02});
+        const frames::Mat4 pose = registration::perturbPose(scene.poses[0], {0.9, -0.9, 0.7}, {0.03, -0.03, 0.02});
         std::vector<double> mm, deg;
         double render = 0, similarity = 0, optimiser = 0, wall = 0, renders = 0;
         int converged = 0, losses = 0, lostFor = 0;
-        fit::Tracker tracker(pose, prediction);
+        registration::Tracker tracker(pose, prediction);
         for (int i = 0; i < frames; ++i) {
             const auto t0 = std::chrono::steady_clock::now();
-            const fit::VideoFrame vf =
-                fit::prepareFrame(linear[static_cast<std::size_t>(i)], &sat[static_cast<std::size_t>(i)], K, o);
-            const fit::FrameRegistration r = fit::registerTracked(scene.mesh, vf, tracker, o);
+            const registration::VideoFrame vf = registration::prepareFrame(linear[static_cast<std::size_t>(i)],
+                                                                           &sat[static_cast<std::size_t>(i)], K, o);
+            const registration::FrameRegistration r = registration::registerTracked(scene.mesh, vf, tracker, o);
             wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             render += r.renderSeconds, similarity += r.similaritySeconds, optimiser += r.optimiserSeconds;
             renders += r.evaluations;
             converged += r.converged;
-            const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[static_cast<std::size_t>(i)]);
+            const registration::PoseError e =
+                registration::poseError(r.cameraToWorld, scene.poses[static_cast<std::size_t>(i)]);
             mm.push_back(e.position);
             deg.push_back(e.degrees);
             // A loss: error above 5 mm or 10 degrees for more than 10 frames.
@@ -110,8 +112,9 @@ int main(int argc, char** argv) {
         std::printf(
             "%-9s position median %.2f mm p95 %.2f mm | orientation median %.2f deg p95 %.2f deg | %d/%d converged, "
             "%d losses | %.2f s/frame (renders %.2f, similarity %.2f, optimiser %.2f; %.0f renders)\n",
-            fit::methodName(method), quantile(mm, 0.5), quantile(mm, 0.95), quantile(deg, 0.5), quantile(deg, 0.95),
-            converged, frames, losses, wall / n, render / n, similarity / n, optimiser / n, renders / n);
+            registration::methodName(method), quantile(mm, 0.5), quantile(mm, 0.95), quantile(deg, 0.5),
+            quantile(deg, 0.95), converged, frames, losses, wall / n, render / n, similarity / n, optimiser / n,
+            renders / n);
     }
 
     // Capture range: the first frame alone from initial errors of 2, 5, 10 mm
@@ -122,33 +125,35 @@ int main(int argc, char** argv) {
     // Each method from one start (registerFrame), then with the initial
     // search (registerInitial, what mucosa register does for the first frame).
     // MUCOSA_SEARCH="candidates refine radius_mm degrees" overrides the search's defaults.
-    fit::InitialSearch is;
+    registration::InitialSearch is;
     if (const char* e = std::getenv("MUCOSA_SEARCH"))
         std::sscanf(e, "%d %d %lf %lf", &is.candidates, &is.refine, &is.radiusMm, &is.degrees);
     for (bool search : {false, true})
-        for (fit::RegistrationMethod method : {fit::RegistrationMethod::PqSpace, fit::RegistrationMethod::Intensity}) {
-            fit::RegisterOptions o;
+        for (registration::RegistrationMethod method :
+             {registration::RegistrationMethod::PqSpace, registration::RegistrationMethod::Intensity}) {
+            registration::RegisterOptions o;
             o.method = method;
             o.levels = levels;
-            const fit::VideoFrame vf = fit::prepareFrame(linear[0], &sat[0], K, o);
-            std::printf("%-9s capture%s:", fit::methodName(method), search ? " with the initial search" : "");
+            const registration::VideoFrame vf = registration::prepareFrame(linear[0], &sat[0], K, o);
+            std::printf("%-9s capture%s:", registration::methodName(method), search ? " with the initial search" : "");
             double seconds = 0;
             int runs = 0;
             for (const auto& [emm, edeg] : {std::pair{2.0, 5.0}, std::pair{5.0, 10.0}, std::pair{10.0, 20.0}}) {
                 int ok = 0;
                 const int tries = 6;
                 for (int t = 0; t < tries; ++t) {
-                    fit::Vec3d a{g(dir), g(dir), g(dir)}, b{g(dir), g(dir), g(dir)};
+                    frames::Vec3d a{g(dir), g(dir), g(dir)}, b{g(dir), g(dir), g(dir)};
                     const double na = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
                     const double nb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
                     for (int k = 0; k < 3; ++k) a[k] *= emm / na, b[k] *= edeg * M_PI / 180 / nb;
-                    const fit::Mat4 start = fit::perturbPose(scene.poses[0], a, b);
+                    const frames::Mat4 start = registration::perturbPose(scene.poses[0], a, b);
                     const auto t0 = std::chrono::steady_clock::now();
-                    const fit::FrameRegistration r = search ? fit::registerInitial(scene.mesh, vf, start, o, is)
-                                                            : fit::registerFrame(scene.mesh, vf, start, o);
+                    const registration::FrameRegistration r =
+                        search ? registration::registerInitial(scene.mesh, vf, start, o, is)
+                               : registration::registerFrame(scene.mesh, vf, start, o);
                     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                     ++runs;
-                    const fit::PoseError e = fit::poseError(r.cameraToWorld, scene.poses[0]);
+                    const registration::PoseError e = registration::poseError(r.cameraToWorld, scene.poses[0]);
                     ok += e.position < 1 && e.degrees < 2;
                 }
                 std::printf(" %.0f mm/%.0f deg: %d/%d", emm, edeg, ok, tries);

@@ -77,15 +77,15 @@ std::string num(double v) {
     return fmt::format("{}", v == 0 ? 0.0 : v);
 }
 
-void checkPose(const fit::Mat4& m, std::size_t i, const Context& c) {
+void checkPose(const frames::Mat4& m, std::size_t i, const Context& c) {
     const std::string field = frameField(i, "camera_to_world");
     for (const auto& row : m)
         for (double v : row)
             if (!std::isfinite(v)) throw InputError(field, c.file, "must hold finite numbers");
     if (m[3][0] != 0 || m[3][1] != 0 || m[3][2] != 0 || m[3][3] != 1)
         throw InputError(field, c.file, "is not a rigid transform: its last row must be 0 0 0 1");
-    const fit::Rigidity rigid = fit::rigidity(m);
-    if (rigid.orthonormality > fit::kRigidTolerance)
+    const frames::Rigidity rigid = frames::rigidity(m);
+    if (rigid.orthonormality > frames::kRigidTolerance)
         throw InputError(field, c.file,
                          fmt::format("is not a rigid transform: its rotation is not orthonormal (off by {:.3g})",
                                      rigid.orthonormality));
@@ -93,7 +93,7 @@ void checkPose(const fit::Mat4& m, std::size_t i, const Context& c) {
         throw InputError(field, c.file, "is not a rigid transform: its rotation is a reflection (det -1)");
 }
 
-void checkIntrinsics(const fit::Intrinsics& K, std::size_t i, const Context& c) {
+void checkIntrinsics(const frames::Intrinsics& K, std::size_t i, const Context& c) {
     const std::string field = frameField(i, "intrinsics");
     if (K.width < 1 || K.height < 1 || K.width > 65536 || K.height > 65536)
         throw InputError(field, c.file, "width and height must be whole numbers in 1..65536");
@@ -103,7 +103,7 @@ void checkIntrinsics(const fit::Intrinsics& K, std::size_t i, const Context& c) 
         if (!std::isfinite(v)) throw InputError(field, c.file, "cx, cy, k1 and k2 must be finite");
 }
 
-bool sameIntrinsics(const fit::Intrinsics& a, const fit::Intrinsics& b) noexcept {
+bool sameIntrinsics(const frames::Intrinsics& a, const frames::Intrinsics& b) noexcept {
     return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy &&
            a.k1 == b.k1 && a.k2 == b.k2;
 }
@@ -112,11 +112,11 @@ bool sameIntrinsics(const fit::Intrinsics& a, const fit::Intrinsics& b) noexcept
 // (so every format holds exactly the same rotation) and its camera centre.
 struct Pose {
     Quaternion q;
-    fit::Mat4 R;  // camera-to-world rotation, OpenCV axes
-    fit::Vec3d C;
+    frames::Mat4 R;  // camera-to-world rotation, OpenCV axes
+    frames::Vec3d C;
 };
 
-Pose poseOf(const fit::Frame& f, double scale) {
+Pose poseOf(const frames::Frame& f, double scale) {
     Pose p;
     p.q = quaternionFromRotation(f.cameraToWorld);
     p.R = rotationFromQuaternion(p.q);
@@ -135,7 +135,7 @@ std::string relativeName(const fs::path& target, const fs::path& folder) {
 }
 
 // The frames to export (not flagged), checked.
-std::vector<std::size_t> exportedFrames(const fit::FrameSet& set, const Context& c, std::size_t& skipped) {
+std::vector<std::size_t> exportedFrames(const frames::FrameSet& set, const Context& c, std::size_t& skipped) {
     if (set.frames.empty()) throw InputError("field 'frames'", c.file, "is empty: there is nothing to export");
     std::vector<std::size_t> keep;
     skipped = 0;
@@ -165,8 +165,8 @@ std::string header(const char* title, const Context& c) {
 
 // --- TUM RGB-D -------------------------------------------------------------
 
-void buildTum(const fit::FrameSet& set, const std::vector<std::size_t>& keep, const ExportOptions& o, const Context& c,
-              Export& e, const fs::path& out) {
+void buildTum(const frames::FrameSet& set, const std::vector<std::size_t>& keep, const ExportOptions& o,
+              const Context& c, Export& e, const fs::path& out) {
     std::string text = header("TUM RGB-D trajectory", c);
     text +=
         "# timestamp tx ty tz qx qy qz qw: camera-to-world, the camera's optical centre and orientation in the world\n";
@@ -189,7 +189,7 @@ struct ColmapCamera {
 };
 
 // One case per lens. A fisheye lens: OPENCV_FISHEYE {fx, fy, cx, cy, k1, k2, k3, k4}.
-ColmapCamera colmapCamera(const fit::Intrinsics& K, const Lens* lens) {
+ColmapCamera colmapCamera(const frames::Intrinsics& K, const Lens* lens) {
     const double cx = K.cx + kPixelCentreShift, cy = K.cy + kPixelCentreShift;
     switch (lensOf(K, lens)) {
         case ExportLens::Pinhole:
@@ -203,12 +203,12 @@ ColmapCamera colmapCamera(const fit::Intrinsics& K, const Lens* lens) {
     return {};
 }
 
-void buildColmap(const fit::FrameSet& set, const std::vector<std::size_t>& keep, const ExportOptions& o,
+void buildColmap(const frames::FrameSet& set, const std::vector<std::size_t>& keep, const ExportOptions& o,
                  const Context& c, Export& e, const fs::path& out) {
-    std::vector<const fit::Intrinsics*> cameras;
+    std::vector<const frames::Intrinsics*> cameras;
     std::vector<std::size_t> cameraOf(set.frames.size(), 0);
     for (std::size_t i : keep) {
-        const fit::Intrinsics& K = set.frames[i].K;
+        const frames::Intrinsics& K = set.frames[i].K;
         auto it = std::find_if(cameras.begin(), cameras.end(), [&](const auto* k) { return sameIntrinsics(*k, K); });
         cameraOf[i] = static_cast<std::size_t>(it - cameras.begin()) + 1;
         if (it == cameras.end()) cameras.push_back(&K);
@@ -258,7 +258,7 @@ void buildColmap(const fit::FrameSet& set, const std::vector<std::size_t>& keep,
 
 // One case per lens. A fisheye lens: "OPENCV_FISHEYE" with k1..k4 (nerfstudio's
 // CAMERA_MODEL_TO_TYPE), no p1, p2.
-const char* nerfstudioModel(const fit::Intrinsics& K, const Lens* lens) {
+const char* nerfstudioModel(const frames::Intrinsics& K, const Lens* lens) {
     switch (lensOf(K, lens)) {
         case ExportLens::Pinhole:
         case ExportLens::BrownRadial:
@@ -270,7 +270,7 @@ const char* nerfstudioModel(const fit::Intrinsics& K, const Lens* lens) {
     return "";
 }
 
-ojson nerfstudioIntrinsics(const fit::Intrinsics& K, const Lens* lens) {
+ojson nerfstudioIntrinsics(const frames::Intrinsics& K, const Lens* lens) {
     ojson j{{"fl_x", K.fx}, {"fl_y", K.fy}, {"cx", K.cx + kPixelCentreShift}, {"cy", K.cy + kPixelCentreShift},
             {"w", K.width}, {"h", K.height}};
     switch (lensOf(K, lens)) {
@@ -293,15 +293,15 @@ ojson nerfstudioIntrinsics(const fit::Intrinsics& K, const Lens* lens) {
     return j;
 }
 
-void buildNerfstudio(const fit::FrameSet& set, const std::vector<std::size_t>& keep, const Context& c, Export& e,
+void buildNerfstudio(const frames::FrameSet& set, const std::vector<std::size_t>& keep, const Context& c, Export& e,
                      const fs::path& out) {
     std::error_code ec;
     const fs::path file = fs::is_directory(out, ec) ? out / "transforms.json" : out;
     const char* model = nerfstudioModel(set.frames[keep.front()].K, c.lens);
     bool shared = true;
-    std::vector<const fit::Intrinsics*> distinct;
+    std::vector<const frames::Intrinsics*> distinct;
     for (std::size_t i : keep) {
-        const fit::Intrinsics& K = set.frames[i].K;
+        const frames::Intrinsics& K = set.frames[i].K;
         if (std::string_view(nerfstudioModel(K, c.lens)) != model)
             throw InputError(frameField(i, "intrinsics"), c.file,
                              "nerfstudio has one camera_model per file, and this frame's lens needs another");
@@ -372,12 +372,12 @@ std::string unitName(double scale) {
     return fmt::format("{} x mm", num(scale));
 }
 
-ExportLens lensOf(const fit::Intrinsics& K, const Lens* lens) noexcept {
+ExportLens lensOf(const frames::Intrinsics& K, const Lens* lens) noexcept {
     if (lens && lens->model == LensModel::Fisheye) return ExportLens::Fisheye;
     return K.k1 == 0 && K.k2 == 0 ? ExportLens::Pinhole : ExportLens::BrownRadial;
 }
 
-Quaternion quaternionFromRotation(const fit::Mat4& m) noexcept {
+Quaternion quaternionFromRotation(const frames::Mat4& m) noexcept {
     // Shepperd 1978 ("Quaternion from rotation matrix", J. Guidance and
     // Control 1(3)): divide by the largest of 4w^2, 4x^2, 4y^2, 4z^2, so no
     // branch loses precision near a half turn.
@@ -401,9 +401,9 @@ Quaternion quaternionFromRotation(const fit::Mat4& m) noexcept {
     return {sign * q.w / n, sign * q.x / n, sign * q.y / n, sign * q.z / n};
 }
 
-fit::Mat4 rotationFromQuaternion(const Quaternion& q) noexcept {
+frames::Mat4 rotationFromQuaternion(const Quaternion& q) noexcept {
     const double w = q.w, x = q.x, y = q.y, z = q.z;
-    fit::Mat4 m{};
+    frames::Mat4 m{};
     m[0] = {1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), 0};
     m[1] = {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w), 0};
     m[2] = {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y), 0};
@@ -411,7 +411,7 @@ fit::Mat4 rotationFromQuaternion(const Quaternion& q) noexcept {
     return m;
 }
 
-Export buildExport(const fit::FrameSet& set, ExportFormat format, const fs::path& out, const ExportOptions& o) {
+Export buildExport(const frames::FrameSet& set, ExportFormat format, const fs::path& out, const ExportOptions& o) {
     const Context c{o.source.string(), o.lens ? &*o.lens : nullptr};
     if (o.lens && o.lens->model == LensModel::Omnidirectional && format != ExportFormat::Tum)
         throw InputError("field 'lens'", c.file,
@@ -468,7 +468,7 @@ void writeExport(const Export& e) {
     }
 }
 
-Export exportFrames(const fit::FrameSet& set, ExportFormat format, const fs::path& out, const ExportOptions& o) {
+Export exportFrames(const frames::FrameSet& set, ExportFormat format, const fs::path& out, const ExportOptions& o) {
     Export e = buildExport(set, format, out, o);
     writeExport(e);
     return e;

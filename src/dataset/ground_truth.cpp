@@ -16,9 +16,9 @@
 #include <mucosa/core/memory.hpp>
 #include <mucosa/core/parallel.hpp>
 #include <mucosa/dataset/raycast.hpp>
-#include <mucosa/fit/raster.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
+#include <mucosa/raster/raster.hpp>
 
 #include "core/json_parse.hpp"
 #include "shading/glsl.hpp"
@@ -59,8 +59,8 @@ fs::path beside(const fs::path& rgbName, const std::string& suffix) {
 
 // Pixel (x, y) sees triangle `tri` at barycentrics (b1, b2) and planar
 // depth `depth`: its depth, normal (facing the camera, camera axes) and uv.
-void fillPixel(GroundTruth& t, const mesh::Mesh& mesh, const fit::Mat4& c2w, int x, int y, std::int32_t tri, double b1,
-               double b2, float depth) {
+void fillPixel(GroundTruth& t, const mesh::Mesh& mesh, const frames::Mat4& c2w, int x, int y, std::int32_t tri,
+               double b1, double b2, float depth) {
     const std::size_t i = static_cast<std::size_t>(y) * t.width + x;
     t.valid[i] = 1;
     t.face[i] = tri;
@@ -85,7 +85,7 @@ void fillPixel(GroundTruth& t, const mesh::Mesh& mesh, const fit::Mat4& c2w, int
         nw[2] = e1[0] * e2[1] - e1[1] * e2[0];
     }
     // Facing the camera: against the ray from the eye to the point.
-    const fit::Vec3d eye = fit::cameraCentre(c2w);
+    const frames::Vec3d eye = frames::cameraCentre(c2w);
     double ray[3];
     for (int k = 0; k < 3; ++k) ray[k] = b0 * p0[k] + b1 * p1[k] + b2 * p2[k] - eye[k];
     if (nw[0] * ray[0] + nw[1] * ray[1] + nw[2] * ray[2] > 0)
@@ -142,11 +142,11 @@ std::string outputNames(const Outputs& outputs) {
     return s;
 }
 
-fit::Intrinsics intrinsicsOf(const camera::Lens& lens, int width, int height) {
+frames::Intrinsics intrinsicsOf(const camera::Lens& lens, int width, int height) {
     // camera::projectionMatrix: the field of view spans the larger dimension
     // and the pixels are square; GL's pixel i has its centre at NDC
     // 2 (i + 0.5) / w - 1, which is OpenCV's u = i with cx = (w - 1) / 2.
-    fit::Intrinsics K;
+    frames::Intrinsics K;
     K.width = width;
     K.height = height;
     K.fx = K.fy = 0.5 * std::max(width, height) / std::tan(0.5 * static_cast<double>(lens.fovDeg) * M_PI / 180.0);
@@ -155,13 +155,13 @@ fit::Intrinsics intrinsicsOf(const camera::Lens& lens, int width, int height) {
     return K;
 }
 
-fit::Mat4 cameraToWorldOf(const camera::Pose& pose) {
-    const fit::Vec3d eye{pose.position[0], pose.position[1], pose.position[2]};
-    const fit::Vec3d at{eye[0] + pose.forward[0], eye[1] + pose.forward[1], eye[2] + pose.forward[2]};
-    return fit::lookAtPose(eye, at, {pose.up[0], pose.up[1], pose.up[2]});
+frames::Mat4 cameraToWorldOf(const camera::Pose& pose) {
+    const frames::Vec3d eye{pose.position[0], pose.position[1], pose.position[2]};
+    const frames::Vec3d at{eye[0] + pose.forward[0], eye[1] + pose.forward[1], eye[2] + pose.forward[2]};
+    return frames::lookAtPose(eye, at, {pose.up[0], pose.up[1], pose.up[2]});
 }
 
-GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& c2w, double nearMm,
+GroundTruth groundTruth(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& c2w, double nearMm,
                         int threads) {
     if (K.k1 != 0 || K.k2 != 0)
         throw InputError("intrinsics", "ground truth", "has radial distortion; ground truth is rendered for a pinhole");
@@ -172,8 +172,8 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
     // Per pixel: the z-buffer's 16 bytes, then depth, normals, uv, face and
     // two barycentrics (10 floats) and two masks.
     requireMemory(saturatingMul(n, 16 + 4 * 10 + 2), "ground truth");
-    const fit::Mat4 w2c = fit::invertRigid(c2w);
-    const fit::GBuffer g = fit::rasterize(mesh, K, w2c, nearMm, threads);
+    const frames::Mat4 w2c = frames::invertRigid(c2w);
+    const raster::GBuffer g = raster::rasterize(mesh, K, w2c, nearMm, threads);
     GroundTruth t;
     t.width = K.width;
     t.height = K.height;
@@ -198,7 +198,8 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
     return t;
 }
 
-GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const fit::Mat4& c2w, double nearMm, int threads) {
+GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const frames::Mat4& c2w, double nearMm,
+                        int threads) {
     const mesh::Mesh& mesh = caster.mesh();
     if (mesh.triangleCount() > (std::size_t{1} << 24))
         throw InputError("mesh", "ground truth",
@@ -219,7 +220,7 @@ GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const fit::Ma
     t.b2.assign(n, 0.f);
     t.valid.assign(n, 0);
     t.inView.assign(n, 0);
-    const fit::Vec3d eye = fit::cameraCentre(c2w);
+    const frames::Vec3d eye = frames::cameraCentre(c2w);
     // Each pixel is computed alone from its own ray, so the result does not
     // depend on how the rows are shared out.
     tbb::task_arena arena(resolveThreads(threads));
@@ -234,7 +235,7 @@ GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const fit::Ma
                 // The renderer draws a lens through a cube map whose faces clip
                 // at nearMm along their own axis: the ray's largest component.
                 const double axis = std::max({std::fabs(d[0]), std::fabs(d[1]), d[2]});
-                const fit::Vec3d dir = fit::transformDirection(c2w, d);
+                const frames::Vec3d dir = frames::transformDirection(c2w, d);
                 const std::optional<Hit> hit = caster.firstHit(eye, dir, nearMm / axis);
                 if (!hit) continue;
                 fillPixel(t, mesh, c2w, x, y, hit->triangle, hit->b1, hit->b2, static_cast<float>(hit->t * d[2]));
@@ -244,7 +245,7 @@ GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const fit::Ma
     return t;
 }
 
-GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat4& c2w, double nearMm, int threads) {
+GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const frames::Mat4& c2w, double nearMm, int threads) {
     return groundTruth(RayCaster(mesh), lens, c2w, nearMm, threads);
 }
 
@@ -253,15 +254,15 @@ namespace {
 // The flow of `t` given each pixel's point (camera axes) from its depth and
 // where a point of the previous camera's frame lands in its image.
 template <class PointAt, class Project>
-void flowWith(GroundTruth& t, const fit::Mat4& c2w, const GroundTruth* prev, const fit::Mat4& prevC2w, double nearMm,
-              PointAt pointAt, Project projectTo) {
+void flowWith(GroundTruth& t, const frames::Mat4& c2w, const GroundTruth* prev, const frames::Mat4& prevC2w,
+              double nearMm, PointAt pointAt, Project projectTo) {
     t.flow = image::ImageF(t.width, t.height, 3);
     if (!prev) return;
     if (prev->width != t.width || prev->height != t.height)
         throw InputError("previous frame", "flow", "has another size");
     // This camera to the previous one: x_prev = W_prev * C * x (camera axes).
-    const fit::Mat4 w2p = fit::invertRigid(prevC2w);
-    fit::Mat4 m{};
+    const frames::Mat4 w2p = frames::invertRigid(prevC2w);
+    frames::Mat4 m{};
     for (int r = 0; r < 4; ++r)
         for (int c = 0; c < 4; ++c)
             for (int k = 0; k < 4; ++k) m[r][c] += w2p[r][k] * c2w[k][c];
@@ -271,12 +272,12 @@ void flowWith(GroundTruth& t, const fit::Mat4& c2w, const GroundTruth* prev, con
         for (int x = 0; x < w; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * w + x;
             if (!t.valid[i]) continue;
-            const std::optional<fit::Vec3d> X = pointAt(x, y, static_cast<double>(t.depth.at(x, y)));
+            const std::optional<frames::Vec3d> X = pointAt(x, y, static_cast<double>(t.depth.at(x, y)));
             if (!X) continue;
             double P[3];
             for (int r = 0; r < 3; ++r) P[r] = m[r][0] * (*X)[0] + m[r][1] * (*X)[1] + m[r][2] * (*X)[2] + m[r][3];
             if (!(P[2] > nearMm)) continue;
-            const std::optional<PixelPoint> p = projectTo(fit::Vec3d{P[0], P[1], P[2]});
+            const std::optional<PixelPoint> p = projectTo(frames::Vec3d{P[0], P[1], P[2]});
             if (!p) continue;
             const double u = p->u, v = p->v;
             t.flow.at(x, y, 0) = static_cast<float>(u - x);
@@ -304,29 +305,29 @@ void flowWith(GroundTruth& t, const fit::Mat4& c2w, const GroundTruth* prev, con
 
 }  // namespace
 
-void flowToPrevious(GroundTruth& t, const fit::Intrinsics& K, const fit::Mat4& c2w, const GroundTruth* prev,
-                    const fit::Mat4& prevC2w, double nearMm) {
+void flowToPrevious(GroundTruth& t, const frames::Intrinsics& K, const frames::Mat4& c2w, const GroundTruth* prev,
+                    const frames::Mat4& prevC2w, double nearMm) {
     flowWith(
         t, c2w, prev, prevC2w, nearMm,
         [&](int x, int y, double z) {
-            return std::optional<fit::Vec3d>(fit::Vec3d{(x - K.cx) / K.fx * z, (y - K.cy) / K.fy * z, z});
+            return std::optional<frames::Vec3d>(frames::Vec3d{(x - K.cx) / K.fx * z, (y - K.cy) / K.fy * z, z});
         },
-        [&](const fit::Vec3d& P) {
+        [&](const frames::Vec3d& P) {
             return std::optional<PixelPoint>(PixelPoint{K.fx * P[0] / P[2] + K.cx, K.fy * P[1] / P[2] + K.cy});
         });
 }
 
-void flowToPrevious(GroundTruth& t, const Lens& lens, const fit::Mat4& c2w, const GroundTruth* prev,
-                    const fit::Mat4& prevC2w, double nearMm) {
+void flowToPrevious(GroundTruth& t, const Lens& lens, const frames::Mat4& c2w, const GroundTruth* prev,
+                    const frames::Mat4& prevC2w, double nearMm) {
     flowWith(
         t, c2w, prev, prevC2w, nearMm,
-        [&](int x, int y, double z) -> std::optional<fit::Vec3d> {
+        [&](int x, int y, double z) -> std::optional<frames::Vec3d> {
             const std::optional<Vec3d> d = unproject(lens, x, y);
             if (!d || !((*d)[2] > 1e-9)) return std::nullopt;
             const double s = z / (*d)[2];
-            return fit::Vec3d{(*d)[0] * s, (*d)[1] * s, z};
+            return frames::Vec3d{(*d)[0] * s, (*d)[1] * s, z};
         },
-        [&](const fit::Vec3d& P) { return project(lens, P); });
+        [&](const frames::Vec3d& P) { return project(lens, P); });
 }
 
 std::vector<std::int32_t> vertexBranches(const mesh::Mesh& mesh, const mesh::Centerline& tree) {

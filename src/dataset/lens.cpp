@@ -3,7 +3,7 @@
 // Where each convention comes from:
 //  - Pinhole: OpenCV's calib3d camera model (x' = x/z, r^2 = x'^2 + y'^2,
 //    x'' = x' (1 + k1 r^2 + k2 r^4), u = fx x'' + cx); Brown 1966. The same
-//    arithmetic as fit::project.
+//    arithmetic as frames::project.
 //  - Fisheye: OpenCV's calib3d "Fisheye camera model" (namespace cv::fisheye):
 //    a = x/z, b = y/z, r = |(a, b)|, theta = atan(r), theta_d = theta (1 + k1
 //    theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8), x' = (theta_d / r) a,
@@ -355,7 +355,7 @@ std::optional<PixelPoint> project(const Lens& L, const Vec3d& P) {
             const double x = X / Z, y = Y / Z;
             const double r2 = x * x + y * y;
             if (!(r2 < L.limits.inner * L.limits.inner)) return std::nullopt;
-            const double s = 1.0 + L.k1 * r2 + L.k2 * r2 * r2;  // Brown, as fit::project
+            const double s = 1.0 + L.k1 * r2 + L.k2 * r2 * r2;  // Brown, as frames::project
             return PixelPoint{L.fx * x * s + L.cx, L.fy * y * s + L.cy};
         }
         case LensModel::Fisheye: {
@@ -432,7 +432,7 @@ std::optional<Vec3d> unproject(const Lens& L, double u, double v) {
     return std::nullopt;
 }
 
-Lens fromIntrinsics(const fit::Intrinsics& K) {
+Lens fromIntrinsics(const frames::Intrinsics& K) {
     Lens L;
     L.model = LensModel::Pinhole;
     L.width = K.width;

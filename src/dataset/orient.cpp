@@ -18,7 +18,7 @@ namespace mucosa::dataset {
 
 namespace {
 
-using fit::Vec3d;
+using frames::Vec3d;
 
 Vec3d toD(const mesh::Vec3& v) {
     return {double(v[0]), double(v[1]), double(v[2])};

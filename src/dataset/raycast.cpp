@@ -57,7 +57,7 @@ struct Ref {
 struct Shear {
     int kx, ky, kz;
     double Sx, Sy, Sz;
-    explicit Shear(const fit::Vec3d& d) {
+    explicit Shear(const frames::Vec3d& d) {
         // kz: the dimension where the direction is largest; kx, ky the other
         // two, swapped for a negative direction to keep the winding.
         kz = std::fabs(d[0]) >= std::fabs(d[1]) ? (std::fabs(d[0]) >= std::fabs(d[2]) ? 0 : 2)
@@ -72,7 +72,7 @@ struct Shear {
 };
 
 // Woop et al. 2013's U, V, W are the weights of A, B, C: here p0, p1, p2.
-inline bool watertight(const float* p, const fit::Vec3d& o, const Shear& s, double tMin, double tMax, Hit& hit) {
+inline bool watertight(const float* p, const frames::Vec3d& o, const Shear& s, double tMin, double tMax, Hit& hit) {
     const double A[3] = {double(p[0]) - o[0], double(p[1]) - o[1], double(p[2]) - o[2]};
     const double B[3] = {double(p[3]) - o[0], double(p[4]) - o[1], double(p[5]) - o[2]};
     const double C[3] = {double(p[6]) - o[0], double(p[7]) - o[1], double(p[8]) - o[2]};
@@ -98,8 +98,8 @@ inline bool watertight(const float* p, const fit::Vec3d& o, const Shear& s, doub
 // Conservative for rounding (Ize 2013; pbrt-v4 Bounds3::IntersectP): each
 // far distance grows by 2 gamma(3). A zero direction component gives an
 // infinite inverse; a NaN slab (the origin on that plane) is ignored.
-inline double entry(const RayCaster::Node& n, const fit::Vec3d& o, const double inv[3], const bool neg[3], double tMin,
-                    double tMax) {
+inline double entry(const RayCaster::Node& n, const frames::Vec3d& o, const double inv[3], const bool neg[3],
+                    double tMin, double tMax) {
     double tNear = tMin, tFar = tMax;
     for (int k = 0; k < 3; ++k) {
         double t0 = (double(n.lo[k]) - o[k]) * inv[k];
@@ -263,7 +263,7 @@ RayCaster::RayCaster(const mesh::Mesh& mesh) : mesh_(&mesh) {
     }
 }
 
-std::optional<Hit> RayCaster::firstHit(const fit::Vec3d& o, const fit::Vec3d& d, double tMin, double tMax) const {
+std::optional<Hit> RayCaster::firstHit(const frames::Vec3d& o, const frames::Vec3d& d, double tMin, double tMax) const {
     if (nodes_.empty() || !(d[0] != 0 || d[1] != 0 || d[2] != 0)) return std::nullopt;
     const Shear shear(d);
     double inv[3];
@@ -325,8 +325,8 @@ std::optional<Hit> RayCaster::firstHit(const fit::Vec3d& o, const fit::Vec3d& d,
     }
 }
 
-std::optional<Hit> intersectTriangle(const mesh::Mesh& mesh, std::int32_t triangle, const fit::Vec3d& origin,
-                                     const fit::Vec3d& dir, double tMin, double tMax) {
+std::optional<Hit> intersectTriangle(const mesh::Mesh& mesh, std::int32_t triangle, const frames::Vec3d& origin,
+                                     const frames::Vec3d& dir, double tMin, double tMax) {
     if (!(dir[0] != 0 || dir[1] != 0 || dir[2] != 0)) return std::nullopt;
     float p[9];
     for (int k = 0; k < 3; ++k)

@@ -1,3 +1,5 @@
+#include <mucosa/fit/fit.hpp>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -5,7 +7,6 @@
 #include <fmt/format.h>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/fit.hpp>
 #include <mucosa/image/png.hpp>
 
 #include "surface.hpp"
@@ -59,7 +60,8 @@ std::vector<std::uint8_t> outsideFieldOfView(const image::ImageF& image, int mar
     return outside;
 }
 
-image::ImageF loadFrameImage(const Frame& frame, const Response& response, image::Image8* mask, double saturation) {
+image::ImageF loadFrameImage(const frames::Frame& frame, const frames::Response& response, image::Image8* mask,
+                             double saturation) {
     const image::PngImage png = image::readPng(frame.image);
     const image::Image16& px = png.pixels;
     if (px.width() != frame.K.width || px.height() != frame.K.height)
@@ -102,12 +104,12 @@ image::ImageF loadFrameImage(const Frame& frame, const Response& response, image
     return out;
 }
 
-std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, const image::ImageF& linear,
+std::vector<Sample> backproject(const mesh::Mesh& mesh, const frames::Frame& frame, const image::ImageF& linear,
                                 const image::Image8* mask, const FitOptions& o, std::uint32_t frameIndex,
                                 BackprojectStats* stats) {
-    const Mat4 W = invertRigid(frame.cameraToWorld);
-    const Vec3d eye = cameraCentre(frame.cameraToWorld);
-    const GBuffer g = rasterize(mesh, frame.K, W, 0.05, o.threads);
+    const frames::Mat4 W = frames::invertRigid(frame.cameraToWorld);
+    const frames::Vec3d eye = frames::cameraCentre(frame.cameraToWorld);
+    const raster::GBuffer g = raster::rasterize(mesh, frame.K, W, 0.05, o.threads);
     BackprojectStats st;
     std::vector<Sample> out;
     out.reserve(g.hits());
@@ -153,12 +155,12 @@ std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, cons
     return out;
 }
 
-image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const shading::BrdfParams& brdf,
+image::ImageF renderPrediction(const mesh::Mesh& mesh, const frames::Frame& frame, const shading::BrdfParams& brdf,
                                const image::ImageF& tex, std::array<float, 2> uvMin, std::array<float, 2> uvMax,
                                std::vector<std::uint8_t>* seen, int threads) {
-    const Mat4 W = invertRigid(frame.cameraToWorld);
-    const Vec3d eye = cameraCentre(frame.cameraToWorld);
-    const GBuffer g = rasterize(mesh, frame.K, W, 0.05, threads);
+    const frames::Mat4 W = frames::invertRigid(frame.cameraToWorld);
+    const frames::Vec3d eye = frames::cameraCentre(frame.cameraToWorld);
+    const raster::GBuffer g = raster::rasterize(mesh, frame.K, W, 0.05, threads);
     image::ImageF out(frame.K.width, frame.K.height, 3);
     if (seen) seen->assign(static_cast<std::size_t>(frame.K.width) * frame.K.height, 0);
     const int tw = tex.width(), th = tex.height();

@@ -45,34 +45,6 @@ FittedModel readFitDirectory(const fs::path& dir) {
     return m;
 }
 
-std::array<float, 16> glViewMatrix(const Mat4& c2w) {
-    // OpenGL eye space = OpenCV camera space with y and z negated.
-    const Mat4 w2c = invertRigid(c2w);
-    std::array<float, 16> m{};
-    for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 4; ++c) {
-            const double s = (r == 1 || r == 2) ? -1.0 : 1.0;
-            m[static_cast<std::size_t>(c * 4 + r)] = static_cast<float>(s * w2c[r][c]);
-        }
-    return m;
-}
-
-std::array<float, 16> glProjectionMatrix(const Intrinsics& K, double n, double f) {
-    // x_ndc = 2 (u + 0.5) / w - 1 with u = fx X/Z + cx; y_ndc = 1 - 2 (v + 0.5) / h
-    // (first row on top); X = xe, Y = -ye, Z = -ze (derivation in docs/theory.md).
-    const double w = K.width, h = K.height;
-    std::array<float, 16> m{};
-    auto set = [&](int r, int c, double v) { m[static_cast<std::size_t>(c * 4 + r)] = static_cast<float>(v); };
-    set(0, 0, 2 * K.fx / w);
-    set(0, 2, 1 - 2 * (K.cx + 0.5) / w);
-    set(1, 1, 2 * K.fy / h);
-    set(1, 2, 2 * (K.cy + 0.5) / h - 1);
-    set(2, 2, -(f + n) / (f - n));
-    set(2, 3, -2 * f * n / (f - n));
-    set(3, 2, -1);
-    return m;
-}
-
 namespace {
 
 image::Image8 toImage8(const image::ImageF& linear, double gamma) {
@@ -93,8 +65,8 @@ image::Image8 toImage8(const image::ImageF& linear, double gamma) {
 // clipping at 1, the tone curve, the colour enhancement ("saturation"); and
 // black where the real frame is outside the scope's field of view (its own
 // mask, whatever its shape).
-image::Image8 develop(const image::ImageF& linear, const Intrinsics& K, const Response& response, double gain,
-                      const std::vector<std::uint8_t>& outside) {
+image::Image8 develop(const image::ImageF& linear, const frames::Intrinsics& K, const frames::Response& response,
+                      double gain, const std::vector<std::uint8_t>& outside) {
     image::Image8 out(linear.width(), linear.height(), 3);
     for (int y = 0; y < linear.height(); ++y)
         for (int x = 0; x < linear.width(); ++x) {
@@ -129,7 +101,7 @@ image::Image8 reduce(const image::Image8& img, int divisor) {
 
 }  // namespace
 
-std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& frames, const FittedModel& model,
+std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const frames::FrameSet& frames, const FittedModel& model,
                                             const fs::path& outDir, const CategoriesOptions& o) {
     if (!mesh.hasUvs()) throw InputError("mesh", "", "has no texture coordinates (use the mesh the fit used)");
     // The atlas spans uvMin..uvMax: the subject texture is looked up through
@@ -147,7 +119,7 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
 
     // Check every frame before rendering anything.
     // (The header only: each frame is decoded once, for its field of view, below.)
-    for (const Frame& f : frames.frames) {
+    for (const frames::Frame& f : frames.frames) {
         const image::PngHeader real = image::readPngHeader(f.image);
         if (real.width != f.K.width || real.height != f.K.height)
             throw InputError("image size", f.image.string(),
@@ -191,15 +163,15 @@ std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& fra
     std::vector<CategoryImage> out;
     const int total = static_cast<int>(frames.frames.size());
     for (int i = 0; i < total; ++i) {
-        const Frame& f = frames.frames[static_cast<std::size_t>(i)];
+        const frames::Frame& f = frames.frames[static_cast<std::size_t>(i)];
         render::Framebuffer fb(f.K.width, f.K.height);
         render::Framebuffer linear(f.K.width, f.K.height, render::ColorFormat::Rgba16F);
         const std::vector<std::uint8_t> outside = outsideFieldOfView(loadFrameImage(f, frames.response));
         shading::FrameSetup setup;
-        setup.view = glViewMatrix(f.cameraToWorld);
-        setup.projection = glProjectionMatrix(f.K, 0.5, 500.0);
-        const Vec3d eye = cameraCentre(f.cameraToWorld);
-        const Vec3d light = transformPoint(f.cameraToWorld, frames.lightOffset);
+        setup.view = frames::glViewMatrix(f.cameraToWorld);
+        setup.projection = frames::glProjectionMatrix(f.K, 0.5, 500.0);
+        const frames::Vec3d eye = frames::cameraCentre(f.cameraToWorld);
+        const frames::Vec3d light = frames::transformPoint(f.cameraToWorld, frames.lightOffset);
         setup.eye = {static_cast<float>(eye[0]), static_cast<float>(eye[1]), static_cast<float>(eye[2])};
         setup.light = {static_cast<float>(light[0]), static_cast<float>(light[1]), static_cast<float>(light[2])};
         setup.width = f.K.width;

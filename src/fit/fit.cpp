@@ -108,7 +108,7 @@ AtlasShape atlasShape(const mesh::Mesh& m, std::array<float, 2> uvMin, std::arra
     return a;
 }
 
-FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOptions& o) {
+FitResult fitFrames(const mesh::Mesh& mesh, const frames::FrameSet& set, const FitOptions& o) {
     const auto t0 = std::chrono::steady_clock::now();
     // Each frame's own exposure, unrecorded, would be read as shading (auto-
     // exposure brightens the far, dark views: delta comes out flattened);
@@ -134,7 +134,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
             fmt::format("must leave at least one frame to fit: {} of {} frames", o.holdout, set.frames.size()));
     // Memory: samples (one per pixel at most) and the atlas.
     std::uint64_t pixels = 0;
-    for (const Frame& f : set.frames) pixels += static_cast<std::uint64_t>(f.K.width) * f.K.height;
+    for (const frames::Frame& f : set.frames) pixels += static_cast<std::uint64_t>(f.K.width) * f.K.height;
     requireMemory(
         saturatingMul(pixels, sizeof(Sample) + 24) +
             saturatingMul(static_cast<std::uint64_t>(o.textureSize) * o.textureSize, 128),  // up to 2 N^2 texels
@@ -149,7 +149,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
     r.perFrame.resize(set.frames.size());
     std::vector<Sample> samples;
     for (std::size_t i = 0; i < set.frames.size(); ++i) {
-        const Frame& f = set.frames[i];
+        const frames::Frame& f = set.frames[i];
         if (o.progress)
             o.progress(fmt::format("back-projecting frame {}/{}", i + 1, set.frames.size()),
                        kSolveAt * static_cast<double>(i) / static_cast<double>(set.frames.size()));
@@ -196,7 +196,7 @@ FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& set, const FitOption
 
     for (std::size_t k = 0; k < held.size(); ++k) {
         const std::size_t i = held[k];
-        const Frame& f = set.frames[i];
+        const frames::Frame& f = set.frames[i];
         if (o.progress)
             o.progress(fmt::format("validating on held-out frame {} ({}/{})", i, k + 1, held.size()),
                        kHoldoutAt + (1.0 - kHoldoutAt) * static_cast<double>(k) / static_cast<double>(held.size()));

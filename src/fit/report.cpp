@@ -1,5 +1,7 @@
 // Outputs of `mucosa fit`: brdf.json, the atlas, coverage, and a report with
 // the fitted curves plotted over the binned data.
+#include <mucosa/fit/fit.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -10,7 +12,6 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/core/version.hpp>
-#include <mucosa/fit/fit.hpp>
 #include <mucosa/image/png.hpp>
 
 namespace mucosa::fit {

@@ -3,6 +3,8 @@
 // shared parameters (the "camera") and one albedo block per texel (the
 // "points"), so the Schur complement eliminates the albedos and the reduced
 // system is 6 x 6 (DENSE_SCHUR).
+#include <mucosa/fit/fit.hpp>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,7 +20,6 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/parallel.hpp>
-#include <mucosa/fit/fit.hpp>
 
 namespace mucosa::fit {
 

@@ -1,33 +1,20 @@
+# fit: patient texture and shading from registered frames (`mucosa fit`):
+# back-projection, the joint robust solve (Ceres), the atlas, the report;
+# and the study's image categories rendered at the frames' poses
+# (`mucosa categories`).
 find_package(Ceres CONFIG REQUIRED)
 find_package(Eigen3 CONFIG REQUIRED)
-# FFmpeg's libraries (Debian's libav*-dev): bronchoscopy video files for mucosa register.
-find_package(PkgConfig REQUIRED)
-pkg_check_modules(MUCOSA_FFMPEG REQUIRED IMPORTED_TARGET GLOBAL libavformat libavcodec libswscale libavutil)
 target_sources(mucosa_fit PRIVATE
-  ${CMAKE_CURRENT_LIST_DIR}/frames.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/raster.cpp
   ${CMAKE_CURRENT_LIST_DIR}/backproject.cpp
   ${CMAKE_CURRENT_LIST_DIR}/solve.cpp
   ${CMAKE_CURRENT_LIST_DIR}/texture.cpp
   ${CMAKE_CURRENT_LIST_DIR}/fit.cpp
   ${CMAKE_CURRENT_LIST_DIR}/report.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/categories.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/highlight_stats.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/tune.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/register.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/register_io.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/patient.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/video.cpp)
-target_link_libraries(mucosa_fit PRIVATE Ceres::ceres Eigen3::Eigen PkgConfig::MUCOSA_FFMPEG)
-# The registration's per-pixel and per-triangle loops are reached by no fuzz
-# harness (fuzz/CMakeLists.txt lists what each one parses), so in the 'fuzz'
-# preset they keep AddressSanitizer and UBSan but not libFuzzer's coverage
-# instrumentation, which there only slowed the sanitized test run (its
-# comparison hooks alone were a tenth of a registration's time).
+  ${CMAKE_CURRENT_LIST_DIR}/categories.cpp)
+target_link_libraries(mucosa_fit PRIVATE Ceres::ceres Eigen3::Eigen)
+# Per-pixel loops no fuzz harness reaches: see src/register/sources.cmake.
 if(MUCOSA_BUILD_FUZZ)
   set_source_files_properties(
-    ${CMAKE_CURRENT_LIST_DIR}/raster.cpp ${CMAKE_CURRENT_LIST_DIR}/register.cpp
     ${CMAKE_CURRENT_LIST_DIR}/backproject.cpp ${CMAKE_CURRENT_LIST_DIR}/texture.cpp
-    ${CMAKE_CURRENT_LIST_DIR}/patient.cpp
     PROPERTIES COMPILE_OPTIONS -fno-sanitize=fuzzer-no-link)
 endif()

@@ -2,14 +2,14 @@
 // Surface attributes at a rasterised pixel (perspective-correct barycentrics).
 #include <cmath>
 
-#include <mucosa/fit/frames.hpp>
-#include <mucosa/fit/raster.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/mesh/mesh.hpp>
+#include <mucosa/raster/raster.hpp>
 
 namespace mucosa::fit::detail {
 
 struct SurfacePoint {
-    Vec3d P, N;
+    frames::Vec3d P, N;
     double u, v;
 };
 
@@ -31,20 +31,20 @@ inline SurfacePoint surfaceAt(const mesh::Mesh& m, std::int32_t tri, double b1, 
 }
 
 // gamma = cos(V, N) with V from the point to the viewpoint; z = |viewpoint - P|.
-inline void viewTerms(const SurfacePoint& s, const Vec3d& eye, double& gamma, double& z) {
-    const Vec3d V{eye[0] - s.P[0], eye[1] - s.P[1], eye[2] - s.P[2]};
+inline void viewTerms(const SurfacePoint& s, const frames::Vec3d& eye, double& gamma, double& z) {
+    const frames::Vec3d V{eye[0] - s.P[0], eye[1] - s.P[1], eye[2] - s.P[2]};
     z = std::sqrt(V[0] * V[0] + V[1] * V[1] + V[2] * V[2]);
     gamma = z > 0 ? (V[0] * s.N[0] + V[1] * s.N[1] + V[2] * s.N[2]) / z : 0.0;
 }
 
 // The gbuffer pixel an image pixel looks through (undistorted pinhole grid).
-inline bool gbufferPixel(const Intrinsics& K, int px, int py, int& gx, int& gy) {
+inline bool gbufferPixel(const frames::Intrinsics& K, int px, int py, int& gx, int& gy) {
     if (K.k1 == 0 && K.k2 == 0) {
         gx = px;
         gy = py;
         return true;
     }
-    const auto n = unproject(K, px, py);
+    const auto n = frames::unproject(K, px, py);
     gx = static_cast<int>(std::lround(K.fx * n[0] + K.cx));
     gy = static_cast<int>(std::lround(K.fy * n[1] + K.cy));
     return gx >= 0 && gy >= 0 && gx < K.width && gy < K.height;

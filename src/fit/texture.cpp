@@ -6,6 +6,8 @@
 // sharp view), estimates whose shading is too dark to divide by are dropped,
 // highlights are rejected against a first robust estimate, and texels no
 // frame saw are filled by push-pull inpainting.
+#include <mucosa/fit/fit.hpp>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -16,7 +18,6 @@
 #include <tbb/task_arena.h>
 
 #include <mucosa/core/parallel.hpp>
-#include <mucosa/fit/fit.hpp>
 
 namespace mucosa::fit {
 

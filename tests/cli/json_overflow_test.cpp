@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/mesh/centerline.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/scene/scene.hpp>
@@ -40,7 +40,7 @@ TEST(JsonInput, OverflowingNumbersAreTypedErrorsNamingTheFile) {
         {"scene.json", R"({"mesh": "tube", "width": )" + huge + "}",
          [](const std::filesystem::path& p) { (void)scene::loadScene(p); }},
         {"frames.json", R"({"units": "mm", "frames": [{"x": )" + huge + "}]}",
-         [](const std::filesystem::path& p) { (void)fit::readFrames(p); }},
+         [](const std::filesystem::path& p) { (void)frames::readFrames(p); }},
         {"brdf.json", R"({"c": [)" + huge + R"(, 0, 0, 0]})",
          [](const std::filesystem::path& p) { (void)shading::readBrdf(p); }},
         {"map.json", R"({"params": {"size": )" + huge + "}}",
@@ -88,7 +88,7 @@ TEST(JsonInput, SyntaxErrorsNameTheFileLineAndColumn) {
         {"scene.json", "{\n  \"mesh\": \"tube\",\n  \"frames\": 2,}\n", 15,
          [](const std::filesystem::path& p) { (void)scene::loadScene(p); }, "JSON"},
         {"frames.json", "{\n  \"units\": \"mm\",\n  \"frames\": [],}\n", 16,
-         [](const std::filesystem::path& p) { (void)fit::readFrames(p); }, "JSON"},
+         [](const std::filesystem::path& p) { (void)frames::readFrames(p); }, "JSON"},
         {"brdf.json", "{\n  \"c\": [0, 1, 0, 0],\n  \"d\": [0, 0, 0],}\n", 18,
          [](const std::filesystem::path& p) { (void)shading::readBrdf(p); }, "JSON"},
         {"map.json", "{\n  \"params\":\n  {\"size\": 64},}\n", 16,

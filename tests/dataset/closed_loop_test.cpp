@@ -23,7 +23,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/fit/fit.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/io.hpp>
 #include <mucosa/mesh/mesh.hpp>
@@ -153,7 +153,7 @@ void writeScene(const fs::path& dir) {
 // wall a few pixels wide, shapes delta's end little).
 std::array<double, 2> observedDistances(const fs::path& dir, const fs::path& manifest) {
     const mesh::Mesh m = mesh::load(dir / "tube.ply");
-    const fit::FrameSet set = fit::readFrames(manifest);
+    const frames::FrameSet set = frames::readFrames(manifest);
     const fit::FitOptions o;
     std::vector<float> z;
     for (std::size_t i = 0; i < set.frames.size(); ++i) {
@@ -476,17 +476,17 @@ TEST(ClosedLoop, AutoExposedDatasetFitsBackWithItsRecordedExposures) {
 // the enhancement did not clip.
 TEST(ClosedLoop, ColourEnhancementIsRecordedAndUndone) {
     test::TempDir dir;
-    fit::FrameSet set;
+    frames::FrameSet set;
     set.response.toneCurve = 1;
     set.response.colourGain = 1.5;
     set.autoExposure = true;
-    fit::Frame f;
+    frames::Frame f;
     f.image = dir / "a.png";
     f.K = {4, 4, 2, 2, 1.5, 1.5};
     for (int i = 0; i < 4; ++i) f.cameraToWorld[static_cast<std::size_t>(i)][static_cast<std::size_t>(i)] = 1;
     set.frames.push_back(f);
-    fit::writeFrames(dir / "frames.json", set);
-    const fit::FrameSet back = fit::readFrames(dir / "frames.json");
+    frames::writeFrames(dir / "frames.json", set);
+    const frames::FrameSet back = frames::readFrames(dir / "frames.json");
     EXPECT_EQ(back.response.colourGain, 1.5);
     EXPECT_TRUE(back.autoExposure);
     EXPECT_EQ(back.response.toneCurve, 1);
@@ -502,5 +502,5 @@ TEST(ClosedLoop, ColourEnhancementIsRecordedAndUndone) {
     std::ofstream(dir / "bad.json") << R"({"saturation": -1, "frames": [{"image": "a.png",
         "intrinsics": {"width": 4, "height": 4, "fx": 2, "fy": 2, "cx": 1.5, "cy": 1.5},
         "camera_to_world": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}]})";
-    EXPECT_THROW(fit::readFrames(dir / "bad.json"), InputError);
+    EXPECT_THROW(frames::readFrames(dir / "bad.json"), InputError);
 }

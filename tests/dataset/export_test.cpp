@@ -8,7 +8,7 @@
 //  - nerfstudio (cameras.py, camera_utils.py): camera-to-world in OpenGL axes,
 //    rays through ((x - cx) / fx, -(y - cy) / fy, -1) with pixel centres at +0.5.
 // Known 3-D points projected through each must land where Mucosa's own
-// camera (fit::project) puts them, to 1e-6 px.
+// camera (frames::project) puts them, to 1e-6 px.
 #include <mucosa/dataset/export.hpp>
 
 #include <algorithm>
@@ -28,7 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 
 #include "test_support.hpp"
 
@@ -56,15 +56,15 @@ Mat3 axisAngle(Vec3 axis, double angle) {
              {t * x * z - s * y, t * y * z + s * x, t * z * z + c}}};
 }
 
-fit::Mat4 pose(const Mat3& R, const Vec3& C) {
-    fit::Mat4 m{};
+frames::Mat4 pose(const Mat3& R, const Vec3& C) {
+    frames::Mat4 m{};
     for (int r = 0; r < 3; ++r) m[r] = {R[r][0], R[r][1], R[r][2], C[r]};
     m[3] = {0, 0, 0, 1};
     return m;
 }
 
-fit::Intrinsics pinhole() {
-    fit::Intrinsics K;
+frames::Intrinsics pinhole() {
+    frames::Intrinsics K;
     K.width = 320;
     K.height = 240;
     K.fx = 300;
@@ -74,8 +74,8 @@ fit::Intrinsics pinhole() {
     return K;
 }
 
-fit::Intrinsics radial() {
-    fit::Intrinsics K;
+frames::Intrinsics radial() {
+    frames::Intrinsics K;
     K.width = 640;
     K.height = 480;
     K.fx = 500;
@@ -90,7 +90,7 @@ fit::Intrinsics radial() {
 // Rotations that reach every branch of a matrix-to-quaternion conversion
 // (half turns about x, y, z have trace -1) and random ones; the two lenses
 // alternate.
-fit::FrameSet scene(const fs::path& imageDir, bool twoLenses = true) {
+frames::FrameSet scene(const fs::path& imageDir, bool twoLenses = true) {
     std::vector<Mat3> rotations = {axisAngle({1, 0, 0}, 0),          axisAngle({1, 0, 0}, M_PI),
                                    axisAngle({0, 1, 0}, M_PI),       axisAngle({0, 0, 1}, M_PI),
                                    axisAngle({1, 2, 3}, 2.5),        axisAngle({-1, 0.2, 0.1}, 3.1),
@@ -98,9 +98,9 @@ fit::FrameSet scene(const fs::path& imageDir, bool twoLenses = true) {
     std::mt19937 rng(17);
     std::uniform_real_distribution<double> u(-1, 1);
     for (int i = 0; i < 8; ++i) rotations.push_back(axisAngle({u(rng), u(rng), u(rng)}, 3.14 * u(rng)));
-    fit::FrameSet set;
+    frames::FrameSet set;
     for (std::size_t i = 0; i < rotations.size(); ++i) {
-        fit::Frame f;
+        frames::Frame f;
         f.image = imageDir / ("frame_" + std::to_string(i) + ".png");
         f.K = twoLenses && i % 2 == 1 ? radial() : pinhole();
         f.cameraToWorld = pose(rotations[i], {100 * u(rng), 100 * u(rng), 100 * u(rng)});
@@ -111,18 +111,19 @@ fit::FrameSet scene(const fs::path& imageDir, bool twoLenses = true) {
 
 // Points in front of a frame's camera, in the world (mm), spread over its
 // field of view.
-std::vector<Vec3> pointsSeenBy(const fit::Frame& f) {
+std::vector<Vec3> pointsSeenBy(const frames::Frame& f) {
     std::vector<Vec3> P;
     for (double xn : {-0.45, -0.1, 0.0, 0.3, 0.5})
         for (double yn : {-0.35, 0.05, 0.4})
-            for (double z : {4.0, 23.5, 90.0}) P.push_back(fit::transformPoint(f.cameraToWorld, {xn * z, yn * z, z}));
+            for (double z : {4.0, 23.5, 90.0})
+                P.push_back(frames::transformPoint(f.cameraToWorld, {xn * z, yn * z, z}));
     return P;
 }
 
 // Mucosa's own projection: the frames file's camera.
-std::array<double, 2> mucosaPixel(const fit::Frame& f, const Vec3& P) {
-    const Vec3 X = fit::transformPoint(fit::invertRigid(f.cameraToWorld), P);
-    return fit::project(f.K, X[0] / X[2], X[1] / X[2]);
+std::array<double, 2> mucosaPixel(const frames::Frame& f, const Vec3& P) {
+    const Vec3 X = frames::transformPoint(frames::invertRigid(f.cameraToWorld), P);
+    return frames::project(f.K, X[0] / X[2], X[1] / X[2]);
 }
 
 // --- reading the files ------------------------------------------------------
@@ -287,7 +288,7 @@ ExportOptions options(const fs::path& source, std::optional<double> scale = std:
 
 TEST(DatasetExport, ColmapPointsLandWhereMucosaProjectsThem) {
     TempDir dir;
-    const fit::FrameSet set = scene(dir / "video");
+    const frames::FrameSet set = scene(dir / "video");
     for (double scale : {1.0, 0.001}) {
         const fs::path out = dir / ("sparse_" + std::to_string(scale));
         const Export e = exportFrames(set, ExportFormat::Colmap, out, options(dir / "frames.json", scale));
@@ -297,7 +298,7 @@ TEST(DatasetExport, ColmapPointsLandWhereMucosaProjectsThem) {
         ASSERT_EQ(m.images.size(), set.frames.size());
         ASSERT_EQ(m.cameras.size(), 2u) << "one camera per distinct intrinsics";
         for (std::size_t i = 0; i < set.frames.size(); ++i) {
-            const fit::Frame& f = set.frames[i];
+            const frames::Frame& f = set.frames[i];
             const ColmapImage& im = m.images[i];
             const ColmapCamera& cam = m.cameras.at(im.camera);
             EXPECT_EQ(cam.model, f.K.k1 == 0 && f.K.k2 == 0 ? "PINHOLE" : "OPENCV");
@@ -318,20 +319,20 @@ TEST(DatasetExport, ColmapCameraCentreIsMinusRTransposedT) {
     // format.rst: the projection centre is -R^T t; it must be the frame's
     // camera position.
     TempDir dir;
-    const fit::FrameSet set = scene(dir.path());
+    const frames::FrameSet set = scene(dir.path());
     exportFrames(set, ExportFormat::Colmap, dir / "sparse", options(dir / "frames.json"));
     const ColmapModel m = readColmap(dir / "sparse");
     ASSERT_EQ(m.images.size(), set.frames.size());
     for (std::size_t i = 0; i < set.frames.size(); ++i) {
         const Vec3 C = mulTransposed(m.images[i].R, m.images[i].t);
-        const fit::Vec3d want = fit::cameraCentre(set.frames[i].cameraToWorld);
+        const frames::Vec3d want = frames::cameraCentre(set.frames[i].cameraToWorld);
         for (int k = 0; k < 3; ++k) EXPECT_NEAR(-C[k], want[k], 1e-10) << "frame " << i;
     }
 }
 
 TEST(DatasetExport, ColmapRefusesANameWithASpace) {
     TempDir dir;
-    fit::FrameSet set = scene(dir.path(), false);
+    frames::FrameSet set = scene(dir.path(), false);
     set.frames[3].image = dir / "my frame.png";
     try {
         buildExport(set, ExportFormat::Colmap, dir / "sparse", options(dir / "frames.json"));
@@ -346,7 +347,7 @@ TEST(DatasetExport, ColmapRefusesANameWithASpace) {
 
 TEST(DatasetExport, TumPosesAreCameraToWorldInMetres) {
     TempDir dir;
-    const fit::FrameSet set = scene(dir.path());
+    const frames::FrameSet set = scene(dir.path());
     ExportOptions o = options(dir / "frames.json");
     o.fps = 25;
     const Export e = exportFrames(set, ExportFormat::Tum, dir / "trajectory.txt", o);
@@ -367,7 +368,7 @@ TEST(DatasetExport, TumPosesAreCameraToWorldInMetres) {
     ASSERT_EQ(rows.size(), set.frames.size());
     for (std::size_t i = 0; i < rows.size(); ++i) {
         const auto& r = rows[i];
-        const fit::Frame& f = set.frames[i];
+        const frames::Frame& f = set.frames[i];
         EXPECT_NEAR(r[0], static_cast<double>(i) / 25.0, 1e-6) << "timestamp of frame " << i;
         EXPECT_NEAR(r[4] * r[4] + r[5] * r[5] + r[6] * r[6] + r[7] * r[7], 1.0, 1e-12);
         const Mat3 R = hamilton(r[7], r[4], r[5], r[6]);  // qx qy qz qw: scalar last
@@ -390,7 +391,7 @@ TEST(DatasetExport, TumPosesAreCameraToWorldInMetres) {
 
 TEST(DatasetExport, NerfstudioPointsLandWhereMucosaProjectsThem) {
     TempDir dir;
-    const fit::FrameSet set = scene(dir / "video");
+    const frames::FrameSet set = scene(dir / "video");
     for (double scale : {1.0, 0.001}) {
         const fs::path out = dir / "ns" / ("transforms_" + std::to_string(scale) + ".json");
         fs::create_directories(out.parent_path());
@@ -401,7 +402,7 @@ TEST(DatasetExport, NerfstudioPointsLandWhereMucosaProjectsThem) {
         EXPECT_EQ(j["mucosa"]["scale_per_mm"].get<double>(), scale);
         ASSERT_EQ(j["frames"].size(), set.frames.size());
         for (std::size_t i = 0; i < set.frames.size(); ++i) {
-            const fit::Frame& f = set.frames[i];
+            const frames::Frame& f = set.frames[i];
             const json& fr = j["frames"][i];
             EXPECT_EQ(fr["w"], f.K.width);
             EXPECT_EQ(fr["h"], f.K.height);
@@ -416,11 +417,11 @@ TEST(DatasetExport, NerfstudioPointsLandWhereMucosaProjectsThem) {
 
 TEST(DatasetExport, NerfstudioMatrixIsOpenCvPoseWithYAndZFlipped) {
     TempDir dir;
-    const fit::FrameSet set = scene(dir.path());
+    const frames::FrameSet set = scene(dir.path());
     exportFrames(set, ExportFormat::Nerfstudio, dir / "transforms.json", options(dir / "frames.json", 0.01));
     const json j = readJson(dir / "transforms.json");
     for (std::size_t i = 0; i < set.frames.size(); ++i) {
-        const fit::Mat4& c2w = set.frames[i].cameraToWorld;
+        const frames::Mat4& c2w = set.frames[i].cameraToWorld;
         const json& M = j["frames"][i]["transform_matrix"];
         Mat3 R{};
         for (int r = 0; r < 3; ++r) {
@@ -437,10 +438,10 @@ TEST(DatasetExport, NerfstudioMatrixIsOpenCvPoseWithYAndZFlipped) {
 
 TEST(DatasetExport, SharedIntrinsicsAreWrittenOnceAtTheTop) {
     TempDir dir;
-    const fit::FrameSet set = scene(dir.path(), false);
+    const frames::FrameSet set = scene(dir.path(), false);
     exportFrames(set, ExportFormat::Nerfstudio, dir.path(), options(dir / "frames.json"));
     const json j = readJson(dir / "transforms.json");  // a folder gets transforms.json
-    const fit::Intrinsics K = pinhole();
+    const frames::Intrinsics K = pinhole();
     EXPECT_EQ(j["fl_x"], K.fx);
     EXPECT_EQ(j["fl_y"], K.fy);
     EXPECT_EQ(j["cx"], K.cx + 0.5);
@@ -471,7 +472,7 @@ TEST(DatasetExport, QuaternionRoundTripsThroughEveryBranch) {
         EXPECT_NEAR(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z, 1.0, 1e-14);
         EXPECT_GE(q.w, 0.0);
         const Mat3 back = hamilton(q.w, q.x, q.y, q.z);
-        const fit::Mat4 lib = rotationFromQuaternion(q);
+        const frames::Mat4 lib = rotationFromQuaternion(q);
         for (int r = 0; r < 3; ++r)
             for (int c = 0; c < 3; ++c) {
                 EXPECT_NEAR(back[r][c], R[r][c], 1e-14);
@@ -499,7 +500,7 @@ TEST(DatasetExport, HalfTurnsAreNotMistakenForTheIdentity) {
 template <typename F>
 void expectRefused(F mutate, const std::string& mentions) {
     TempDir dir;
-    fit::FrameSet set = scene(dir.path());
+    frames::FrameSet set = scene(dir.path());
     mutate(set);
     for (ExportFormat format : {ExportFormat::Tum, ExportFormat::Colmap, ExportFormat::Nerfstudio}) {
         const fs::path out = dir / "out";
@@ -516,12 +517,12 @@ void expectRefused(F mutate, const std::string& mentions) {
 }
 
 TEST(DatasetExport, RefusesAnEmptyFrameSet) {
-    expectRefused([](fit::FrameSet& s) { s.frames.clear(); }, "'frames'");
+    expectRefused([](frames::FrameSet& s) { s.frames.clear(); }, "'frames'");
 }
 
 TEST(DatasetExport, RefusesEveryFrameFlagged) {
     expectRefused(
-        [](fit::FrameSet& s) {
+        [](frames::FrameSet& s) {
             for (auto& f : s.frames) f.flagged = true;
         },
         "flagged");
@@ -529,7 +530,7 @@ TEST(DatasetExport, RefusesEveryFrameFlagged) {
 
 TEST(DatasetExport, RefusesAReflection) {
     expectRefused(
-        [](fit::FrameSet& s) {
+        [](frames::FrameSet& s) {
             for (int r = 0; r < 3; ++r) s.frames[2].cameraToWorld[r][1] *= -1;  // det -1
         },
         "frames[2].camera_to_world");
@@ -537,29 +538,29 @@ TEST(DatasetExport, RefusesAReflection) {
 
 TEST(DatasetExport, RefusesAScaledOrShearedRotation) {
     expectRefused(
-        [](fit::FrameSet& s) {
+        [](frames::FrameSet& s) {
             for (int r = 0; r < 3; ++r)
                 for (int c = 0; c < 3; ++c) s.frames[1].cameraToWorld[r][c] *= 1.01;
         },
         "frames[1].camera_to_world");
-    expectRefused([](fit::FrameSet& s) { s.frames[4].cameraToWorld[0][1] += 0.05; }, "frames[4].camera_to_world");
+    expectRefused([](frames::FrameSet& s) { s.frames[4].cameraToWorld[0][1] += 0.05; }, "frames[4].camera_to_world");
 }
 
 TEST(DatasetExport, RefusesAProjectiveRowOrANaN) {
-    expectRefused([](fit::FrameSet& s) { s.frames[0].cameraToWorld[3][2] = 0.1; }, "frames[0].camera_to_world");
-    expectRefused([](fit::FrameSet& s) { s.frames[5].cameraToWorld[1][3] = std::nan(""); },
+    expectRefused([](frames::FrameSet& s) { s.frames[0].cameraToWorld[3][2] = 0.1; }, "frames[0].camera_to_world");
+    expectRefused([](frames::FrameSet& s) { s.frames[5].cameraToWorld[1][3] = std::nan(""); },
                   "frames[5].camera_to_world");
 }
 
 TEST(DatasetExport, RefusesUnusableIntrinsics) {
-    expectRefused([](fit::FrameSet& s) { s.frames[3].K.fx = 0; }, "frames[3].intrinsics");
-    expectRefused([](fit::FrameSet& s) { s.frames[3].K.k2 = INFINITY; }, "frames[3].intrinsics");
-    expectRefused([](fit::FrameSet& s) { s.frames[0].K.width = 0; }, "frames[0].intrinsics");
+    expectRefused([](frames::FrameSet& s) { s.frames[3].K.fx = 0; }, "frames[3].intrinsics");
+    expectRefused([](frames::FrameSet& s) { s.frames[3].K.k2 = INFINITY; }, "frames[3].intrinsics");
+    expectRefused([](frames::FrameSet& s) { s.frames[0].K.width = 0; }, "frames[0].intrinsics");
 }
 
 TEST(DatasetExport, RefusesANonPositiveFpsOrScale) {
     TempDir dir;
-    const fit::FrameSet set = scene(dir.path());
+    const frames::FrameSet set = scene(dir.path());
     ExportOptions o = options(dir / "f.json");
     o.fps = 0;
     EXPECT_THROW(buildExport(set, ExportFormat::Tum, dir / "t.txt", o), InputError);
@@ -574,7 +575,7 @@ TEST(DatasetExport, RefusesANonPositiveFpsOrScale) {
 
 TEST(DatasetExport, FlaggedFramesAreLeftOutAndKeepTheirTimes) {
     TempDir dir;
-    fit::FrameSet set = scene(dir.path());
+    frames::FrameSet set = scene(dir.path());
     set.frames[0].flagged = set.frames[5].flagged = true;
     const Export e = exportFrames(set, ExportFormat::Tum, dir / "t.txt", options(dir / "f.json"));
     EXPECT_EQ(e.frames, set.frames.size() - 2);
@@ -602,8 +603,8 @@ std::string quoted(const fs::path& p) {
 
 TEST(DatasetExport, CliExportsWhatTheLibraryExports) {
     TempDir dir;
-    const fit::FrameSet set = scene(dir / "video");
-    fit::writeFrames(dir / "frames.json", set);
+    const frames::FrameSet set = scene(dir / "video");
+    frames::writeFrames(dir / "frames.json", set);
     const std::string frames = quoted(dir / "frames.json");
     auto r = test::runCli("dataset export " + frames + " --format tum -o " + quoted(dir / "t.txt") + " --fps 10");
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -617,7 +618,7 @@ TEST(DatasetExport, CliExportsWhatTheLibraryExports) {
     EXPECT_NE(r.out.find("units m"), std::string::npos) << r.out;
 
     // The files the library writes from the same frames file, byte for byte.
-    const fit::FrameSet read = fit::readFrames(dir / "frames.json");
+    const frames::FrameSet read = frames::readFrames(dir / "frames.json");
     ExportOptions o = options(dir / "frames.json");
     o.fps = 10;
     EXPECT_EQ(test::readBytes(dir / "t.txt"), buildExport(read, ExportFormat::Tum, dir / "t.txt", o).files[0].text);
@@ -634,8 +635,8 @@ TEST(DatasetExport, CliExportsWhatTheLibraryExports) {
 
 TEST(DatasetExport, CliErrorsAreOneLineAndWriteNothing) {
     TempDir dir;
-    fit::FrameSet set = scene(dir.path());
-    fit::writeFrames(dir / "frames.json", set);
+    frames::FrameSet set = scene(dir.path());
+    frames::writeFrames(dir / "frames.json", set);
     const std::string frames = quoted(dir / "frames.json");
     fs::create_directories(dir / "keep");
     const fs::path existing = dir / "keep" / "t.txt";

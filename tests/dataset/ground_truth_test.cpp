@@ -12,7 +12,7 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/fit/categories.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/mesh/phantom.hpp>
@@ -26,11 +26,11 @@ namespace mucosa {
 namespace {
 
 namespace fs = std::filesystem;
-using fit::Mat4;
-using fit::Vec3d;
+using frames::Mat4;
+using frames::Vec3d;
 
 // The ray of pixel (x, y) in world coordinates (camera z component 1).
-Vec3d worldRay(const fit::Intrinsics& K, const Mat4& c2w, int x, int y) {
+Vec3d worldRay(const frames::Intrinsics& K, const Mat4& c2w, int x, int y) {
     const double d[3] = {(x - K.cx) / K.fx, (y - K.cy) / K.fy, 1.0};
     Vec3d w{};
     for (int r = 0; r < 3; ++r) w[r] = c2w[r][0] * d[0] + c2w[r][1] * d[1] + c2w[r][2] * d[2];
@@ -44,7 +44,7 @@ double angleDeg(const double* a, const double* b) {
     return std::acos(std::clamp(dot / (na * nb), -1.0, 1.0)) * 180 / M_PI;
 }
 
-fit::Intrinsics camera(int w, int h, double fovDeg) {
+frames::Intrinsics camera(int w, int h, double fovDeg) {
     camera::Lens lens;
     lens.fovDeg = static_cast<float>(fovDeg);
     return dataset::intrinsicsOf(lens, w, h);
@@ -52,9 +52,9 @@ fit::Intrinsics camera(int w, int h, double fovDeg) {
 
 TEST(GroundTruth, ATiltedPlanesDepthNormalUvAndFaceAreItsClosedForm) {
     const mesh::Mesh quad = mesh::makeQuad(400.f, 6);  // z = 0, facing +z
-    const fit::Intrinsics K = camera(160, 120, 90);
+    const frames::Intrinsics K = camera(160, 120, 90);
     const Vec3d eye{12, -7, 40};
-    const Mat4 c2w = fit::lookAtPose(eye, {-5, 4, 0}, {0, 1, 0});
+    const Mat4 c2w = frames::lookAtPose(eye, {-5, 4, 0}, {0, 1, 0});
     const dataset::GroundTruth t = dataset::groundTruth(quad, K, c2w, 0.5);
     // The quad's UVs are affine in x, y: solved from three of its vertices.
     const auto& p = quad.positions;
@@ -118,16 +118,16 @@ mesh::Mesh movedQuad(float size, const mesh::Vec3& c) {
 
 TEST(GroundTruth, FlowIsEachPointsReprojectionIntoThePreviousFrame) {
     const mesh::Mesh quad = movedQuad(400.f, {0, 0, 0});
-    const fit::Intrinsics K = camera(120, 90, 90);
-    const Mat4 before = fit::lookAtPose({0, 0, 40}, {2, 1, 0}, {0, 1, 0});
-    const Mat4 now = fit::lookAtPose({3, -1.5, 36}, {-2, 3, 0}, {0.2, 1, 0});
+    const frames::Intrinsics K = camera(120, 90, 90);
+    const Mat4 before = frames::lookAtPose({0, 0, 40}, {2, 1, 0}, {0, 1, 0});
+    const Mat4 now = frames::lookAtPose({3, -1.5, 36}, {-2, 3, 0}, {0.2, 1, 0});
     dataset::GroundTruth t0 = dataset::groundTruth(quad, K, before, 0.5);
     dataset::GroundTruth t1 = dataset::groundTruth(quad, K, now, 0.5);
     dataset::flowToPrevious(t0, K, before, nullptr, before, 0.5);
     for (float v : t0.flow.span()) ASSERT_EQ(v, 0.f);  // the first frame: no flow, nothing visible
     dataset::flowToPrevious(t1, K, now, &t0, before, 0.5);
-    const Vec3d eye = fit::cameraCentre(now);
-    const Mat4 w2c = fit::invertRigid(before);
+    const Vec3d eye = frames::cameraCentre(now);
+    const Mat4 w2c = frames::invertRigid(before);
     double worst = 0;
     int visible = 0, leaving = 0;
     for (int y = 0; y < K.height; ++y)
@@ -135,7 +135,7 @@ TEST(GroundTruth, FlowIsEachPointsReprojectionIntoThePreviousFrame) {
             const Vec3d d = worldRay(K, now, x, y);
             const double s = -eye[2] / d[2];
             const Vec3d p{eye[0] + s * d[0], eye[1] + s * d[1], 0};
-            const Vec3d q = fit::transformPoint(w2c, p);
+            const Vec3d q = frames::transformPoint(w2c, p);
             const double u = K.fx * q[0] / q[2] + K.cx, v = K.fy * q[1] / q[2] + K.cy;
             worst = std::max({worst, std::abs(t1.flow.at(x, y, 0) - (u - x)), std::abs(t1.flow.at(x, y, 1) - (v - y))});
             const bool inside = u >= 0 && v >= 0 && u <= K.width - 1 && v <= K.height - 1;
@@ -158,15 +158,15 @@ TEST(GroundTruth, FlowMarksWhatAnOccluderHidInThePreviousFrame) {
     scene.uvs.insert(scene.uvs.end(), card.uvs.begin(), card.uvs.end());
     scene.tangents.insert(scene.tangents.end(), card.tangents.begin(), card.tangents.end());
     for (std::uint32_t i : card.indices) scene.indices.push_back(base + i);
-    const fit::Intrinsics K = camera(120, 90, 90);
-    const Mat4 before = fit::lookAtPose({0, 0, 40}, {0, 0, 0}, {0, 1, 0});
-    const Mat4 now = fit::lookAtPose({15, 0, 40}, {15, 0, 0}, {0, 1, 0});
+    const frames::Intrinsics K = camera(120, 90, 90);
+    const Mat4 before = frames::lookAtPose({0, 0, 40}, {0, 0, 0}, {0, 1, 0});
+    const Mat4 now = frames::lookAtPose({15, 0, 40}, {15, 0, 0}, {0, 1, 0});
     const dataset::GroundTruth t0 = dataset::groundTruth(scene, K, before, 0.5);
     dataset::GroundTruth t1 = dataset::groundTruth(scene, K, now, 0.5);
     dataset::flowToPrevious(t1, K, now, &t0, before, 0.5);
     // Analytic: a point of the wall was hidden from the previous camera when
     // the segment to it crosses the card (|x|, |y| <= 4 at z = 10).
-    const Vec3d eye = fit::cameraCentre(now), old = fit::cameraCentre(before);
+    const Vec3d eye = frames::cameraCentre(now), old = frames::cameraCentre(before);
     int hidden = 0, agree = 0, total = 0;
     for (int y = 0; y < K.height; ++y)
         for (int x = 0; x < K.width; ++x) {
@@ -179,7 +179,7 @@ TEST(GroundTruth, FlowMarksWhatAnOccluderHidInThePreviousFrame) {
             const double cx = old[0] + a * (p[0] - old[0]), cy = old[1] + a * (p[1] - old[1]);
             if (std::abs(std::abs(cx) - 4) < 0.2 || std::abs(std::abs(cy) - 4) < 0.2) continue;  // the card's rim
             const bool wasHidden = std::abs(cx) < 4 && std::abs(cy) < 4;
-            const Vec3d q = fit::transformPoint(fit::invertRigid(before), p);
+            const Vec3d q = frames::transformPoint(frames::invertRigid(before), p);
             const double u = K.fx * q[0] / q[2] + K.cx, v = K.fy * q[1] / q[2] + K.cy;
             const bool outside = !(u >= 0 && v >= 0 && u <= K.width - 1 && v <= K.height - 1);
             hidden += wasHidden;
@@ -218,12 +218,12 @@ TEST(GroundTruth, EachWallVertexBelongsToTheBranchItSurrounds) {
     }
     EXPECT_GT(checked, 500);
     // Pixels take their triangle's nearest vertex's branch.
-    const fit::Intrinsics K = camera(64, 48, 100);
+    const frames::Intrinsics K = camera(64, 48, 100);
     const auto& trachea = ph.centerline.branches[0];
     const mesh::Vec3& a = trachea.points[trachea.points.size() / 3];
     const mesh::Vec3& b = trachea.points.back();
     dataset::GroundTruth t =
-        dataset::groundTruth(ph.mesh, K, fit::lookAtPose({a[0], a[1], a[2]}, {b[0], b[1], b[2]}, {0, 0, 1}), 0.5);
+        dataset::groundTruth(ph.mesh, K, frames::lookAtPose({a[0], a[1], a[2]}, {b[0], b[1], b[2]}, {0, 0, 1}), 0.5);
     dataset::labelBranches(t, ph.mesh, label);
     for (std::size_t i = 0; i < t.face.size(); ++i) {
         if (t.face[i] < 0) {
@@ -246,11 +246,11 @@ TEST(GroundTruth, TheZBufferSeesWhatRaysSeeWhateverTheThreads) {
     pp.generations = 2;
     pp.resolution = 1;
     const mesh::Phantom ph = mesh::makePhantom(pp);
-    const fit::Intrinsics K = camera(160, 120, 80);  // within 45 degrees of the axis: the same near plane for both
+    const frames::Intrinsics K = camera(160, 120, 80);  // within 45 degrees of the axis: the same near plane for both
     const auto& trachea = ph.centerline.branches[0];
     const mesh::Vec3& a = trachea.points[trachea.points.size() / 3];
     const mesh::Vec3& b = trachea.points.back();
-    const Mat4 c2w = fit::lookAtPose({a[0] + 2, a[1], a[2]}, {b[0], b[1], b[2]}, {0, 0, 1});
+    const Mat4 c2w = frames::lookAtPose({a[0] + 2, a[1], a[2]}, {b[0], b[1], b[2]}, {0, 0, 1});
     const double near = 3.0;
     const dataset::GroundTruth z1 = dataset::groundTruth(ph.mesh, K, c2w, near, 1);
     for (int threads : {2, 3}) {
@@ -283,7 +283,7 @@ TEST(GroundTruth, TheZBufferCullsOnlyTrianglesWhollyOutsideTheView) {
     // in front of it; a sliver crossing one corner of the image. Triangles
     // that may go: wholly left, right, above, below, behind. Every pixel's
     // face and depth against a ray per pixel.
-    const fit::Intrinsics K = camera(64, 48, 60);
+    const frames::Intrinsics K = camera(64, 48, 60);
     Mat4 c2w{};
     for (int i = 0; i < 4; ++i) c2w[i][i] = 1;
     mesh::Mesh m;
@@ -323,9 +323,9 @@ TEST(GroundTruth, TheZBufferCullsOnlyTrianglesWhollyOutsideTheView) {
 TEST(GroundTruth, InsideASphereDepthAndNormalsAreItsClosedForm) {
     const double r = 20;
     const mesh::Mesh sphere = mesh::makeSphere(static_cast<float>(r), 360, 180);
-    const fit::Intrinsics K = camera(96, 80, 100);
+    const frames::Intrinsics K = camera(96, 80, 100);
     const Vec3d eye{3, -2, 1.5};
-    const Mat4 c2w = fit::lookAtPose(eye, {10, 4, -12}, {0, 0, 1});
+    const Mat4 c2w = frames::lookAtPose(eye, {10, 4, -12}, {0, 0, 1});
     const dataset::GroundTruth t = dataset::groundTruth(sphere, K, c2w, 0.5);
     double worstDepth = 0, worstNormal = 0;
     for (int y = 0; y < K.height; ++y)
@@ -356,7 +356,7 @@ TEST(GroundTruth, TheRenderersCameraIsThePinholeTheManifestStates) {
         camera::Lens lens;
         lens.fovDeg = static_cast<float>(fov);
         const auto P = camera::projectionMatrix(lens, w, h);
-        const auto Q = fit::glProjectionMatrix(dataset::intrinsicsOf(lens, w, h), lens.nearMm, lens.farMm);
+        const auto Q = frames::glProjectionMatrix(dataset::intrinsicsOf(lens, w, h), lens.nearMm, lens.farMm);
         for (int k = 0; k < 16; ++k) EXPECT_NEAR(P[k], Q[k], 1e-5 * std::max(1.0f, std::abs(P[k]))) << k;
     }
     camera::Pose pose;
@@ -364,7 +364,7 @@ TEST(GroundTruth, TheRenderersCameraIsThePinholeTheManifestStates) {
     pose.forward = {0.2f, -0.9f, 0.3f};
     pose.up = {0, 0, 1};
     const auto V = camera::viewMatrix(pose);
-    const auto U = fit::glViewMatrix(dataset::cameraToWorldOf(pose));
+    const auto U = frames::glViewMatrix(dataset::cameraToWorldOf(pose));
     for (int k = 0; k < 16; ++k) EXPECT_NEAR(V[k], U[k], 1e-5) << k;
 }
 
@@ -406,10 +406,10 @@ TEST(GroundTruthCli, RenderWritesEveryOutputAndAManifestFitReads) {
     test::RunResult r = test::runCli(args);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     // The manifest: the frames file `mucosa fit` reads, with the outputs described.
-    const fit::FrameSet set = fit::readFrames(dir / "fly.frames.json");
+    const frames::FrameSet set = frames::readFrames(dir / "fly.frames.json");
     ASSERT_EQ(set.frames.size(), 3u);
     const scene::Scene s = scene::defaultScene();
-    const fit::Intrinsics K = dataset::intrinsicsOf(s.lens, 96, 72);
+    const frames::Intrinsics K = dataset::intrinsicsOf(s.lens, 96, 72);
     EXPECT_DOUBLE_EQ(set.frames[1].K.fx, K.fx);
     EXPECT_DOUBLE_EQ(set.frames[1].K.cx, 47.5);
     EXPECT_EQ(set.frames[2].image, dir / "fly_0002.png");

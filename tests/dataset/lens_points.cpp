@@ -49,7 +49,7 @@ int truth(const mucosa::dataset::Lens& lens, const char* meshPath) {
     mucosa::mesh::LoadOptions options;
     options.unit = mucosa::mesh::Unit::Millimetres;
     const mucosa::mesh::Mesh mesh = mucosa::mesh::load(meshPath, options);
-    mucosa::fit::Mat4 c2w{};
+    mucosa::frames::Mat4 c2w{};
     for (auto& row : c2w)
         for (double& v : row)
             if (!(std::cin >> v)) {

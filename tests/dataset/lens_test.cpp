@@ -2,7 +2,7 @@
 // checked against an implementation of its published formula written here,
 // independently of lens.cpp and in the publication's own terms:
 //  - pinhole: OpenCV's calib3d camera model with Brown k1, k2 (and
-//    fit::project, the frames file's camera);
+//    frames::project, the frames file's camera);
 //  - fisheye: OpenCV's cv::fisheye model (a = x/z, theta = atan(r),
 //    theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8), x' = theta_d a / r),
 //    plus values worked out by hand;
@@ -30,7 +30,7 @@
 #include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 
 #include "test_support.hpp"
 
@@ -317,7 +317,7 @@ TEST(LensRoundTrip, FoldedLensesAreExactInsideTheirField) {
 
 TEST(LensPinhole, ProjectsAsOpenCvAndFitProject) {
     const Lens L = pinholeLens();
-    fit::Intrinsics K;
+    frames::Intrinsics K;
     K.width = L.width;
     K.height = L.height;
     K.fx = L.fx;
@@ -337,7 +337,7 @@ TEST(LensPinhole, ProjectsAsOpenCvAndFitProject) {
         const auto cv = opencvPinhole(L, P);
         EXPECT_NEAR(px->u, cv[0], kPixelTolerance);
         EXPECT_NEAR(px->v, cv[1], kPixelTolerance);
-        const auto fit = fit::project(K, P[0] / P[2], P[1] / P[2]);
+        const auto fit = frames::project(K, P[0] / P[2], P[1] / P[2]);
         EXPECT_EQ(px->u, fit[0]);  // the same arithmetic, bit for bit
         EXPECT_EQ(px->v, fit[1]);
         const auto again = project(fromK, P);

@@ -15,19 +15,19 @@
 #include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/dataset/lens.hpp>
 #include <mucosa/dataset/raycast.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/mesh/phantom.hpp>
 #include <mucosa/mesh/primitives.hpp>
 
 namespace mucosa {
 namespace {
 
-using fit::Vec3d;
+using frames::Vec3d;
 
 // A camera at (0, 0, 10) looking down -z at the z = 0 plane, up +y: OpenCV
 // camera x = world x, y = -world y, z = -world z.
-fit::Mat4 lookingDown() {
-    return fit::lookAtPose({0, 0, 10}, {0, 0, 0}, {0, 1, 0});
+frames::Mat4 lookingDown() {
+    return frames::lookAtPose({0, 0, 10}, {0, 0, 0}, {0, 1, 0});
 }
 
 dataset::Lens omnidirectional() {
@@ -45,7 +45,7 @@ std::vector<NamedLens> lenses() {
     dataset::Lens kb = dataset::equidistantFisheye(120, 90, 150.0);
     kb.k1 = -0.02, kb.k2 = 0.004, kb.k3 = -0.0005, kb.k4 = 0.0001;
     dataset::validateLens(kb);
-    const fit::Intrinsics K = dataset::intrinsicsOf(camera::Lens{}, 120, 90);
+    const frames::Intrinsics K = dataset::intrinsicsOf(camera::Lens{}, 120, 90);
     dataset::Lens brown = dataset::fromIntrinsics(K);
     brown.k1 = -0.1, brown.k2 = 0.01;
     dataset::validateLens(brown);
@@ -81,7 +81,7 @@ mesh::Mesh makeCylinder(float r, float z0, float z1, int around, int along) {
 struct Scene {
     std::string name;
     mesh::Mesh mesh;
-    fit::Mat4 c2w;
+    frames::Mat4 c2w;
     // The analytic surface's normal (either orientation) at a world point.
     std::function<Vec3d(const Vec3d&)> normalAt;
     bool closed;  // every ray in front of the camera meets it
@@ -95,12 +95,12 @@ std::vector<Scene> scenes() {
              return Vec3d{0, 0, 1};
          },
          false},
-        {"sphere from inside", mesh::makeSphere(30.0f, 96, 48), fit::lookAtPose({3, -2, 5}, {10, 4, -20}, {0, 1, 0}),
+        {"sphere from inside", mesh::makeSphere(30.0f, 96, 48), frames::lookAtPose({3, -2, 5}, {10, 4, -20}, {0, 1, 0}),
          radial, true},
-        {"sphere from outside", mesh::makeSphere(10.0f, 128, 64), fit::lookAtPose({0, 4, 22}, {0, 0, 0}, {0, 1, 0}),
+        {"sphere from outside", mesh::makeSphere(10.0f, 128, 64), frames::lookAtPose({0, 4, 22}, {0, 0, 0}, {0, 1, 0}),
          radial, false},
         {"cylinder from inside", makeCylinder(8.0f, -200.0f, 20.0f, 64, 110),
-         fit::lookAtPose({1, -0.5, 0}, {2, 1, -50}, {0, 1, 0}),
+         frames::lookAtPose({1, -0.5, 0}, {2, 1, -50}, {0, 1, 0}),
          [](const Vec3d& p) {
              return Vec3d{p[0], p[1], 0};
          },
@@ -132,9 +132,9 @@ Vec3d vertex(const mesh::Mesh& m, std::int32_t tri, int k) {
 void expectExact(const Scene& scene, const NamedLens& named, const dataset::GroundTruth& t) {
     const dataset::Lens& lens = named.lens;
     const mesh::Mesh& m = scene.mesh;
-    const fit::Mat4& c2w = scene.c2w;
-    const fit::Mat4 w2c = fit::invertRigid(c2w);
-    const Vec3d eye = fit::cameraCentre(c2w);
+    const frames::Mat4& c2w = scene.c2w;
+    const frames::Mat4 w2c = frames::invertRigid(c2w);
+    const Vec3d eye = frames::cameraCentre(c2w);
     const double nearMm = 0.5;
     int seen = 0, checked = 0, wide = 0;
     double worstDepth = 0, worstPixel = 0, worstNormal = 0, worstBary = 0;
@@ -154,7 +154,7 @@ void expectExact(const Scene& scene, const NamedLens& named, const dataset::Grou
                 EXPECT_EQ(t.face[i], -1);
                 continue;
             }
-            const Vec3d dir = fit::transformDirection(c2w, d);
+            const Vec3d dir = frames::transformDirection(c2w, d);
             const double tMin = nearMm / std::max({std::fabs(d[0]), std::fabs(d[1]), d[2]});
             // The first hit by brute force over every triangle, on a sample of pixels.
             if ((x + 3 * y) % 23 == 0) {
@@ -190,13 +190,13 @@ void expectExact(const Scene& scene, const NamedLens& named, const dataset::Grou
             worstDepth = std::max(worstDepth, std::abs(t.depth.at(x, y) - z) / z);
             // That point projects back onto the pixel.
             const Vec3d P{eye[0] + s * dir[0], eye[1] + s * dir[1], eye[2] + s * dir[2]};
-            const auto px = dataset::project(lens, fit::transformPoint(w2c, P));
+            const auto px = dataset::project(lens, frames::transformPoint(w2c, P));
             ASSERT_TRUE(px.has_value());
             worstPixel = std::max(worstPixel, std::hypot(px->u - x, px->v - y));
             // The normal is the analytic surface's (the meshes' vertex normals
             // interpolate it exactly: radial on the sphere and the cylinder),
             // in camera axes, facing the camera.
-            Vec3d n = fit::transformDirection(w2c, scene.normalAt(P));
+            Vec3d n = frames::transformDirection(w2c, scene.normalAt(P));
             if (dot(n, d) > 0) n = {-n[0], -n[1], -n[2]};
             const Vec3d got{t.normals.at(x, y, 0), t.normals.at(x, y, 1), t.normals.at(x, y, 2)};
             worstNormal = std::max(worstNormal, angleDeg(n, got));
@@ -253,8 +253,8 @@ TEST(LensTruth, APlaneThroughEveryLensIsExactAtEveryPixel) {
 
 TEST(LensTruth, ThePinholeThroughTheRayCasterIsTheRasterisedPinhole) {
     const mesh::Mesh sphere = mesh::makeSphere(30.0f, 96, 48);  // seen from inside
-    const fit::Mat4 c2w = fit::lookAtPose({3, -2, 5}, {10, 4, -20}, {0, 1, 0});
-    const fit::Intrinsics K = dataset::intrinsicsOf(camera::Lens{}, 160, 120);
+    const frames::Mat4 c2w = frames::lookAtPose({3, -2, 5}, {10, 4, -20}, {0, 1, 0});
+    const frames::Intrinsics K = dataset::intrinsicsOf(camera::Lens{}, 160, 120);
     const dataset::GroundTruth raster = dataset::groundTruth(sphere, K, c2w, 0.5);
     const dataset::GroundTruth cast = dataset::groundTruth(sphere, dataset::fromIntrinsics(K), c2w, 0.5);
     std::size_t same = 0, valid = 0;
@@ -283,9 +283,9 @@ TEST(LensTruth, ThePinholeThroughTheRayCasterIsTheRasterisedPinhole) {
 
 TEST(LensTruth, ThePinholeFlowThroughTheLensIsThePinholeFlow) {
     const mesh::Mesh sphere = mesh::makeSphere(30.0f, 96, 48);
-    const fit::Intrinsics K = dataset::intrinsicsOf(camera::Lens{}, 160, 120);
-    const fit::Mat4 a = fit::lookAtPose({0, 0, 0}, {0, 0, -20}, {0, 1, 0});
-    const fit::Mat4 b = fit::lookAtPose({1, 0.5, -2}, {3, 0, -20}, {0, 1, 0});
+    const frames::Intrinsics K = dataset::intrinsicsOf(camera::Lens{}, 160, 120);
+    const frames::Mat4 a = frames::lookAtPose({0, 0, 0}, {0, 0, -20}, {0, 1, 0});
+    const frames::Mat4 b = frames::lookAtPose({1, 0.5, -2}, {3, 0, -20}, {0, 1, 0});
     const dataset::GroundTruth prev = dataset::groundTruth(sphere, K, a, 0.5);
     dataset::GroundTruth pinhole = dataset::groundTruth(sphere, K, b, 0.5);
     dataset::GroundTruth lens = pinhole;
@@ -306,10 +306,10 @@ TEST(LensTruth, ThePinholeFlowThroughTheLensIsThePinholeFlow) {
 
 TEST(LensTruth, FlowThroughEveryLensIsEachPointsReprojection) {
     const mesh::Mesh sphere = mesh::makeSphere(30.0f, 96, 48);
-    const fit::Mat4 a = fit::lookAtPose({0, 0, 0}, {0, 0, -20}, {0, 1, 0});
-    const fit::Mat4 b = fit::lookAtPose({1, 0.5, -2}, {3, 0, -20}, {0, 1, 0});
+    const frames::Mat4 a = frames::lookAtPose({0, 0, 0}, {0, 0, -20}, {0, 1, 0});
+    const frames::Mat4 b = frames::lookAtPose({1, 0.5, -2}, {3, 0, -20}, {0, 1, 0});
     const dataset::RayCaster caster(sphere);
-    const fit::Mat4 w2a = fit::invertRigid(a);
+    const frames::Mat4 w2a = frames::invertRigid(a);
     for (const NamedLens& named : lenses()) {
         const dataset::Lens& lens = named.lens;
         const dataset::GroundTruth prev = dataset::groundTruth(caster, lens, a, 0.5);
@@ -324,8 +324,8 @@ TEST(LensTruth, FlowThroughEveryLensIsEachPointsReprojection) {
                 // The pixel's point in the world, then in the previous camera, projected by the lens.
                 const auto ray = dataset::unproject(lens, x, y);
                 const double s = now.depth.at(x, y) / (*ray)[2];
-                const Vec3d pw = fit::transformPoint(b, {(*ray)[0] * s, (*ray)[1] * s, (*ray)[2] * s});
-                const Vec3d pa = fit::transformPoint(w2a, pw);
+                const Vec3d pw = frames::transformPoint(b, {(*ray)[0] * s, (*ray)[1] * s, (*ray)[2] * s});
+                const Vec3d pa = frames::transformPoint(w2a, pw);
                 const auto p = pa[2] > 0.5 ? dataset::project(lens, pa) : std::nullopt;
                 if (!p) continue;
                 // Visible where the previous frame saw the same point there.
@@ -364,7 +364,7 @@ TEST(LensTruth, ThePhantomThroughAFisheyeIsTheSameBytesForAnyThreadCount) {
     dataset::Lens lens = dataset::equidistantFisheye(640, 480, 160.0);
     lens.k1 = -0.02, lens.k2 = 0.003;
     dataset::validateLens(lens);
-    const fit::Mat4 c2w = fit::lookAtPose({1, -60, 1}, {0, -110, 0}, {0, 0, 1});
+    const frames::Mat4 c2w = frames::lookAtPose({1, -60, 1}, {0, -110, 0}, {0, 0, 1});
     double seconds[2] = {0, 0};
     dataset::GroundTruth t[2];
     for (int threads = 1; threads <= 2; ++threads) {

@@ -26,7 +26,7 @@
 namespace mucosa::test {
 namespace {
 
-using fit::Vec3d;
+using frames::Vec3d;
 
 Vec3d sub(const Vec3d& a, const Vec3d& b) {
     return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
 
@@ -120,7 +120,7 @@ TEST(DatasetPlan, VerifyFindsMissingAndDamagedFramesAndARerunFillsThem) {
     // fit` reads (paths relative to it).
     const std::string check = "cd " + q(a) + " && sha256sum --quiet -c SHA256SUMS";
     EXPECT_EQ(std::system(check.c_str()), 0);
-    const fit::FrameSet set = fit::readFrames(a / "frames.json");
+    const frames::FrameSet set = frames::readFrames(a / "frames.json");
     ASSERT_EQ(set.frames.size(), 5u);
     EXPECT_EQ(set.frames[4].image, a / "frames" / "frame_0004.png");
     const nlohmann::json j = nlohmann::json::parse(test::readBytes(a / "frames.json"));

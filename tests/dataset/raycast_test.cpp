@@ -16,7 +16,7 @@
 namespace mucosa {
 namespace {
 
-using fit::Vec3d;
+using frames::Vec3d;
 
 // The nearest hit over every triangle, ties to the lower index.
 std::optional<dataset::Hit> bruteForce(const mesh::Mesh& m, const Vec3d& o, const Vec3d& d, double tMin) {

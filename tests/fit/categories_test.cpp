@@ -54,7 +54,7 @@ TEST(Categories, RenderEveryCategoryAtTheFramesPosesAndMatchTheRealFrames) {
     test::SyntheticOptions so;
     so.frames = 6;
     so.size = 160;
-    const fit::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
+    const frames::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
     fit::FitOptions fo;
     fo.textureSize = 256;
     fo.minSamples = 1000;
@@ -106,17 +106,17 @@ TEST(Categories, RenderEveryCategoryAtTheFramesPosesAndMatchTheRealFrames) {
 
 TEST(Categories, GlCameraMatchesTheOpenCvProjection) {
     // A world point projected by the GL matrices lands on OpenCV's pixel.
-    fit::Intrinsics K{320, 240, 200.0, 210.0, 150.3, 118.7, 0, 0};
-    fit::Mat4 c2w{};
+    frames::Intrinsics K{320, 240, 200.0, 210.0, 150.3, 118.7, 0, 0};
+    frames::Mat4 c2w{};
     const double a = 0.3;
     c2w[0] = {std::cos(a), 0, std::sin(a), 4};
     c2w[1] = {0, 1, 0, -2};
     c2w[2] = {-std::sin(a), 0, std::cos(a), 7};
     c2w[3] = {0, 0, 0, 1};
-    const auto V = fit::glViewMatrix(c2w);
-    const auto P = fit::glProjectionMatrix(K, 0.5, 500);
-    const fit::Vec3d world{6.0, 1.5, 30.0};
-    const fit::Vec3d cam = fit::transformPoint(fit::invertRigid(c2w), world);
+    const auto V = frames::glViewMatrix(c2w);
+    const auto P = frames::glProjectionMatrix(K, 0.5, 500);
+    const frames::Vec3d world{6.0, 1.5, 30.0};
+    const frames::Vec3d cam = frames::transformPoint(frames::invertRigid(c2w), world);
     const double u = K.fx * cam[0] / cam[2] + K.cx, v = K.fy * cam[1] / cam[2] + K.cy;
     std::array<double, 4> e{}, clip{};
     for (int r = 0; r < 4; ++r)
@@ -140,7 +140,7 @@ TEST(Categories, FittedCategoriesAreDevelopedLikeTheFramesBehindTheirMask) {
     so.frames = 6;
     so.size = 160;
     std::filesystem::create_directories(dir / "linear");
-    fit::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir / "linear");
+    frames::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir / "linear");
     frames.response.toneCurve = 1;
     frames.response.vignetting = 1.5;
     const double radius = 0.46 * so.size;
@@ -149,7 +149,7 @@ TEST(Categories, FittedCategoriesAreDevelopedLikeTheFramesBehindTheirMask) {
         return (x - c) * (x - c) + (y - c) * (y - c) > radius * radius;
     };
     for (std::size_t i = 0; i < frames.frames.size(); ++i) {
-        fit::Frame& f = frames.frames[i];
+        frames::Frame& f = frames.frames[i];
         image::Image16 px = image::readPng(f.image).pixels;
         for (int y = 0; y < px.height(); ++y)
             for (int x = 0; x < px.width(); ++x) {

@@ -88,12 +88,12 @@ protected:
         // Down the trachea (origin at its top, running down -Y, 110 mm long):
         // off the axis by up to 4 mm, looking 35 mm ahead and up to ~15
         // degrees to a wall, like a bronchoscopist's approach to the carina.
-        std::vector<fit::Mat4> poses;
+        std::vector<frames::Mat4> poses;
         for (int k = 0; k < 10; ++k) {
             const double a = 2.1 * k, off = 1.0 + 3.0 * ((k * 3) % 4) / 3.0;
-            const fit::Vec3d eye{off * std::cos(a), -18.0 - 7.0 * k, off * std::sin(a)};
+            const frames::Vec3d eye{off * std::cos(a), -18.0 - 7.0 * k, off * std::sin(a)};
             const double look = 9.0 * ((k * 5) % 3) / 2.0;
-            const fit::Vec3d target{-look * std::cos(a + 0.8), eye[1] - 35.0, -look * std::sin(a + 0.8)};
+            const frames::Vec3d target{-look * std::cos(a + 0.8), eye[1] - 35.0, -look * std::sin(a + 0.8)};
             poses.push_back(test::lookAt(eye, target, {0, 0, 1}));
         }
         truth_.Z0 = 5.0;
@@ -101,12 +101,12 @@ protected:
         truth_.flare = 0.01;  // delta(3 mm) = 1.9, delta(30 mm) = 0.037, delta(100 mm) = 0.0034
         test::SyntheticOptions so;
         so.size = 256;
-        frames_ = new fit::FrameSet(test::renderSyntheticAt(*phantom_, truth_, poses, so, out));
+        frames_ = new frames::FrameSet(test::renderSyntheticAt(*phantom_, truth_, poses, so, out));
     }
     // The farthest surface any frame sees.
     static double maxDistance() {
         double m = 0;
-        for (const fit::Frame& f : frames_->frames) {
+        for (const frames::Frame& f : frames_->frames) {
             fit::FitOptions o;
             for (const auto& s : fit::backproject(*phantom_, f, fit::loadFrameImage(f, 1.0), nullptr, o, 0, nullptr))
                 m = std::max(m, static_cast<double>(s.z));
@@ -120,7 +120,7 @@ protected:
     }
     static inline test::TempDir* dir_ = nullptr;
     static inline mesh::Mesh* phantom_ = nullptr;
-    static inline fit::FrameSet* frames_ = nullptr;
+    static inline frames::FrameSet* frames_ = nullptr;
     static inline test::Truth truth_{};
 };
 
@@ -240,7 +240,7 @@ TEST_F(Falloff, PredictionIsDarkWhereTheFramesAreDark) {
     // Over every frame: pixels whose real luminance is below 0.02 (the far
     // lumen) are predicted below 0.04, and beyond zmax delta is held at delta(1).
     std::size_t dark = 0, lit = 0;
-    for (const fit::Frame& f : frames_->frames) {
+    for (const frames::Frame& f : frames_->frames) {
         const image::ImageF real = fit::loadFrameImage(f, 1.0);
         std::vector<std::uint8_t> seen;
         const image::ImageF pred = fit::renderPrediction(*phantom_, f, r.brdf, r.texture, r.uvMin, r.uvMax, &seen);
@@ -265,10 +265,10 @@ TEST_F(Falloff, TheScopesMaskIsNotTakenForBlackTissue) {
     // circle of 0.45 of the width, as shaders/camera.glsl draws it): the
     // black is the lens's edge, not tissue of albedo 0.
     test::TempDir dir;
-    fit::FrameSet masked = *frames_;
+    frames::FrameSet masked = *frames_;
     std::size_t black = 0;
     for (std::size_t i = 0; i < masked.frames.size(); ++i) {
-        fit::Frame& f = masked.frames[i];
+        frames::Frame& f = masked.frames[i];
         const image::PngImage png = image::readPng(f.image);
         image::Image16 px = png.pixels;
         const double c = (f.K.width - 1) / 2.0, r = 0.45 * f.K.width;
@@ -338,7 +338,7 @@ TEST(AtlasShape, TexelsAreSquareOnTheSurfaceAndKeepDetailAlongTheTube) {
     test::SyntheticOptions so;
     so.specular = 0;
     so.albedo = albedo;
-    const fit::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
+    const frames::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
     fit::FitOptions o;
     o.textureSize = 128;
     std::vector<fit::Sample> samples;

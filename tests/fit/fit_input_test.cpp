@@ -24,13 +24,13 @@ void writeJson(const std::filesystem::path& p, const std::string& text) {
 TEST(FitInput, FramesFileErrorsNameTheField) {
     test::TempDir dir;
     writeJson(dir / "a.json", R"({"frames": []})");
-    EXPECT_THROW(fit::readFrames(dir / "a.json"), InputError);
+    EXPECT_THROW(frames::readFrames(dir / "a.json"), InputError);
     writeJson(
         dir / "b.json",
         R"({"frames": [{"image": "f.png", "intrinsics": {"width": 32, "height": 32, "fx": -1, "fy": 1, "cx": 16, "cy": 16},
                  "camera_to_world": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
     try {
-        fit::readFrames(dir / "b.json");
+        frames::readFrames(dir / "b.json");
         FAIL();
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("frames[0].intrinsics.fx"), std::string::npos) << e.what();
@@ -39,9 +39,9 @@ TEST(FitInput, FramesFileErrorsNameTheField) {
         dir / "c.json",
         R"({"frames": [{"image": "f.png", "intrinsics": {"width": 32, "height": 32, "fx": 1, "fy": 1, "cx": 16, "cy": 16},
                  "camera_to_world": [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}]})");
-    EXPECT_THROW(fit::readFrames(dir / "c.json"), InputError);  // not rigid
+    EXPECT_THROW(frames::readFrames(dir / "c.json"), InputError);  // not rigid
     writeJson(dir / "d.json", R"({"units": "m", "frames": [1]})");
-    EXPECT_THROW(fit::readFrames(dir / "d.json"), InputError);
+    EXPECT_THROW(frames::readFrames(dir / "d.json"), InputError);
 }
 
 TEST(FitInput, MismatchedImageSizeFramesThatMissTheMeshAndInsideOutCamerasAreRefused) {
@@ -50,15 +50,15 @@ TEST(FitInput, MismatchedImageSizeFramesThatMissTheMeshAndInsideOutCamerasAreRef
     test::SyntheticOptions so;
     so.frames = 3;
     so.size = 64;
-    fit::FrameSet set = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
+    frames::FrameSet set = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
     fit::FitOptions o;
     o.minSamples = 100;
 
-    fit::FrameSet wrongSize = set;
+    frames::FrameSet wrongSize = set;
     wrongSize.frames[1].K.width = 80;
     EXPECT_THROW(fit::fitFrames(tube, wrongSize, o), InputError);
 
-    fit::FrameSet away = set;  // camera far outside, looking away
+    frames::FrameSet away = set;  // camera far outside, looking away
     away.frames[0].cameraToWorld[0][3] = 1000;
     away.frames[0].cameraToWorld[2][3] = -1000;
     EXPECT_THROW(fit::fitFrames(tube, away, o), InputError);
@@ -88,7 +88,7 @@ TEST(FitInput, CliPrintsOneErrorLineAndWritesNothing) {
     test::SyntheticOptions so;
     so.frames = 2;
     so.size = 48;
-    fit::FrameSet set = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
+    frames::FrameSet set = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
     // Make the second image the wrong size.
     image::writePng(dir / "frame_1.png", image::Image8(40, 48, 3));
     const auto r = test::runCli("fit --mesh tube.ply --frames frames.json -o out", dir.path());

@@ -55,7 +55,7 @@ protected:
         // shows walls at 70 mm, where the truth is a cubic extrapolated far
         // past its span and only ~1 % of the samples lie.
         tube_ = new mesh::Mesh(test::makeTube(9.0, 55.0, 160, 160));
-        frames_ = new fit::FrameSet(test::renderSynthetic(*tube_, truth_, {}, dir_->path()));
+        frames_ = new frames::FrameSet(test::renderSynthetic(*tube_, truth_, {}, dir_->path()));
     }
     static void TearDownTestSuite() {
         delete frames_;
@@ -64,7 +64,7 @@ protected:
     }
     static inline test::TempDir* dir_ = nullptr;
     static inline mesh::Mesh* tube_ = nullptr;
-    static inline fit::FrameSet* frames_ = nullptr;
+    static inline frames::FrameSet* frames_ = nullptr;
     static inline test::Truth truth_{};
 };
 

@@ -54,7 +54,7 @@ TEST(SceneFit, RenderCommandShadesWithTheFittedModel) {
     test::SyntheticOptions so;
     so.frames = 4;
     so.size = 96;
-    const fit::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
+    const frames::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
     fit::FitOptions fo;
     fo.textureSize = 128;
     fo.minSamples = 500;
@@ -94,7 +94,7 @@ TEST(SceneFit, AtlasSpanningUvsOutsideTheUnitSquareRendersLikeOneInside) {
     test::SyntheticOptions so;
     so.frames = 4;
     so.size = 96;
-    const fit::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
+    const frames::FrameSet frames = test::renderSynthetic(tube, test::Truth{}, so, dir.path());
     fit::FitOptions fo;
     fo.textureSize = 128;
     fo.minSamples = 500;

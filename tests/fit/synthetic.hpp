@@ -7,7 +7,7 @@
 #include <functional>
 #include <vector>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
 #include <mucosa/shading/brdf.hpp>
@@ -50,17 +50,17 @@ struct SyntheticOptions {
 
 // Renders the frames as 16-bit PNGs into `dir` and returns the frame set
 // (also written as dir/frames.json).
-fit::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const SyntheticOptions& o,
-                              const std::filesystem::path& dir);
+frames::FrameSet renderSynthetic(const mesh::Mesh& tube, const Truth& truth, const SyntheticOptions& o,
+                                 const std::filesystem::path& dir);
 
 // The same rendering at given camera poses (OpenCV camera_to_world; the
 // 120-degree camera of `o.size` pixels; o.frames is ignored) of any mesh with
 // UVs, albedo trueAlbedo(u, v).
-fit::FrameSet renderSyntheticAt(const mesh::Mesh& mesh, const Truth& truth, const std::vector<fit::Mat4>& poses,
-                                const SyntheticOptions& o, const std::filesystem::path& dir);
+frames::FrameSet renderSyntheticAt(const mesh::Mesh& mesh, const Truth& truth, const std::vector<frames::Mat4>& poses,
+                                   const SyntheticOptions& o, const std::filesystem::path& dir);
 
 // camera_to_world of an eye looking at `target` (OpenCV axes: x right, y down,
 // z forward), `up` roughly up in the image.
-fit::Mat4 lookAt(const fit::Vec3d& eye, const fit::Vec3d& target, const fit::Vec3d& up);
+frames::Mat4 lookAt(const frames::Vec3d& eye, const frames::Vec3d& target, const frames::Vec3d& up);
 
 }  // namespace mucosa::test

@@ -8,7 +8,7 @@
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/dataset/lens.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/png.hpp>
 
 #include "cli_helpers.hpp"
@@ -78,7 +78,7 @@ TEST(LensCli, RenderDrawsThroughTheLensAndRecordsIt) {
     const nlohmann::json manifest = nlohmann::json::parse(test::readBytes(dir / "ds.frames.json"));
     EXPECT_EQ(manifest["lens"]["model"], "fisheye");
     EXPECT_DOUBLE_EQ(manifest["frames"][1]["intrinsics"]["fx"].get<double>(), 40.0);
-    EXPECT_THROW(fit::readFrames(dir / "ds.frames.json"), InputError);
+    EXPECT_THROW(frames::readFrames(dir / "ds.frames.json"), InputError);
     // The exporters write the fisheye as OPENCV_FISHEYE with its k1..k4 (pixel centres at +0.5).
     r = test::runCli("dataset export '" + (dir / "ds.frames.json").string() + "' --format colmap -o '" +
                      (dir / "colmap").string() + "'");

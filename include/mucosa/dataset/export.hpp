@@ -1,5 +1,5 @@
 #pragma once
-// Exporters of a frames file (fit::FrameSet: the dataset manifest `mucosa fit`
+// Exporters of a frames file (frames::FrameSet: the dataset manifest `mucosa fit`
 // reads) to other tools: a TUM RGB-D trajectory, a COLMAP text model and a
 // nerfstudio transforms.json (docs/datasets.md, "Exporting to other tools").
 //
@@ -21,7 +21,7 @@
 #include <vector>
 
 #include <mucosa/dataset/lens.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 
 namespace mucosa::dataset {
 
@@ -82,7 +82,7 @@ struct Export {
 // a camera_to_world that is not rigid (orthonormal rotation with det +1 within
 // the tolerance readFrames allows, last row 0 0 0 1, finite), unusable
 // intrinsics, a non-positive fps or scale, or what a format cannot hold.
-Export buildExport(const fit::FrameSet& set, ExportFormat format, const std::filesystem::path& out,
+Export buildExport(const frames::FrameSet& set, ExportFormat format, const std::filesystem::path& out,
                    const ExportOptions& options = {});
 
 // Writes every file of `e` to a temporary name beside it, then renames them
@@ -90,7 +90,7 @@ Export buildExport(const fit::FrameSet& set, ExportFormat format, const std::fil
 void writeExport(const Export& e);
 
 // buildExport then writeExport.
-Export exportFrames(const fit::FrameSet& set, ExportFormat format, const std::filesystem::path& out,
+Export exportFrames(const frames::FrameSet& set, ExportFormat format, const std::filesystem::path& out,
                     const ExportOptions& options = {});
 
 // A unit quaternion, Hamilton convention (i j = k), as COLMAP, TUM and Eigen
@@ -102,14 +102,14 @@ struct Quaternion {
 // The rotation of camera_to_world's upper-left 3x3, with w >= 0 (Shepperd
 // 1978). For a matrix that is a rotation only to within readFrames'
 // tolerance, the quaternion of a nearby rotation.
-Quaternion quaternionFromRotation(const fit::Mat4& m) noexcept;
+Quaternion quaternionFromRotation(const frames::Mat4& m) noexcept;
 // The rotation matrix of a unit quaternion, in a Mat4 with no translation.
-fit::Mat4 rotationFromQuaternion(const Quaternion& q) noexcept;
+frames::Mat4 rotationFromQuaternion(const Quaternion& q) noexcept;
 
 // The lens models the exporters know, one case each: a frame's intrinsics
 // (a pinhole with Brown radial k1, k2), or the frames file's fisheye lens
 // (Kannala-Brandt k1..k4: COLMAP's and nerfstudio's OPENCV_FISHEYE).
 enum class ExportLens { Pinhole, BrownRadial, Fisheye };
-ExportLens lensOf(const fit::Intrinsics& K, const Lens* lens = nullptr) noexcept;
+ExportLens lensOf(const frames::Intrinsics& K, const Lens* lens = nullptr) noexcept;
 
 }  // namespace mucosa::dataset

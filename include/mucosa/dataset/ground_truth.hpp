@@ -2,11 +2,11 @@
 // Per-frame ground truth of a rendered endoscope frame: metric depth, surface
 // normals, the triangle and texture coordinates each pixel sees, and the
 // pixels that see a surface. Computed exactly from the mesh and the camera
-// (for a pinhole a z-buffer at the pixel centres, fit::rasterize; through a
+// (for a pinhole a z-buffer at the pixel centres, raster::rasterize; through a
 // lens each pixel centre's ray cast into the mesh, raycast.hpp), not read
 // back from the colour render, so it does not depend on the GL driver's
 // precision; the colour frame is rendered with the same intrinsics (or the
-// same lens's rays) and pose (fit::glProjectionMatrix), so the two align
+// same lens's rays) and pose (frames::glProjectionMatrix), so the two align
 // pixel for pixel.
 //
 // Conventions (written into every dataset manifest, docs/datasets.md):
@@ -23,7 +23,7 @@
 #include <mucosa/camera/camera.hpp>
 #include <mucosa/dataset/lens.hpp>
 #include <mucosa/dataset/raycast.hpp>
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/centerline.hpp>
@@ -85,8 +85,8 @@ std::string outputNames(const Outputs& outputs);  // "rgb,depth,normals"
 // The renderer's camera in OpenCV terms: the pinhole intrinsics of a lens
 // whose field of view spans the image's larger dimension
 // (camera::projectionMatrix), and the camera_to_world of a pose.
-fit::Intrinsics intrinsicsOf(const camera::Lens& lens, int width, int height);
-fit::Mat4 cameraToWorldOf(const camera::Pose& pose);
+frames::Intrinsics intrinsicsOf(const camera::Lens& lens, int width, int height);
+frames::Mat4 cameraToWorldOf(const camera::Pose& pose);
 
 struct GroundTruth {
     int width = 0, height = 0;
@@ -117,8 +117,8 @@ struct GroundTruth {
 // Throws InputError for a lens with distortion or a mesh too large for exact
 // face ids (more than 2^24 triangles), ResourceError when the buffers would
 // not fit in memory.
-GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld, double nearMm,
-                        int threads = 0);
+GroundTruth groundTruth(const mesh::Mesh& mesh, const frames::Intrinsics& K, const frames::Mat4& cameraToWorld,
+                        double nearMm, int threads = 0);
 
 // The same through any lens (lens.hpp: a distorted pinhole, a fisheye, an
 // omnidirectional lens), exact per pixel: each pixel centre's ray
@@ -136,15 +136,15 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const fit::Intrinsics& K, const 
 //  - Pixels without a ray (beyond the lens's field) are invalid and outside
 //    the field of view (inView 0); inView is 1 wherever a ray exists.
 //  - Normals and uv as the pinhole's; face, b1, b2 the hit's (raycast.hpp's
-//    Hit, fit::GBuffer's convention).
+//    Hit, raster::GBuffer's convention).
 // The result is the same bytes for any thread count. The caster is built
 // once per mesh and shared by the frames of a sequence; the form taking the
 // mesh builds one per call (0.1 s for the phantom's 140k triangles). Throws
 // InputError for a mesh of more than 2^24 triangles, ResourceError when the
 // buffers would not fit in memory.
-GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const fit::Mat4& cameraToWorld, double nearMm,
+GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const frames::Mat4& cameraToWorld, double nearMm,
                         int threads = 0);
-GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat4& cameraToWorld, double nearMm,
+GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const frames::Mat4& cameraToWorld, double nearMm,
                         int threads = 0);
 
 // Fills `current.flow`: each pixel's surface point projected into the
@@ -154,14 +154,14 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const fit::Mat
 // near plane, and within 1 % + 0.01 mm of the previous frame's depth at that
 // place (bilinear over the neighbours that see a surface); otherwise it is
 // occluded. `previous` null (the first frame): no flow, nothing visible.
-void flowToPrevious(GroundTruth& current, const fit::Intrinsics& K, const fit::Mat4& cameraToWorld,
-                    const GroundTruth* previous, const fit::Mat4& previousCameraToWorld, double nearMm);
+void flowToPrevious(GroundTruth& current, const frames::Intrinsics& K, const frames::Mat4& cameraToWorld,
+                    const GroundTruth* previous, const frames::Mat4& previousCameraToWorld, double nearMm);
 // The same through a lens: the pixel's point is its ray (unproject) scaled
 // to the planar depth, X = ray z / ray_z, projected into the previous frame
 // with project(); the visibility test is the pinhole's. For a pinhole lens
 // (fromIntrinsics(K)) it is the form above to rounding (within 1e-6 px).
-void flowToPrevious(GroundTruth& current, const Lens& lens, const fit::Mat4& cameraToWorld, const GroundTruth* previous,
-                    const fit::Mat4& previousCameraToWorld, double nearMm);
+void flowToPrevious(GroundTruth& current, const Lens& lens, const frames::Mat4& cameraToWorld,
+                    const GroundTruth* previous, const frames::Mat4& previousCameraToWorld, double nearMm);
 
 // The branch of each vertex: the one whose centerline passes nearest, in
 // units of its lumen radius there (so a thin branch beside a thick one gets

@@ -6,10 +6,10 @@
 //
 // Mucosa's conventions throughout: OpenCV camera axes (x right, y down, z
 // forward, the direction of view) and pixel centres at integer coordinates
-// (the top-left pixel's centre is (0, 0)), as fit::Intrinsics.
+// (the top-left pixel's centre is (0, 0)), as frames::Intrinsics.
 //
 //  - Pinhole: fx, fy, cx, cy and Brown radial distortion k1, k2 on the
-//    normalised coordinates (x/z, y/z): exactly fit::project and OpenCV's
+//    normalised coordinates (x/z, y/z): exactly frames::project and OpenCV's
 //    cv::projectPoints with distortion (k1, k2, 0, 0).
 //  - Fisheye: OpenCV's fisheye model (cv::fisheye, calib3d "Fisheye camera
 //    model"), the Kannala-Brandt polynomial (Kannala & Brandt 2006, eq. 6):
@@ -31,12 +31,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/image.hpp>
 
 namespace mucosa::dataset {
 
-using Vec3d = fit::Vec3d;
+using Vec3d = frames::Vec3d;
 
 struct PixelPoint {
     double u = 0, v = 0;  // column (x, right) and row (y, down); pixel centres at integers
@@ -134,7 +134,7 @@ inline constexpr double kLensTolerance = 1e-15;
 inline constexpr int kLensMaxIterations = 100;
 
 // The pinhole of a frames file's intrinsics (fx, fy, cx, cy, k1, k2).
-Lens fromIntrinsics(const fit::Intrinsics& K);
+Lens fromIntrinsics(const frames::Intrinsics& K);
 
 // A bronchoscope-like fisheye: Kannala-Brandt with k1..k4 = 0, i.e.
 // equidistant (r = f theta, Kannala & Brandt 2006, eq. 3), fx = fy = f,

@@ -62,6 +62,6 @@ struct BackFaceView {
     double backFraction() const noexcept { return seen ? double(back) / double(seen) : 0.0; }
 };
 
-BackFaceView backFacesSeen(const GroundTruth& truth, const mesh::Mesh& mesh, const fit::Vec3d& eye, float litSide);
+BackFaceView backFacesSeen(const GroundTruth& truth, const mesh::Mesh& mesh, const frames::Vec3d& eye, float litSide);
 
 }  // namespace mucosa::dataset

@@ -27,14 +27,14 @@
 #include <optional>
 #include <vector>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/mesh/mesh.hpp>
 
 namespace mucosa::dataset {
 
 // Where a ray meets a triangle: origin + t dir = b0 p0 + b1 p1 + b2 p2 with
 // b0 = 1 - b1 - b2 (p0, p1, p2 the triangle's vertices in index order: the
-// convention of fit::GBuffer's b1, b2), t in units of dir's length.
+// convention of raster::GBuffer's b1, b2), t in units of dir's length.
 struct Hit {
     std::int32_t triangle = -1;
     double b1 = 0, b2 = 0;
@@ -53,7 +53,7 @@ public:
 
     // The nearest hit with tMin <= t <= tMax (dir need not be unit; t is in
     // its units); nullopt where the ray meets nothing there.
-    std::optional<Hit> firstHit(const fit::Vec3d& origin, const fit::Vec3d& dir, double tMin = 0,
+    std::optional<Hit> firstHit(const frames::Vec3d& origin, const frames::Vec3d& dir, double tMin = 0,
                                 double tMax = std::numeric_limits<double>::infinity()) const;
 
     const mesh::Mesh& mesh() const noexcept { return *mesh_; }
@@ -80,8 +80,8 @@ private:
 
 // The hit of one triangle (the same test firstHit runs), without a tree:
 // for brute-force checks. nullopt outside [tMin, tMax] or off the triangle.
-std::optional<Hit> intersectTriangle(const mesh::Mesh& mesh, std::int32_t triangle, const fit::Vec3d& origin,
-                                     const fit::Vec3d& dir, double tMin = 0,
+std::optional<Hit> intersectTriangle(const mesh::Mesh& mesh, std::int32_t triangle, const frames::Vec3d& origin,
+                                     const frames::Vec3d& dir, double tMin = 0,
                                      double tMax = std::numeric_limits<double>::infinity());
 
 }  // namespace mucosa::dataset

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
 #include <mucosa/shading/brdf.hpp>
@@ -26,13 +26,6 @@ struct FittedModel {
     std::array<float, 2> uvMin{0, 0}, uvMax{1, 1};
 };
 FittedModel readFitDirectory(const std::filesystem::path& dir);
-
-// The GL camera of a registered frame: OpenCV intrinsics (pixel centres at
-// integer coordinates) and camera_to_world -> column-major view and projection
-// matrices for OpenGL, with the first image row at the top. Distortion is not
-// modelled by the rasteriser (frames with k1/k2 should be undistorted first).
-std::array<float, 16> glViewMatrix(const Mat4& cameraToWorld);
-std::array<float, 16> glProjectionMatrix(const Intrinsics& K, double nearMm, double farMm);
 
 struct CategoriesOptions {
     std::string patient = "patient";
@@ -52,7 +45,7 @@ struct CategoryImage {
 
 // Renders into `outDir` (created): pose<NNN>_cat<C>.png for C = 1..5 and
 // images.json. Throws InputError for frames that cannot be rendered.
-std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const FrameSet& frames, const FittedModel& model,
+std::vector<CategoryImage> renderCategories(mesh::Mesh mesh, const frames::FrameSet& frames, const FittedModel& model,
                                             const std::filesystem::path& outDir, const CategoriesOptions& options);
 
 }  // namespace mucosa::fit

@@ -2,7 +2,7 @@
 // `mucosa fit`: patient-specific texture and shading from registered frames.
 //  1. back-project every frame onto the mesh through a depth pass, collecting
 //     per pixel gamma = cos(V, N), the distance z to the viewpoint and the
-//     linear intensity (backproject.hpp);
+//     linear intensity (backproject.cpp);
 //  2. fit the seven parameters of rho(gamma) * delta(r) jointly with a per-texel
 //     albedo, with a robust (Cauchy) loss so that specular highlights and
 //     disocclusions are outliers (Ceres; solve.cpp);
@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include <mucosa/fit/frames.hpp>
+#include <mucosa/frames/frames.hpp>
 #include <mucosa/image/image.hpp>
 #include <mucosa/mesh/mesh.hpp>
 #include <mucosa/shading/brdf.hpp>
@@ -120,7 +120,7 @@ double fittedShading(const shading::BrdfParams& brdf, double gamma, double z) no
 
 // Back-projects one frame (image already decoded and linearised, 3 channels).
 // `mask` (optional, 1 channel, from loadFrameImage): pixels not to use.
-std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, const image::ImageF& linear,
+std::vector<Sample> backproject(const mesh::Mesh& mesh, const frames::Frame& frame, const image::ImageF& linear,
                                 const image::Image8* mask, const FitOptions& options, std::uint32_t frameIndex,
                                 BackprojectStats* stats);
 
@@ -130,8 +130,8 @@ std::vector<Sample> backproject(const mesh::Mesh& mesh, const Frame& frame, cons
 // field of view, see outsideFieldOfView, widened by kViewMarginPx).
 constexpr std::uint8_t kMaskSaturated = 1, kMaskOutsideView = 2;
 constexpr int kViewMarginPx = 2;
-image::ImageF loadFrameImage(const Frame& frame, const Response& response, image::Image8* mask = nullptr,
-                             double saturation = 0.99);
+image::ImageF loadFrameImage(const frames::Frame& frame, const frames::Response& response,
+                             image::Image8* mask = nullptr, double saturation = 0.99);
 
 // The pixels outside the scope's field of view: black (every channel 0)
 // and connected to the image border, so that a dark lumen inside the
@@ -163,7 +163,7 @@ void buildTexture(const std::vector<Sample>& samples, const shading::BrdfParams&
 void pushPull(image::ImageF& color, const image::ImageF& weight, int threads = 0);
 
 // Everything: checks, back-projection, solve, texture, hold-out validation.
-FitResult fitFrames(const mesh::Mesh& mesh, const FrameSet& frames, const FitOptions& options);
+FitResult fitFrames(const mesh::Mesh& mesh, const frames::FrameSet& frames, const FitOptions& options);
 
 // Writes OUTDIR/brdf.json, texture.png, coverage.png, report.html, rho.svg,
 // delta.svg, report.json (all atomically; the directory is created).
@@ -171,7 +171,7 @@ void writeFitOutputs(const FitResult& result, const std::filesystem::path& dir);
 
 // Renders what the fitted model predicts for a frame (texture x rho x delta),
 // linear, 3 channels; pixels that see nothing are 0 and flagged in `seen`.
-image::ImageF renderPrediction(const mesh::Mesh& mesh, const Frame& frame, const shading::BrdfParams& brdf,
+image::ImageF renderPrediction(const mesh::Mesh& mesh, const frames::Frame& frame, const shading::BrdfParams& brdf,
                                const image::ImageF& texture, std::array<float, 2> uvMin, std::array<float, 2> uvMax,
                                std::vector<std::uint8_t>* seen = nullptr, int threads = 0);
 
