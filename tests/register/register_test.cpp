@@ -316,9 +316,9 @@ INSTANTIATE_TEST_SUITE_P(BothMethods, RegisterTracking,
 // Looking down a straight, smooth bronchus (radius 5 mm), the walls run
 // nearly parallel to the optical axis: their gradient (p, q) is huge or
 // undefined, their normal is not. Both sides compare normals, and mask only
-// walls grazing the ray. Until session 25 both masked |(p, q)| > 6 and
-// 1 + a x + b y < 0.2, and a model pixel masked where the video kept one
-// counted as unseen: here the video kept only the pixels noise made look
+// walls grazing the ray. Masking |(p, q)| > 6 and 1 + a x + b y < 0.2
+// instead, with a model pixel masked where the video kept one counted as
+// unseen, was rejected: here the video kept only the pixels noise made look
 // less steep, the similarity at the truth was 0.69, and 4 of the 8 shifted
 // poses below scored higher (on the phantom's lobar bronchus: 3-4 mm and
 // 6 degrees off).
@@ -356,8 +356,8 @@ TEST(RegisterPq, TheModelKeepsTheWallsItSeesAtGrazing) {
                 const auto& m = f.normal[i];
                 const double e = std::acos(std::clamp(m[0] * n[0] + m[1] * n[1] + m[2] * n[2], -1.0, 1.0)) * 180 / M_PI;
                 err.push_back(e);
-                // Steeper than |(p, q)| = 6 (the video side's mask until
-                // session 25), or turned past parallel to the optical axis.
+                // Steeper than |(p, q)| = 6 (the rejected gradient mask's
+                // bound), or turned past parallel to the optical axis.
                 if (n[2] > -1 / std::sqrt(1 + 36.0)) steepErr.push_back(e);
             }
         std::sort(err.begin(), err.end());
@@ -1199,10 +1199,9 @@ TEST(RegisterAlbedo, TheMapHoldsTheTrackWhereTheShapeLeavesItFree) {
 // A flagged frame's estimate is the map's step's pose where that converged
 // (RegisterOptions::keepMapPose), not where pq's iterations ended: the map's
 // step is the estimate that converged, and the next frame starts from it.
-// Until session 25 pq scored under its threshold on this tube even at the
-// true pose and was flagged on its own (frame 1 0.72 mm / 1.21 deg off, the
-// map's pose 0.05 mm / 0.18 deg); comparing normals, it converges within
-// 0.15 mm, so here a threshold no frame reaches flags every frame.
+// Comparing normals, pq converges within 0.15 mm on this tube (comparing
+// gradients it scored under its threshold even at the true pose), so here a
+// threshold no frame reaches flags every frame.
 TEST(RegisterAlbedo, AFrameTheMethodDoesNotConvergeOnKeepsTheMapsPose) {
     registration::RegisterOptions ro;  // pq
     const SmoothTubeTrack scene = smoothTubeTrack(ro);
@@ -1315,8 +1314,8 @@ TEST(RegisterAlbedo, TheMapsStepCountsOnlyWithinReachOfTheStart) {
 }
 
 // On the same tube pq converges 0.05-0.07 mm and 0.06-0.27 degrees from
-// where the map's step converged (until session 25 its bias put some frames
-// a millimetre away). With RegisterOptions::mapAgreementMm under that,
+// where the map's step converged (comparing gradients, the bias put some
+// frames a millimetre away). With RegisterOptions::mapAgreementMm under that,
 // those frames are flagged for the disagreement: they paint nothing, and
 // every frame left converged lies within the agreement of the map's pose.
 // The estimate stays the method's own (keepMapPose is off).

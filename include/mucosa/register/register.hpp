@@ -189,7 +189,7 @@ struct RegisterOptions {
     // axis looking down a round airway, held without holding back the
     // position or the viewing direction. 0: off (the default). In tracking
     // only (registerInitial refines its candidates without priors), with the
-    // tracker's velocity fixed (session 24), 0.0005 helped category 4 seed 1
+    // tracker's velocity as it is, 0.0005 helped category 4 seed 1
     // (p95 4.28 -> 3.60 degrees) and hurt lamp seed 1 (1.95 -> 4.30), so
     // it is not the default (docs/theory.md, "The track across a flagged
     // stretch"); 0.002 without the map held the CT airway's roll back.
@@ -208,8 +208,8 @@ struct RegisterOptions {
     // pose the map gave (docs/theory.md, "An albedo learnt along the track").
     double albedoPrior = 0.002;
     // The three settings below decide which estimate a frame leaves and
-    // which frames paint the albedo map. Together (the defaults since
-    // session 23) they removed a 12 mm slide and its two losses on the
+    // which frames paint the albedo map. Together (the defaults) they
+    // removed a 12 mm slide and its two losses on the
     // phantom's lamp sequence and left the other sequences within their
     // spread (docs/theory.md, "The map's pose as a check, and the
     // defaults").
