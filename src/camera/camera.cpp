@@ -282,3 +282,246 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrou
 }
 
 }  // namespace mucosa::camera
+
+namespace mucosa::camera {
+
+namespace {
+
+// A root-to-leaf path of the tree with its arc length and radii.
+struct Route {
+    std::vector<glm::vec3> pts;
+    std::vector<float> arc, rad;
+    std::vector<int> branchEnds;  // arc index where each branch of the chain ends (the carinas)
+    float length() const { return arc.back(); }
+    std::size_t locate(float s, float& t) const {
+        s = std::clamp(s, 0.0f, length());
+        const auto it = std::upper_bound(arc.begin(), arc.end(), s);
+        const std::size_t k = std::min<std::size_t>(
+            static_cast<std::size_t>(std::max<std::ptrdiff_t>(it - arc.begin(), 1)) - 1, pts.size() - 2);
+        t = std::clamp((s - arc[k]) / std::max(arc[k + 1] - arc[k], 1e-6f), 0.0f, 1.0f);
+        return k;
+    }
+    glm::vec3 at(float s) const {
+        float t;
+        const std::size_t k = locate(s, t);
+        return glm::mix(pts[k], pts[k + 1], t);
+    }
+    float radius(float s) const {
+        float t;
+        const std::size_t k = locate(s, t);
+        return rad[k] + (rad[k + 1] - rad[k]) * t;
+    }
+    // The smallest radius within 6 mm either way (ahead of narrowings).
+    float radiusNear(float s) const {
+        float r = 1e30f;
+        for (int j = -6; j <= 6; ++j) r = std::min(r, radius(s + static_cast<float>(j)));
+        return r;
+    }
+    // The distal direction at s: towards the point `ahead` further on.
+    glm::vec3 direction(float s, float ahead) const {
+        glm::vec3 f = at(s + ahead) - at(s);
+        if (glm::length(f) < 1e-3f * ahead) f = at(s) - at(s - ahead);
+        return glm::normalize(f);
+    }
+};
+
+Route routeTo(const mesh::Centerline& c, int leaf) {
+    std::vector<int> chain;
+    for (int b = leaf; b >= 0; b = c.branches[static_cast<std::size_t>(b)].parent) chain.push_back(b);
+    Route r;
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+        const mesh::CenterlineBranch& br = c.branches[static_cast<std::size_t>(*it)];
+        for (std::size_t i = 0; i < br.points.size(); ++i) {
+            const glm::vec3 q = v(br.points[i]);
+            if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z))
+                throw InputError("camera.path", "", "centerline has a non-finite point");
+            const float rad = i < br.radii.size() ? br.radii[i] : 0.0f;
+            if (!std::isfinite(rad) || rad < 0.0f) throw InputError("camera.path", "", "centerline has a bad radius");
+            if (!r.pts.empty() && glm::length(q - r.pts.back()) < 1e-6f) continue;
+            r.arc.push_back(r.pts.empty() ? 0.0f : r.arc.back() + glm::length(q - r.pts.back()));
+            r.pts.push_back(q);
+            r.rad.push_back(rad);
+        }
+        r.branchEnds.push_back(static_cast<int>(r.pts.size()) - 1);
+    }
+    return r;
+}
+
+// One leg of the survey on route `route`: from arc s0 to s1 over `duration`
+// (mm of advance), the view blending from route `viewFrom`'s distal
+// direction to `route`'s (a pause at a carina turning to the next orifice).
+struct Leg {
+    int route = 0, viewFrom = 0;
+    float s0 = 0, s1 = 0, duration = 0;
+};
+
+}  // namespace
+
+void validate(const Survey& o) {
+    if (!(o.rollDeg >= 0.0f && o.rollDeg <= 90.0f))
+        throw InputError("camera.path.roll_deg", "", fmt::format("{} is outside 0..90", o.rollDeg));
+    if (!(o.pauseMm >= 0.0f) || !std::isfinite(o.pauseMm))
+        throw InputError("camera.path.pause_mm", "", "must be a number >= 0");
+    if (!(o.withdrawSpeed >= 1.0f) || !std::isfinite(o.withdrawSpeed))
+        throw InputError("camera.path.withdraw_speed", "", "must be a number >= 1");
+    if (!(o.carinaBackoff >= 0.0f) || !std::isfinite(o.carinaBackoff))
+        throw InputError("camera.path.carina_backoff", "", "must be a number >= 0");
+}
+
+// The survey stops this many radii (plus stopMm) before a leaf's distal end:
+// a bronchoscope stops where the bronchus gets too narrow for it, looking
+// into its dark continuation rather than at the cap that ends a model.
+constexpr float kLeafStopRadii = 3.0f;
+
+std::vector<Pose> surveyTree(const mesh::Centerline& tree, const FlyThrough& o, const Survey& sv, float stopMm) {
+    if (o.frames < 1) throw InputError("frames", "", "must be at least 1");
+    validate(o);
+    validate(sv);
+    if (tree.branches.empty()) throw InputError("camera.path.centerline", "", "the centerline has no branches");
+    const std::size_t n = tree.branches.size();
+    // Leaves in depth-first order (children in their order in the file).
+    std::vector<std::vector<int>> children(n);
+    for (std::size_t b = 0; b < n; ++b) {
+        const int p = tree.branches[b].parent;
+        if (p >= static_cast<int>(b)) throw InputError("camera.path.centerline", "", "parents must come before children");
+        if (p >= 0) children[static_cast<std::size_t>(p)].push_back(static_cast<int>(b));
+    }
+    std::vector<int> leaves, stack;
+    for (std::size_t b = n; b-- > 0;)
+        if (tree.branches[b].parent < 0) stack.push_back(static_cast<int>(b));
+    while (!stack.empty()) {
+        const int b = stack.back();
+        stack.pop_back();
+        const auto& ch = children[static_cast<std::size_t>(b)];
+        if (ch.empty()) leaves.push_back(b);
+        for (auto it = ch.rbegin(); it != ch.rend(); ++it) stack.push_back(*it);
+    }
+    std::vector<Route> routes;
+    std::vector<int> routeLeaf;
+    for (int leaf : leaves) {
+        Route r = routeTo(tree, leaf);
+        if (r.pts.size() < 2) continue;
+        const mesh::CenterlineBranch& br = tree.branches[static_cast<std::size_t>(leaf)];
+        const float own = camera::pathLength(br.points);
+        const float radius = br.radii.empty() ? 0.0f : br.radii.back();
+        if (routes.size() > 0 && own < radius) continue;  // a stub: nothing to enter
+        routes.push_back(std::move(r));
+        routeLeaf.push_back(leaf);
+    }
+    if (routes.empty()) throw InputError("camera.path", "", "centerline needs at least two distinct points");
+    const float start = std::clamp(o.startMm, 0.0f, routes.front().length());
+    auto stopOf = [&](std::size_t k) {
+        const Route& r = routes[k];
+        return std::max(start, r.length() - std::max(stopMm + kLeafStopRadii * r.rad.back(), 0.0f));
+    };
+    // The legs: advance into the first leaf, pause; then for each next leaf:
+    // withdraw to just above the carina it shares with the previous one,
+    // pause turning, advance, pause.
+    std::vector<Leg> legs;
+    const float withdraw = sv.withdrawSpeed;
+    legs.push_back({0, 0, start, stopOf(0), stopOf(0) - start});
+    legs.push_back({0, 0, stopOf(0), stopOf(0), sv.pauseMm});
+    for (std::size_t k = 1; k < routes.size(); ++k) {
+        const Route& a = routes[k - 1];
+        const Route& b = routes[k];
+        // The common prefix: the last carina both chains pass.
+        std::size_t common = 0;
+        {
+            std::vector<int> ca, cb;
+            for (int x = routeLeaf[k - 1]; x >= 0; x = tree.branches[static_cast<std::size_t>(x)].parent)
+                ca.push_back(x);
+            for (int x = routeLeaf[k]; x >= 0; x = tree.branches[static_cast<std::size_t>(x)].parent) cb.push_back(x);
+            std::reverse(ca.begin(), ca.end());
+            std::reverse(cb.begin(), cb.end());
+            while (common < ca.size() && common < cb.size() && ca[common] == cb[common]) ++common;
+        }
+        const std::size_t endIndex = static_cast<std::size_t>(b.branchEnds[std::max<std::size_t>(common, 1) - 1]);
+        const float carina = b.arc[std::min(endIndex, b.arc.size() - 1)];
+        const float above = std::max(start, carina - sv.carinaBackoff * b.radius(carina));
+        const float from = legs.back().s1;
+        legs.push_back({static_cast<int>(k - 1), static_cast<int>(k - 1), from, std::min(above, from),
+                        std::abs(from - std::min(above, from)) / withdraw});
+        const float at = legs.back().s1;
+        legs.push_back({static_cast<int>(k), static_cast<int>(k - 1), at, at, sv.pauseMm});
+        const float stop = std::max(at, stopOf(k));
+        legs.push_back({static_cast<int>(k), static_cast<int>(k), at, stop, stop - at});
+        legs.push_back({static_cast<int>(k), static_cast<int>(k), stop, stop, sv.pauseMm});
+        (void)a;
+    }
+    legs.pop_back();  // no pause after the last leaf: the survey ends there
+    std::vector<float> legStart{0.0f};
+    for (const Leg& l : legs) legStart.push_back(legStart.back() + l.duration);
+    const float total = legStart.back();
+
+    std::mt19937_64 rng(o.seed);
+    const float period = o.wanderPeriodMm;
+    const Wave offsetX(rng, period), offsetY(rng, period), yawWave(rng, period), pitchWave(rng, period),
+        rollWave(rng, 1.5f * period);
+    constexpr float kDeg = std::numbers::pi_v<float> / 180.0f;
+    const float maxTurn = o.lookAroundDeg * kDeg, maxRoll = sv.rollDeg * kDeg;
+    const float ahead = std::max(o.lookAheadMm, 1e-3f);
+    const float step =
+        o.speedMm > 0.0f ? o.speedMm : (o.frames > 1 ? total / static_cast<float>(o.frames - 1) : 0.0f);
+
+    std::vector<Pose> out;
+    glm::vec3 up = v(o.up), prevForward(0.0f);
+    for (int i = 0; i < o.frames; ++i) {
+        const float tau = std::min(step * static_cast<float>(i), total);
+        const std::size_t li = std::min<std::size_t>(
+            static_cast<std::size_t>(std::upper_bound(legStart.begin(), legStart.end(), tau) - legStart.begin()) - 1,
+            legs.size() - 1);
+        const Leg& leg = legs[li];
+        const float u = leg.duration > 0 ? std::clamp((tau - legStart[li]) / leg.duration, 0.0f, 1.0f) : 1.0f;
+        // Easing in and out of every move: the scope starts and stops gently.
+        const float e = u * u * (3.0f - 2.0f * u);
+        const float s = leg.s0 + (leg.s1 - leg.s0) * e;
+        const Route& r = routes[static_cast<std::size_t>(leg.route)];
+        glm::vec3 p = r.at(s);
+        glm::vec3 f = r.direction(s, ahead);
+        if (leg.viewFrom != leg.route) {
+            const glm::vec3 f0 = routes[static_cast<std::size_t>(leg.viewFrom)].direction(s, ahead);
+            const glm::vec3 m = glm::mix(f0, f, e);
+            f = glm::length(m) > 1e-4f ? glm::normalize(m) : f;
+        }
+        if (i == 0) {
+            glm::vec3 rr = glm::cross(f, up);
+            if (glm::length(rr) < 1e-6f)
+                rr = glm::cross(f, std::abs(f.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0));
+            up = glm::normalize(glm::cross(glm::normalize(rr), f));
+        } else {
+            const glm::vec3 axis = glm::cross(prevForward, f);
+            const float sinA = glm::length(axis), cosA = glm::dot(prevForward, f);
+            if (sinA > 1e-7f) {
+                const glm::vec3 k = axis / sinA;
+                up = up * cosA + glm::cross(k, up) * sinA + k * glm::dot(k, up) * (1.0f - cosA);
+            }
+            up = glm::normalize(up - f * glm::dot(up, f));
+        }
+        prevForward = f;
+        const glm::vec3 right = glm::normalize(glm::cross(f, up));
+        // Off the centre, within a disc of radius min(wander R, R - clearance).
+        if (o.wander > 0.0f) {
+            const float R = r.radiusNear(s);
+            const float reach = std::max(0.0f, std::min(o.wander * R, R - o.wallClearanceMm));
+            const float k = reach * 0.70710678f;
+            p += right * (k * offsetX(tau)) + up * (k * offsetY(tau));
+        }
+        glm::vec3 forward = f, poseUp = up;
+        if (maxTurn > 0.0f) {
+            const float yaw = maxTurn * yawWave(tau), pitch = maxTurn * pitchWave(tau);
+            forward = rotateAbout(forward, up, yaw);
+            const glm::vec3 r2 = rotateAbout(right, up, yaw);
+            forward = glm::normalize(rotateAbout(forward, r2, pitch));
+            poseUp = glm::normalize(rotateAbout(up, r2, pitch));
+        }
+        if (maxRoll > 0.0f) poseUp = glm::normalize(rotateAbout(poseUp, forward, maxRoll * rollWave(tau)));
+        Pose pose;
+        pose.position = a3(p);
+        pose.forward = a3(forward);
+        pose.up = a3(poseUp);
+        out.push_back(pose);
+    }
+    return out;
+}
+
+}  // namespace mucosa::camera

@@ -61,8 +61,11 @@ scene::Scene patientScene(const PatientOptions& o, int branch) {
     s.path.fly.startMm = static_cast<float>(o.startMm);
     s.path.fly.stopMm = static_cast<float>(o.stopMm);
     s.path.stopMm = static_cast<float>(o.stopMm);  // not the scene's default (the lumen's end radius)
+    s.path.survey = false;
     s.path.fly.wander = 0.3f;
     s.path.fly.lookAroundDeg = 15.0f;
+    s.path.fly.wallClearanceMm = 1.5f;
+    s.path.fly.wanderPeriodMm = 40.0f;
     s.path.fly.seed = o.seed;
     if (o.look == PatientLook::Category4) {
         using P = shading::Param;

@@ -481,7 +481,8 @@ void readPath(const Parser& P, const json& p, Scene& s) {
     P.object(p, "camera.path");
     P.known(p, "camera.path.",
             {"poses", "centerline", "centreline", "branch", "speed_mm", "start_mm", "stop_mm", "look_ahead_mm",
-             "wander", "look_around_deg", "wall_clearance_mm", "wander_period_mm", "seed"});
+             "wander", "look_around_deg", "wall_clearance_mm", "wander_period_mm", "seed", "route", "roll_deg",
+             "pause_mm", "withdraw_speed"});
     // "centreline": the British spelling, accepted for one release.
     if (p.contains("centreline")) {
         if (p.contains("centerline"))
@@ -505,6 +506,25 @@ void readPath(const Parser& P, const json& p, Scene& s) {
     const std::string v = P.string(p[centerlineKey], field);
     if (v != "auto") s.path.centerlineFile = P.path(p[centerlineKey], field);
     if (p.contains("branch")) s.path.branch = P.integer(p["branch"], "camera.path.branch", 0, 1 << 20);
+    // The route: the bronchoscopist's survey of the whole tree, or one path
+    // (the longest, or to "branch").
+    if (p.contains("route")) {
+        const std::string route = P.string(p["route"], "camera.path.route");
+        if (route != "survey" && route != "path")
+            P.fail("camera.path.route", fmt::format("unknown route '{}' (known: survey, path)", route));
+        if (route == "survey" && p.contains("branch"))
+            P.fail("camera.path.route", "a survey covers every branch: give route \"path\" with a branch");
+        s.path.survey = route == "survey";
+    } else if (p.contains("branch")) {
+        s.path.survey = false;
+    }
+    if (p.contains("roll_deg"))
+        s.path.surveyOptions.rollDeg = static_cast<float>(P.number(p["roll_deg"], "camera.path.roll_deg"));
+    if (p.contains("pause_mm"))
+        s.path.surveyOptions.pauseMm = static_cast<float>(P.number(p["pause_mm"], "camera.path.pause_mm"));
+    if (p.contains("withdraw_speed"))
+        s.path.surveyOptions.withdrawSpeed =
+            static_cast<float>(P.number(p["withdraw_speed"], "camera.path.withdraw_speed"));
     if (p.contains("speed_mm")) s.path.fly.speedMm = P.positive(p["speed_mm"], "camera.path.speed_mm");
     if (p.contains("start_mm")) {
         s.path.fly.startMm = static_cast<float>(P.number(p["start_mm"], "camera.path.start_mm"));
@@ -529,6 +549,7 @@ void readPath(const Parser& P, const json& p, Scene& s) {
         s.path.fly.seed = static_cast<std::uint64_t>(P.integer(p["seed"], "camera.path.seed", 0, 1 << 30));
     try {
         camera::validate(s.path.fly);
+        camera::validate(s.path.surveyOptions);
     } catch (const InputError& e) {
         P.fail(e.subject(), e.reason());
     }
@@ -598,10 +619,15 @@ Scene defaultScene() {
     s.mapParams.bits = 8;
     s.path.kind = PathKind::Centerline;
     s.path.fly.frames = 120;
-    // A bronchoscopist's flight: off the centre by up to a third of the lumen's
-    // radius, the view turning up to 20 degrees to the walls and openings.
-    s.path.fly.wander = 0.35f;
-    s.path.fly.lookAroundDeg = 20.0f;
+    // A bronchoscopist's survey of the whole tree (camera::surveyTree): off
+    // the centre by up to 80 % of the lumen's radius and 1.2 mm from the
+    // wall, the view turning up to 40 degrees to the walls and openings, the
+    // scope rolling up to 30 degrees (docs/theory.md, "The bronchoscopist's
+    // survey", for the views this gives).
+    s.path.fly.wander = 0.8f;
+    s.path.fly.lookAroundDeg = 40.0f;
+    s.path.fly.wallClearanceMm = 1.2f;
+    s.path.fly.wanderPeriodMm = 30.0f;
     s.generatedDiffuse = true;
     // The generated texture carries the tissue colour (docs/theory.md,
     // "Tissue texture"): base_color would tint it a second time.
@@ -876,6 +902,9 @@ std::vector<camera::Pose> cameraPoses(const Scene& scene, const SceneAssets& ass
                          "the mesh has no centerline to fly along: give camera.pose or camera.path");
     camera::FlyThrough fly = scene.path.fly;
     fly.frames = frames;
+    if (scene.path.survey && scene.path.branch < 0 && !assets.centerlineTree.branches.empty())
+        return camera::surveyTree(assets.centerlineTree, fly, scene.path.surveyOptions,
+                                  scene.path.stopMm.value_or(scene.lens.nearMm + kStopMarginMm));
     // Stop short of the distal end, where a blind bronchus closes: the near
     // plane, the lumen's radius there (the cap's depth) and a margin.
     fly.stopMm = scene.path.stopMm.value_or(scene.lens.nearMm + assets.centerlineEndRadius + kStopMarginMm);

@@ -187,14 +187,15 @@ float angleDeg(const camera::Vec3& a, const camera::Vec3& b) {
     return std::acos(std::clamp(dot(a, b) / (norm(a) * norm(b)), -1.0f, 1.0f)) * 180.0f / 3.14159265f;
 }
 
-// The default scene's fly-through (the phantom at render's 1 cell/mm, 120
-// frames) wanders like a bronchoscopist and stays in the lumen: every eye is
+// The default scene's fly-through along one path (route "path": the phantom
+// at render's 1 cell/mm, 120 frames) wanders like a bronchoscopist and stays in the lumen: every eye is
 // nearer the centerline than the local radius less a margin larger than the
 // near plane, at least 1.5 near planes from the nearest vertex of the actual
 // surface and on its lumen side, short of the blind end; the offsets and the
 // turns are real (not zero) and change smoothly from frame to frame.
 TEST(Camera, DefaultFlyThroughWandersInsideTheLumenSmoothly) {
-    const scene::Scene sc = scene::defaultScene();
+    scene::Scene sc = scene::defaultScene();
+    sc.path.survey = false;
     ASSERT_GT(sc.path.fly.wander, 0.0f);
     ASSERT_GT(sc.path.fly.lookAroundDeg, 0.0f);
     const scene::SceneAssets assets = scene::loadAssets(sc, 0, false);
@@ -274,6 +275,158 @@ TEST(Camera, DefaultFlyThroughWandersInsideTheLumenSmoothly) {
         sc.path.fly.lookAroundDeg * std::sqrt(2.0f) * 2 * 3.14159265f / sc.path.fly.wanderPeriodMm * stepMm;
     EXPECT_LT(maxTurnStep, turnBound) << "the view turns smoothly";
     EXPECT_LT(maxRollStep, turnBound) << "no sudden roll";
+}
+
+// The default fly-through is the bronchoscopist's survey of the whole tree
+// (the phantom at render's 1 cell/mm, 120 frames). Geometry: every eye is in
+// the lumen (nearer its branch's centerline than the radius less two near
+// planes, on the lumen side of the nearest surface vertex, at least 1.5 near
+// planes from it), and every branch's distal end is reached. Views: the
+// distribution docs/theory.md ("The bronchoscopist's survey") states, within
+// margins: the eye off the centre, the view turned from the branch's
+// direction, rolled, and carinas in view.
+TEST(Camera, SurveyVisitsEveryBranchInsideTheLumenWithABronchoscopistsViews) {
+    const scene::Scene sc = scene::defaultScene();
+    ASSERT_TRUE(sc.path.survey);
+    const scene::SceneAssets assets = scene::loadAssets(sc, 0, false);
+    const mesh::Centerline& tree = assets.centerlineTree;
+    ASSERT_GE(tree.branches.size(), 7u);
+    const int frames = 120;
+    const auto poses = scene::cameraPoses(sc, assets, frames);
+    ASSERT_EQ(poses.size(), std::size_t(frames));
+    scene::Scene noRoll = sc;
+    noRoll.path.surveyOptions.rollDeg = 0;
+    const auto unrolled = scene::cameraPoses(noRoll, assets, frames);
+    const mesh::Mesh& m = assets.mesh;
+    const float nearMm = sc.lens.nearMm;
+    const float halfFov = 0.5f * sc.lens.fovDeg;
+    std::vector<float> offsetFraction, wallMm, turnDeg, rollDeg;
+    int carinaFrames = 0;
+    float minClearance = 1e30f;
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+        const auto& p = poses[i];
+        // The nearest centerline point over every branch, and its radius.
+        float best = 1e30f, R = 0;
+        camera::Vec3 along{0, 0, 0};
+        for (const mesh::CenterlineBranch& b : tree.branches) {
+            std::size_t seg = 0;
+            float t = 0;
+            if (b.points.size() < 2) continue;
+            const float d = distanceToPolyline(p.position, b.points, &seg, &t);
+            if (d < best) {
+                best = d;
+                R = b.radii[seg] + (b.radii[seg + 1] - b.radii[seg]) * t;
+                along = {b.points[seg + 1][0] - b.points[seg][0], b.points[seg + 1][1] - b.points[seg][1],
+                         b.points[seg + 1][2] - b.points[seg][2]};
+            }
+        }
+        EXPECT_LT(best, R - 2 * nearMm) << "frame " << i;
+        offsetFraction.push_back(best / R);
+        wallMm.push_back(R - best);
+        turnDeg.push_back(angleDeg(p.forward, along));
+        float nearest = 1e30f;
+        std::size_t nv = 0;
+        for (std::size_t v = 0; v < m.vertexCount(); ++v) {
+            const camera::Vec3 e{p.position[0] - m.positions[v][0], p.position[1] - m.positions[v][1],
+                                 p.position[2] - m.positions[v][2]};
+            const float dd = dot(e, e);
+            if (dd < nearest) nearest = dd, nv = v;
+        }
+        const camera::Vec3 e{p.position[0] - m.positions[nv][0], p.position[1] - m.positions[nv][1],
+                             p.position[2] - m.positions[nv][2]};
+        EXPECT_GT(dot(e, m.normals[nv]), 0.0f) << "frame " << i << " is outside the lumen";
+        minClearance = std::min(minClearance, std::sqrt(nearest));
+        // A carina (where a branch leaves its parent) in view within 40 mm.
+        for (const mesh::CenterlineBranch& b : tree.branches) {
+            if (b.parent < 0 || b.points.empty()) continue;
+            const camera::Vec3 c{b.points[0][0] - p.position[0], b.points[0][1] - p.position[1],
+                                 b.points[0][2] - p.position[2]};
+            if (norm(c) < 40.0f && angleDeg(c, p.forward) < halfFov) {
+                ++carinaFrames;
+                break;
+            }
+        }
+        // The roll: up against the same survey's without it.
+        rollDeg.push_back(angleDeg(unrolled[i].up, p.up));
+        EXPECT_LT(angleDeg(unrolled[i].forward, p.forward), 1e-2f);
+    }
+    // Every branch entered: some eye within its stop distance (+ the wander) of its distal end.
+    for (std::size_t b = 0; b < tree.branches.size(); ++b) {
+        bool leaf = true;
+        for (const auto& c : tree.branches) leaf &= c.parent != int(b);
+        if (!leaf) continue;
+        const mesh::CenterlineBranch& br = tree.branches[b];
+        const camera::Vec3 end = br.points.back();
+        float closest = 1e30f;
+        for (const auto& p : poses)
+            closest = std::min(closest, norm({p.position[0] - end[0], p.position[1] - end[1], p.position[2] - end[2]}));
+        const float reach = nearMm + 3.0f + 3.0f * br.radii.back() + br.radii.back();
+        EXPECT_LT(closest, reach + 3.0f) << br.name << " is not entered";
+    }
+    auto quantile = [](std::vector<float> v, double q) {
+        std::sort(v.begin(), v.end());
+        return v[static_cast<std::size_t>(q * double(v.size() - 1))];
+    };
+    const float carinaShare = float(carinaFrames) / float(frames);
+    std::printf(
+        "survey: eye off the centre (fraction of the radius) median %.2f, p90 %.2f; wall %.2f / %.2f / %.2f mm "
+        "(p10 / median / p90); view from the branch's axis median %.0f deg, p90 %.0f deg; roll p90 %.0f deg; "
+        "a carina in view in %.0f %% of frames; nearest vertex %.2f mm\n",
+        quantile(offsetFraction, 0.5), quantile(offsetFraction, 0.9), quantile(wallMm, 0.1), quantile(wallMm, 0.5),
+        quantile(wallMm, 0.9), quantile(turnDeg, 0.5), quantile(turnDeg, 0.9), quantile(rollDeg, 0.9),
+        100 * carinaShare, minClearance);
+    EXPECT_GT(minClearance, 1.5f * nearMm);
+    EXPECT_GT(quantile(offsetFraction, 0.5), 0.2f) << "off the centre, close to the walls";
+    EXPECT_GT(quantile(offsetFraction, 0.9), 0.35f);
+    EXPECT_GT(quantile(turnDeg, 0.5), 12.0f) << "looking at the walls, not down the axis";
+    EXPECT_LT(quantile(turnDeg, 0.9), 70.0f);
+    EXPECT_GT(quantile(rollDeg, 0.9), 10.0f) << "the scope rolls";
+    EXPECT_LE(quantile(rollDeg, 1.0), sc.path.surveyOptions.rollDeg + 0.01f);
+    EXPECT_GT(carinaShare, 0.3f) << "carinas and orifices in view";
+}
+
+// Through the survey's legs the motion is continuous: twice the frames halve
+// the largest step and the largest turn between frames (a jump anywhere
+// would stay as large), and the pauses turn towards the next orifice
+// gradually.
+TEST(Camera, SurveyMovesContinuously) {
+    const scene::Scene sc = scene::defaultScene();
+    const scene::SceneAssets assets = scene::loadAssets(sc, 0, false);
+    auto largest = [&](int frames) {
+        const auto poses = scene::cameraPoses(sc, assets, frames);
+        float maxStep = 0, maxTurn = 0;
+        for (std::size_t i = 1; i < poses.size(); ++i) {
+            const auto& a = poses[i - 1].position;
+            const auto& b = poses[i].position;
+            maxStep = std::max(maxStep, norm({b[0] - a[0], b[1] - a[1], b[2] - a[2]}));
+            maxTurn = std::max(maxTurn, angleDeg(poses[i - 1].forward, poses[i].forward));
+        }
+        std::printf("survey of %d frames: largest step %.3f mm, largest turn %.3f deg\n", frames, maxStep, maxTurn);
+        return std::pair{maxStep, maxTurn};
+    };
+    const auto [step1, turn1] = largest(1000);
+    const auto [step2, turn2] = largest(2000);
+    EXPECT_LT(step2, 0.6f * step1);
+    EXPECT_LT(turn2, 0.6f * turn1);
+    EXPECT_LT(step2, 2.5f);
+}
+
+TEST(Camera, SurveyRejectsBadOptionsAndAnEmptyTree) {
+    camera::FlyThrough o;
+    o.frames = 4;
+    camera::Survey sv;
+    EXPECT_THROW(camera::surveyTree({}, o, sv, 1.0f), InputError);
+    mesh::Centerline tree;
+    mesh::CenterlineBranch b;
+    b.points = {{0, 0, 0}, {0, -10, 0}, {0, -20, 0}};
+    b.radii = {5, 5, 5};
+    tree.branches.push_back(b);
+    EXPECT_EQ(camera::surveyTree(tree, o, sv, 1.0f).size(), 4u);
+    sv.rollDeg = 120;
+    EXPECT_THROW(camera::surveyTree(tree, o, sv, 1.0f), InputError);
+    sv = {};
+    sv.withdrawSpeed = 0.5f;
+    EXPECT_THROW(camera::surveyTree(tree, o, sv, 1.0f), InputError);
 }
 
 TEST(Camera, FlyThroughWanderIsSeededAndValidated) {

@@ -79,6 +79,7 @@ std::string ctScene(const std::filesystem::path& mesh, const std::string& extra 
 
 TEST(SceneAssets, DefaultFlyThroughEndsClearOfTheWallAhead) {
     scene::Scene s = scene::defaultScene();
+    s.path.survey = false;  // one path (route "path"); the survey's leaf stops: SurveyVisitsEveryBranch...
     const scene::SceneAssets a = scene::loadAssets(s, 0, false);
     ASSERT_GT(a.centerlineEndRadius, 0.0f);
     const int frames = s.path.fly.frames;
@@ -103,9 +104,10 @@ TEST(SceneAssets, DefaultFlyThroughEndsClearOfTheWallAhead) {
 TEST(SceneAssets, MeshFileWithoutACenterlineFliesAlongOneComputedFromItsShape) {
     test::TempDir dir;
     const auto ct = test::testdata("airway/vh_m_airway_lumen.obj");
-    std::ofstream(dir / "ct.json") << ctScene(ct);
+    std::ofstream(dir / "ct.json") << ctScene(ct, R"(, "camera": {"path": {"centerline": "auto", "route": "path"}})");
     const scene::Scene s = scene::loadScene(dir / "ct.json");
     ASSERT_EQ(s.path.kind, scene::PathKind::Centerline);
+    ASSERT_FALSE(s.path.survey);
     ASSERT_TRUE(s.path.centerlineFile.empty());
     const scene::SceneAssets a = scene::loadAssets(s, 0, false);
     bool noted = false;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include <mucosa/mesh/centerline.hpp>
 #include <mucosa/mesh/mesh.hpp>
 
 namespace mucosa::camera {
@@ -76,6 +77,30 @@ struct FlyThrough {
 void validate(const FlyThrough& options);
 std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrough& options,
                              const std::vector<float>& radii = {});
+
+// A bronchoscopist's survey of a whole centerline tree (docs/theory.md, "The
+// bronchoscopist's survey"): down every branch to its distal end and back,
+// depth first, as an airway inspection goes. The scope advances slowly into a
+// branch, pauses at its end looking around, withdraws (faster, still looking
+// distally, as a scope cannot turn round) to just above the carina, pauses
+// there turning towards the next orifice, and enters it. All the way the tip
+// keeps off the centre (FlyThrough::wander of the lumen's radius, never
+// closer than wallClearanceMm to the wall), the view turns towards the walls
+// (lookAroundDeg) and the scope rolls (rollDeg). Time runs in millimetres of
+// advance: speedMm per frame (0: the frames spread over the whole survey),
+// the waves' periods wanderPeriodMm. `stopMm` is the gap kept before each
+// leaf's distal end on top of its radius there (a blind end's cap). Leaves
+// shorter than their radius are not entered. Throws InputError for a tree
+// without branches or options out of range.
+struct Survey {
+    float rollDeg = 30.0f;            // the scope's roll about its axis: within +-rollDeg (0..90)
+    float pauseMm = 10.0f;            // each pause lasts as long as advancing this far
+    float withdrawSpeed = 2.5f;       // withdrawing is this many times faster than advancing (>= 1)
+    float carinaBackoff = 0.6f;       // the withdrawal stops this many parent radii above a carina
+};
+void validate(const Survey& survey);
+std::vector<Pose> surveyTree(const mesh::Centerline& tree, const FlyThrough& fly, const Survey& survey,
+                             float stopMm);
 
 // Length of a polyline (mm).
 float pathLength(const std::vector<Vec3>& polyline);

@@ -49,7 +49,11 @@ struct PathSpec {
     // computed from its shape (mesh::computeCenterlineUvs).
     std::filesystem::path centerlineFile;
     int branch = -1;  // centerline branch to fly to; -1 = the longest path
+    // "route": true ("survey", the default) surveys the whole tree
+    // (camera::surveyTree); false ("path", or a "branch") flies one path.
+    bool survey = true;
     camera::FlyThrough fly;
+    camera::Survey surveyOptions;
     // mm before the path's distal end where the flight stops ("stop_mm");
     // default: the near plane + the lumen's radius there + 3 mm, so the last
     // frame does not press into the wall closing a blind bronchus.
