@@ -7,15 +7,16 @@
 // unsigned literals, no swizzles, no in/out parameters.
 //
 // Per pixel, in the order light meets them:
-//   1. optics: a small Gaussian point-spread function (softness) and natural
+//   1. optics: a Gaussian point-spread function over 5 x 5 pixels (softness) and natural
 //      vignetting, cos^k of the field angle;
 //   2. exposure: the radiance times 2^EV (fixed, or from auto-exposure);
 //   3. the sensor: Poisson-Gaussian noise (shot noise with variance
 //      signal / full well, read noise with a fixed deviation), then clipping
 //      at saturation, per channel, as a sensor clips;
 //   4. the camera's processing: the response (tone curve: linear, BT.709 or
-//      sRGB), then the colour enhancement of endoscopy video processors (a
-//      saturation gain about the Rec. 709 luma);
+//      sRGB) with the highlight knee of video cameras, then the colour
+//      enhancement of endoscopy video processors (a saturation gain about the
+//      Rec. 709 luma);
 //   5. the scope's field-of-view mask: a circle or an octagon, black outside.
 
 // Tone curves (shading::ToneCurve, the registry's camera.tone_curve).
@@ -26,9 +27,12 @@ const int kToneSrgb = 2;
 const int kMaskNone = 0;
 const int kMaskCircle = 1;
 const int kMaskOctagon = 2;
-// The softness kernel is 3 x 3 taps: enough for sigma <= kSoftMax px (a tap 2
-// px away would weigh at most exp(-2 / 0.49) = 1.7 % of the centre).
-const float kSoftMax = 0.7f;
+// The softness kernel is 5 x 5 taps: enough for sigma <= kSoftMax px (a tap
+// 3 px away would weigh at most exp(-9 / 2.88) = 4 % of the centre). Real
+// bronchoscopy video is this soft: the optics, the sensor's few pixels
+// interpolated to the display's, and the video codec together.
+const int kSoftRadius = 2;
+const float kSoftMax = 1.2f;
 // The renderer skips shading the pixels further than this outside the mask
 // (camera_mask.frag): more than the PSF's reach, so no visible pixel changes.
 const float kMaskMarginPx = 3.0f;
@@ -48,21 +52,16 @@ struct Camera {
     int toneCurve;           // kToneLinear, kToneBt709, kToneSrgb
     int frameSeed;           // the noise pattern of this frame
     float saturation;        // colour gain about the luma after the tone curve; 1 = none
+    float knee;              // the highlight knee's output level; 1 = none
 };
 
-// The PSF's weights, unnormalised, exp(-r^2 / (2 sigma^2)): x for the four
-// neighbours at r = 1, y = x^2 for the four diagonals (r^2 = 2); the centre
-// weighs 1. sigma = 0 gives the centre alone.
-vec2 psfWeights(float sigma) {
-    if (sigma <= 0.0f) return vec2(0.0f, 0.0f);
-    float w1 = exp(-1.0f / (2.0f * sigma * sigma));
-    return vec2(w1, w1 * w1);
-}
-
-// The PSF-filtered radiance from the 3 x 3 neighbourhood: c centre, a the
-// sum of the four axis neighbours, d the sum of the four diagonals.
-vec3 psfFilter(vec3 c, vec3 a, vec3 d, vec2 w) {
-    return (c + a * w.x + d * w.y) / (1.0f + 4.0f * w.x + 4.0f * w.y);
+// The PSF's weight of a tap dx, dy pixels from the centre, unnormalised:
+// exp(-(dx^2 + dy^2) / (2 sigma^2)); sigma = 0 gives the centre alone. The
+// caller sums the (2 kSoftRadius + 1)^2 taps and divides by the weights' sum.
+float psfWeight(int dx, int dy, float sigma) {
+    float r2 = float(dx * dx + dy * dy);
+    if (sigma <= 0.0f) return r2 == 0.0f ? 1.0f : 0.0f;
+    return exp(-r2 / (2.0f * sigma * sigma));
 }
 
 // Natural vignetting at pixel centre (px, py) (pixels from the bottom-left
@@ -135,6 +134,24 @@ float toneCurve(float s, int curve) {
     return s;
 }
 
+// The highlight knee of video cameras (the "knee" or "highlight compression"
+// of broadcast and medical video processors): output levels above k bend
+// into k + (1 - k) tanh((v - k) / (1 - k)), continuous in value and slope at
+// k, so the sensor's saturation (v = 1) shows at k + 0.76 (1 - k), below
+// white, and specular highlights keep their shape instead of clipping flat.
+// k = 1: no knee.
+float kneeCurve(float v, float k) {
+    if (k >= 1.0f || v <= k) return v;
+    return k + (1.0f - k) * tanh((v - k) / (1.0f - k));
+}
+
+// The inverse of kneeCurve for v < k + (1 - k) (round trips).
+float inverseKneeCurve(float v, float k) {
+    if (k >= 1.0f || v <= k) return v;
+    float t = min((v - k) / (1.0f - k), 0.999999f);
+    return k + (1.0f - k) * 0.5f * log((1.0f + t) / (1.0f - t));
+}
+
 // The inverse of toneCurve: display value -> sensor signal (round trips).
 float inverseToneCurve(float v, int curve) {
     if (curve == kToneBt709) return v < 0.081f ? v / 4.5f : pow((v + 0.099f) / 1.099f, 1.0f / 0.45f);
@@ -169,7 +186,8 @@ vec3 cameraPixel(vec3 radiance, int ix, int iy, Camera c) {
         s = vec3(sensorNoise(s.x, g.x, c), sensorNoise(s.y, g.y, c), sensorNoise(s.z, g.z, c));
     }
     s = clamp(s, 0.0f, 1.0f);
-    vec3 v = vec3(toneCurve(s.x, c.toneCurve), toneCurve(s.y, c.toneCurve), toneCurve(s.z, c.toneCurve));
+    vec3 v = vec3(kneeCurve(toneCurve(s.x, c.toneCurve), c.knee), kneeCurve(toneCurve(s.y, c.toneCurve), c.knee),
+                  kneeCurve(toneCurve(s.z, c.toneCurve), c.knee));
     v = enhanceColour(v, c.saturation);
     return v * fovMask(px, py, c);
 }

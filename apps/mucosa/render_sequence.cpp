@@ -92,6 +92,7 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
         set.response.toneCurve = static_cast<int>(scene.params[shading::Param::ToneCurve]);
         set.response.vignetting = scene.params[shading::Param::Vignetting];
         set.response.colourGain = scene.params[shading::Param::Saturation];
+        set.response.knee = scene.params[shading::Param::Knee];
         set.autoExposure = scene.params[shading::Param::AutoExposure] != 0.0f;
     } else {
         set.response.toneCurve = 0;  // linear
@@ -400,6 +401,7 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
                 f.frameIndex = i;
                 f.fixedExposure = frameExposure;
                 f.params.set(shading::Param::ToneCurve, 0.0f);
+                f.params.set(shading::Param::Knee, 1.0f);  // the knee bends the response, not the signal
                 if (!noise) f.params.set(shading::Param::FullWell, 0.0f), f.params.set(shading::Param::ReadNoise, 0.0f);
                 if (!specular) f.params.set(shading::Param::SpecularStrength, 0.0f);
                 return session->renderFrameFloat(f);

@@ -98,6 +98,11 @@ void parseCommon(const json& j, const std::string& file, Response& response, Vec
         if (j.contains("gamma"))
             throw InputError("field 'gamma'", file, "and 'tone_curve' both say how to linearise: give one");
     }
+    response.knee = number(j, "knee", "", file, false, 1.0);
+    if (!(response.knee > 0 && response.knee <= 1))
+        throw InputError("field 'knee'", file, "must be in (0, 1] (the highlight knee's output level; 1 = none)");
+    if (response.knee != 1 && response.toneCurve < 0)
+        throw InputError("field 'knee'", file, "needs a 'tone_curve' (the knee bends the camera's response)");
     if (j.contains("light")) {
         const json& l = j["light"];
         if (!l.is_object()) throw InputError("field 'light'", file, "must be an object");
@@ -287,6 +292,7 @@ void writeResponse(nlohmann::json& j, const Response& response) {
         j["gamma"] = response.gamma;
     if (response.vignetting != 0) j["vignetting"] = response.vignetting;
     if (response.colourGain != 1) j["saturation"] = response.colourGain;
+    if (response.knee != 1) j["knee"] = response.knee;
 }
 
 const char* toneCurveName(int curve) noexcept {
@@ -295,7 +301,9 @@ const char* toneCurveName(int curve) noexcept {
 }
 
 double Response::linear(double value) const noexcept {
-    if (toneCurve >= 0) return shading::inverseToneCurve(static_cast<float>(value), toneCurve);
+    if (toneCurve >= 0)
+        return shading::inverseToneCurve(
+            shading::inverseKneeCurve(static_cast<float>(value), static_cast<float>(knee)), toneCurve);
     return gamma == 1.0 ? value : std::pow(value, gamma);
 }
 
@@ -333,7 +341,8 @@ std::array<double, 3> Response::unenhance(const std::array<double, 3>& v) const 
 }
 
 double Response::encode(double linear) const noexcept {
-    if (toneCurve >= 0) return shading::toneCurve(static_cast<float>(linear), toneCurve);
+    if (toneCurve >= 0)
+        return shading::kneeCurve(shading::toneCurve(static_cast<float>(linear), toneCurve), static_cast<float>(knee));
     return gamma == 1.0 ? linear : std::pow(linear, 1.0 / gamma);
 }
 

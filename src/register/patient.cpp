@@ -211,6 +211,7 @@ SyntheticPatient makeSyntheticPatient(const PatientOptions& o) {
     p.camera.K.cx = p.camera.K.cy = 0.5 * (o.size - 1);
     p.camera.response.toneCurve = static_cast<int>(s.params[shading::Param::ToneCurve]);
     p.camera.response.vignetting = s.params[shading::Param::Vignetting];
+    p.camera.response.knee = s.params[shading::Param::Knee];
     p.camera.lightOffset = o.lightOffset;
     if (o.look == PatientLook::Lamp) {  // the patient-specific modes have delta(r) instead of a lamp
         p.camera.lamp.spread = s.params[shading::Param::LightSpread];

@@ -104,6 +104,7 @@ inline Camera packCamera(const FrameSetup& f, float exposure) {
     c.frameSeed = static_cast<int>(static_cast<std::uint32_t>(f.frameIndex) ^
                                    (static_cast<std::uint32_t>(p[Param::NoiseSeed]) * 0x9E3779B1u));
     c.saturation = p[Param::Saturation];
+    c.knee = p[Param::Knee];
     return c;
 }
 

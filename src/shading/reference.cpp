@@ -182,9 +182,16 @@ std::vector<glm::vec3> applyCamera(const std::vector<glm::vec3>& hdr, const Fram
             };
             glm::vec3 radiance = at(x, y);
             if (c.softness > 0.0f) {
-                const glm::vec3 a = at(x - 1, y) + at(x + 1, y) + at(x, y - 1) + at(x, y + 1);
-                const glm::vec3 d = at(x - 1, y - 1) + at(x + 1, y - 1) + at(x - 1, y + 1) + at(x + 1, y + 1);
-                radiance = glsl::psfFilter(radiance, a, d, glsl::psfWeights(c.softness));
+                // camera_post.frag's loop, tap for tap in the same order.
+                glm::vec3 sum(0.0f);
+                float weights = 0.0f;
+                for (int dy = -glsl::kSoftRadius; dy <= glsl::kSoftRadius; ++dy)
+                    for (int dx = -glsl::kSoftRadius; dx <= glsl::kSoftRadius; ++dx) {
+                        const float wgt = glsl::psfWeight(dx, dy, c.softness);
+                        sum += wgt * at(x + dx, y + dy);
+                        weights += wgt;
+                    }
+                radiance = sum / weights;
             }
             out[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] =
                 glsl::cameraPixel(radiance, x, y, c);
@@ -260,7 +267,8 @@ bool modeNeedsUvs(const FrameSetup& f) noexcept {
 bool cameraIsIdentity(const ParamSet& p) noexcept {
     return p[Param::AutoExposure] == 0.0f && p[Param::ExposureEv] == 0.0f && p[Param::Vignetting] == 0.0f &&
            p[Param::Mask] == 0.0f && p[Param::Softness] == 0.0f && p[Param::FullWell] == 0.0f &&
-           p[Param::ReadNoise] == 0.0f && p[Param::ToneCurve] == 0.0f && p[Param::Saturation] == 1.0f;
+           p[Param::ReadNoise] == 0.0f && p[Param::ToneCurve] == 0.0f && p[Param::Saturation] == 1.0f &&
+           p[Param::Knee] == 1.0f;
 }
 
 void setCameraIdentity(ParamSet& p) {
@@ -268,6 +276,7 @@ void setCameraIdentity(ParamSet& p) {
                     Param::FullWell, Param::ReadNoise, Param::ToneCurve})
         p.set(q, 0.0f);
     p.set(Param::Saturation, 1.0f);
+    p.set(Param::Knee, 1.0f);
 }
 
 int meterPixel(int i, int size) noexcept {
@@ -303,6 +312,14 @@ float meterLuminance(const float* rgb, const FrameSetup& frame) {
 
 float toneCurve(float signal, int curve) noexcept {
     return glsl::toneCurve(signal, curve);
+}
+
+float kneeCurve(float value, float knee) noexcept {
+    return glsl::kneeCurve(value, knee);
+}
+
+float inverseKneeCurve(float value, float knee) noexcept {
+    return glsl::inverseKneeCurve(value, knee);
 }
 
 float inverseToneCurve(float value, int curve) noexcept {

@@ -10,6 +10,7 @@
 #include <mucosa/dataset/ground_truth.hpp>
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
+#include <mucosa/shading/params.hpp>
 
 #include "cli_helpers.hpp"
 #include "test_support.hpp"
@@ -27,12 +28,18 @@ double bt709(double s) {
     return s < 0.018 ? 4.5 * s : 1.099 * std::pow(s, 0.45) - 0.099;
 }
 
+// The highlight knee (camera.knee, shaders/camera.glsl's kneeCurve).
+double knee(double v, double k) {
+    return k >= 1 || v <= k ? v : k + (1 - k) * std::tanh((v - k) / (1 - k));
+}
+
 double luminance(const image::ImageF& img, int x, int y) {
     return 0.2126 * img.at(x, y, 0) + 0.7152 * img.at(x, y, 1) + 0.0722 * img.at(x, y, 2);
 }
 
-// Without colour enhancement, the PNG is the BT.709 curve of the linear EXR
-// rounded to 8 bits: the same exposure (auto-exposure's), the same noise.
+// Without colour enhancement, the PNG is the BT.709 curve of the linear EXR,
+// through the highlight knee, rounded to 8 bits: the same exposure
+// (auto-exposure's), the same noise.
 TEST(ColourOutputs, TheLinearSignalIsTheFrameBeforeItsToneCurve) {
     test::TempDir dir;
     const test::RunResult r = test::runCli(
@@ -40,6 +47,7 @@ TEST(ColourOutputs, TheLinearSignalIsTheFrameBeforeItsToneCurve) {
         "--outputs rgb,linear -o " +
         q(dir / "f.png"));
     ASSERT_EQ(r.exitCode, 0) << r.err;
+    const double kneeLevel = shading::ParamSet()[shading::Param::Knee];
     double sumLinear = 0, sumDisplay = 0;
     for (int i : {0, 6, 11}) {
         const std::string n = "f_00" + std::string(i < 10 ? "0" : "") + std::to_string(i);
@@ -57,7 +65,7 @@ TEST(ColourOutputs, TheLinearSignalIsTheFrameBeforeItsToneCurve) {
                     const float s = linear.at(x, y, c);
                     ASSERT_GE(s, 0.0f);
                     ASSERT_LE(s, 1.0f);
-                    const int expected = static_cast<int>(std::lround(bt709(s) * 255.0));
+                    const int expected = static_cast<int>(std::lround(knee(bt709(s), kneeLevel) * 255.0));
                     worst = std::max(worst, std::abs(expected - png.pixels.at(x, y, c)));
                     sumLinear += s;
                     sumDisplay += png.pixels.at(x, y, c) / 255.0;

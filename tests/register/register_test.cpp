@@ -925,6 +925,30 @@ TEST(RegisterPq, CameraFilesGiveTheLampsProfile) {
     }
 }
 
+// A camera file's highlight knee is undone with the tone curve: encode then
+// linear round-trips through the knee, values below it are the curve's own,
+// and a knee without a tone curve, or out of range, is refused.
+TEST(RegisterPq, CameraFilesUndoTheHighlightKnee) {
+    test::TempDir dir;
+    const std::string k = R"("intrinsics": {"width": 64, "height": 64, "fx": 40, "fy": 40, "cx": 31.5, "cy": 31.5})";
+    std::ofstream(dir / "c.json") << "{" << k << R"(, "tone_curve": "bt709", "knee": 0.8})";
+    const frames::Response r = frames::readCamera(dir / "c.json").response;
+    EXPECT_DOUBLE_EQ(r.knee, 0.8);
+    for (double s : {0.05, 0.3, 0.6, 0.9, 0.99}) {
+        const double v = r.encode(s);
+        EXPECT_LT(v, 0.96);
+        EXPECT_NEAR(r.linear(v), s, 2e-4) << s;
+    }
+    frames::Response plain = r;
+    plain.knee = 1;
+    EXPECT_DOUBLE_EQ(r.encode(0.3), plain.encode(0.3));  // below the knee: the curve alone
+    EXPECT_LT(r.encode(0.9), plain.encode(0.9));
+    std::ofstream(dir / "d.json") << "{" << k << R"(, "knee": 0.8})";
+    EXPECT_THROW(frames::readCamera(dir / "d.json"), InputError);
+    std::ofstream(dir / "e.json") << "{" << k << R"(, "tone_curve": "bt709", "knee": 1.5})";
+    EXPECT_THROW(frames::readCamera(dir / "e.json"), InputError);
+}
+
 // The first frame from a rough initial pose: 5-6 mm and 10-12 degrees off
 // (two starts, one test each; a third, also missed alone, only adds time),
 // where Levenberg-Marquardt from the start alone ends elsewhere, the search

@@ -61,7 +61,9 @@ TEST(RenderHighlights, ProceduralTextureSpaceNoiseLooksLikeTheMap) {
     scene.noiseSpace = shading::NoiseSpace::Uv;
     scene.specularAA = false;
     test::paperLook(scene.params);
-    // Views on the centerline, looking ahead (not the default bronchoscopist's wandering).
+    // Views on the centerline of one path, looking ahead (not the default
+    // bronchoscopist's survey).
+    scene.path.survey = false;
     scene.path.fly.wander = 0.0f;
     scene.path.fly.lookAroundDeg = 0.0f;
     const scene::SceneAssets assets = scene::loadAssets(scene);

@@ -108,7 +108,51 @@ Camera testCamera() {
     c.toneCurve = kToneLinear;
     c.mask = kMaskNone;
     c.saturation = 1.0f;
+    c.knee = 1.0f;
     return c;
+}
+
+// The highlight knee: the identity up to k, continuous in value and slope
+// there, increasing, the sensor's saturation below white at k + tanh(1) (1 - k),
+// and its inverse round-trips; k = 1 is no knee.
+TEST(CameraModel, HighlightKneeBendsSmoothlyAndKeepsSaturationBelowWhite) {
+    const float k = 0.8f;
+    EXPECT_EQ(kneeCurve(0.5f, k), 0.5f);
+    EXPECT_EQ(kneeCurve(k, k), k);
+    const float h = 1e-3f;
+    EXPECT_NEAR((kneeCurve(k + h, k) - kneeCurve(k, k)) / h, 1.0f, 5e-3f);  // slope 1 at the knee
+    float last = kneeCurve(k, k);
+    for (float v = k + 0.01f; v <= 1.0f; v += 0.01f) {
+        const float out = kneeCurve(v, k);
+        EXPECT_GT(out, last);
+        EXPECT_LT(out, v);
+        EXPECT_NEAR(inverseKneeCurve(out, k), v, 1e-4f);
+        last = out;
+    }
+    EXPECT_NEAR(kneeCurve(1.0f, k), k + std::tanh(1.0f) * (1.0f - k), 1e-6f);
+    EXPECT_LT(kneeCurve(1.0f, k) * 255.0f, 245.0f);  // a saturated glint is not clipped flat to 255
+    EXPECT_EQ(kneeCurve(0.95f, 1.0f), 0.95f);
+    // Through the camera: a glint far over the full well shows at the knee's top.
+    Camera c = testCamera();
+    c.knee = k;
+    const vec3 w = cameraPixel(vec3(5.0f, 5.0f, 5.0f), 320, 240, c);
+    EXPECT_NEAR(w.x, kneeCurve(1.0f, k), 1e-6f);
+}
+
+// The PSF's taps: symmetric, Gaussian in the squared distance, the centre
+// alone at sigma 0, and at kSoftMax a tap just beyond the 5 x 5 kernel would
+// weigh under 5 % of the centre.
+TEST(CameraModel, PointSpreadWeightsAreGaussianOverFiveByFive) {
+    const float sigma = 1.0f;
+    EXPECT_EQ(psfWeight(0, 0, sigma), 1.0f);
+    EXPECT_NEAR(psfWeight(1, 0, sigma), std::exp(-0.5f), 1e-6f);
+    EXPECT_NEAR(psfWeight(2, 1, sigma), std::exp(-2.5f), 1e-6f);
+    EXPECT_EQ(psfWeight(-2, 1, sigma), psfWeight(1, 2, sigma));
+    EXPECT_EQ(psfWeight(1, 0, 0.0f), 0.0f);
+    EXPECT_EQ(psfWeight(0, 0, 0.0f), 1.0f);
+    EXPECT_EQ(kSoftRadius, 2);
+    EXPECT_LT(psfWeight(kSoftRadius + 1, 0, kSoftMax), 0.05f);
+    EXPECT_EQ(kSoftMax, shading::info(shading::Param::Softness).max);
 }
 
 TEST(CameraModel, ColourEnhancementScalesChromaAndKeepsGreys) {

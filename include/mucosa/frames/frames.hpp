@@ -45,12 +45,15 @@ struct Frame {
 // camera.glsl enhanceColour: v' = luma + g (v - luma) on the tone-curved
 // values, Rec. 709 luma, which it leaves unchanged) is undone first:
 // v = luma' + (v' - luma') / g, exact where it did not clip (g = 0, a grey
-// frame, is left as it is).
+// frame, is left as it is). With a tone curve, a video camera's highlight
+// knee (the file's "knee": k, camera.knee) is undone after the enhancement
+// and before the curve.
 struct Response {
     double gamma = 1.0;
     int toneCurve = -1;     // -1: the power law; else camera.tone_curve's choice (0 linear, 1 BT.709, 2 sRGB)
     double vignetting = 0;  // k of cos^k(field angle); 0 = none
     double colourGain = 1;  // "saturation": colour gain g about the luma after the tone curve; 1 = none
+    double knee = 1;        // "knee": the highlight knee's output level (with a tone curve); 1 = none
     Response() = default;
     Response(double powerLaw) : gamma(powerLaw) {}  // NOLINT(google-explicit-constructor): a number is a power law
     double linear(double value) const noexcept;

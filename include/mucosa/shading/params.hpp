@@ -113,8 +113,9 @@ enum class Param : int {
     NoiseSeed,
     Clearcoat,           // KHR_materials_clearcoat clearcoatFactor (the clearcoat mode)
     ClearcoatRoughness,  // clearcoatRoughnessFactor
+    Knee,                // the video processor's highlight knee (camera.knee)
 };
-inline constexpr std::size_t kParamCount = 42;
+inline constexpr std::size_t kParamCount = 43;
 
 struct ParamInfo {
     Param id;

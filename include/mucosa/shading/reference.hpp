@@ -110,6 +110,10 @@ float exposureFor(const FrameSetup& frame, float metered, ExposureState& state);
 // sensor signal in [0, 1] to the display value, and back.
 float toneCurve(float signal, int curve) noexcept;
 float inverseToneCurve(float value, int curve) noexcept;
+// camera.knee's highlight knee on a tone-curved value, and its inverse
+// (shaders/camera.glsl kneeCurve, inverseKneeCurve); knee 1 = none.
+float kneeCurve(float value, float knee) noexcept;
+float inverseKneeCurve(float value, float knee) noexcept;
 
 enum class Filter {
     Nearest,    // GL_NEAREST
