@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -182,17 +183,19 @@ TEST(TissueTexture, ColourIsWhiteLightBronchoscopyMucosaAndVaries) {
             }
         const double n = static_cast<double>(img.width()) * img.height();
         const double hue = std::atan2(sb, sa) * kDeg;
-        EXPECT_GE(hue, 42) << seed;
-        EXPECT_LE(hue, 53) << seed;
-        EXPECT_NEAR(sb / n, 26, 5) << seed;
+        EXPECT_GE(hue, 34) << seed;
+        EXPECT_LE(hue, 46) << seed;
+        EXPECT_NEAR(sb / n, 23, 5) << seed;
         EXPECT_NEAR(sL / n, 63, 5) << seed;
         const double nb = static_cast<double>(blockHue.size());
         const double mean = std::accumulate(blockHue.begin(), blockHue.end(), 0.0) / nb;
         double var = 0;
         for (double h : blockHue) var += (h - mean) * (h - mean);
         const double sd = std::sqrt(var / nb);
-        EXPECT_GT(sd, 2.5) << seed;  // varies within a frame ...
-        EXPECT_LT(sd, 8.0) << seed;  // ... as mucosa does, not as a rainbow
+        std::printf("seed %llu: hue of the mean %.1f deg, b* %.1f, L* %.1f, sd of block hues %.1f deg\n",
+                    static_cast<unsigned long long>(seed), hue, sb / n, sL / n, sd);
+        EXPECT_GT(sd, 4.0) << seed;   // varies within a frame ...
+        EXPECT_LT(sd, 12.0) << seed;  // ... as mucosa does, not as a rainbow
     }
 }
 
@@ -212,8 +215,8 @@ TEST(TissueTexture, ToneSpansGreyPinkToOrangeYellow) {
     EXPECT_LT(grey[1] + 10, salmon[1]);
     EXPECT_LT(salmon[1] + 10, orange[1]);
     EXPECT_LT(grey[0] + 8, salmon[0]);  // grey-pink is the least saturated
-    EXPECT_NEAR(orange[1], 64, 6);
-    EXPECT_NEAR(grey[1], 34, 6);
+    EXPECT_NEAR(orange[1], 55, 6);
+    EXPECT_NEAR(grey[1], 28, 6);
 }
 
 TEST(VesselNetwork, SegmentsFormConnectedTreesThatBranchByMurraysLawAndTaper) {
@@ -399,8 +402,8 @@ TEST(Appearance, DrawsStayInsideTheStatedRangesAndCoverThem) {
         ASSERT_TRUE(inside(a.tissue.vesselContrast, R.vesselContrast)) << seed;
         ASSERT_TRUE(inside(a.mucus, R.mucus)) << seed;
         ASSERT_TRUE(inside(a.exposureEv, R.exposureEv)) << seed;
-        ASSERT_GE(a.tissue.hue, 34);
-        ASSERT_LE(a.tissue.hue, 64);
+        ASSERT_GE(a.tissue.hue, 28);
+        ASSERT_LE(a.tissue.hue, 55);
         toneMin = std::min(toneMin, a.tone);
         toneMax = std::max(toneMax, a.tone);
         evMin = std::min(evMin, a.exposureEv);

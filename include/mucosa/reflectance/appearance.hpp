@@ -30,7 +30,7 @@ struct AppearanceRange {
 // The ranges drawAppearance draws from (the table in docs/theory.md).
 struct AppearanceRanges {
     AppearanceRange tone{0.0, 1.0};             // triangular, mode 0.5
-    AppearanceRange hueVariation{2.5, 6.0};     // deg, uniform
+    AppearanceRange hueVariation{6.0, 12.0};    // deg, uniform
     AppearanceRange vesselDensity{0.5, 1.8};    // x default, log-uniform
     AppearanceRange vesselDepth{0.18, 0.45};    // mm, uniform
     AppearanceRange vesselContrast{0.55, 0.9};  // uniform
@@ -40,8 +40,8 @@ struct AppearanceRanges {
 inline constexpr AppearanceRanges kAppearanceRanges{};
 
 // `p` with lightness, chroma and hue of the mucosa tone t in 0..1, linear
-// between the anchors grey-pink (L* 63, C* 20, h 34 deg), yellowish salmon
-// (64, 36, 49: the default TissueParams) and orange-yellow (67, 42, 64).
+// between the anchors grey-pink (L* 63, C* 22, h 28 deg), yellowish salmon
+// (64, 36, 41: the default TissueParams) and orange-yellow (66, 42, 55).
 TissueParams toneColour(double tone, TissueParams p = {});
 
 // The default look (seed 0): TissueParams{}, tone 0.5, mucus 0.3, 0 EV.

@@ -25,18 +25,22 @@ struct TissueParams {
     double tileMm = 56.5;
 
     // Mean mucosa colour: L*, chroma C*ab, hue angle h_ab (deg). The default
-    // is the yellowish-pink of white-light bronchoscopy (h ~47 deg, b* ~26).
+    // is the salmon pink of white-light bronchoscopy (h 41 deg, b* ~24: the
+    // median real frame of ../shared/realism, under the default lamp and
+    // camera, measures h ~37 deg).
     double lightness = 64;
     double chroma = 36;
-    double hue = 49;
+    double hue = 41;
     // Standard deviations of the low-frequency patches (~10-20 mm across):
     // hue (deg), chroma and lightness (CIELAB units). Hyperaemic patches are
     // redder, more saturated and a little darker (one shared field).
-    double hueVariation = 4;
-    double chromaVariation = 3;
-    double lightnessVariation = 2.5;
+    // Real mucosa is patchy within one view (hue spread ~6.5 deg in real
+    // frames): redder hyperaemic areas beside paler, yellower ones.
+    double hueVariation = 9;
+    double chromaVariation = 5;
+    double lightnessVariation = 4;
     // Standard deviation of the fine mottle (~1-2 mm grains), in L*.
-    double mottle = 1.6;
+    double mottle = 2.4;
 
     // Vessels: trees per tile at density 1 (x vesselDensity), the trunks'
     // mean radius (mm) and mean depth under the surface (mm), the share of
