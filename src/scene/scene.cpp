@@ -596,7 +596,9 @@ void applyVariation(Scene& scene, std::uint64_t seed) {
     scene.variation = seed;
     const double previousEv = scene.appearance.exposureEv;  // a seed applied before: replaced, not compounded
     scene.appearance = reflectance::drawAppearance(seed);
-    const shading::ParamSet defaults;
+    // Scaled from the default scene's values (not compounded with a seed
+    // applied before).
+    const shading::ParamSet defaults = defaultScene().params;
     const auto scale = [&](shading::Param p, double factor) {
         if (std::find(scene.fileMaterial.begin(), scene.fileMaterial.end(), p) != scene.fileMaterial.end()) return;
         const shading::ParamInfo& info = shading::info(p);
@@ -615,7 +617,11 @@ void applyVariation(Scene& scene, std::uint64_t seed) {
 
 Scene defaultScene() {
     Scene s;
-    s.mapParams = reflectance::findPreset("bronchial").params;
+    // The airway preset: the paper's method with gentler bumps than its
+    // "bronchial" look, whose dense small glints glitter along the near
+    // walls; real highlights are few and larger. With them, k_s 1.2 instead
+    // of the paper's 2 (docs/theory.md, "Wet tissue").
+    s.mapParams = reflectance::findPreset("airway").params;
     s.mapParams.bits = 8;
     s.path.kind = PathKind::Centerline;
     s.path.fly.frames = 120;
@@ -632,6 +638,7 @@ Scene defaultScene() {
     // The generated texture carries the tissue colour (docs/theory.md,
     // "Tissue texture"): base_color would tint it a second time.
     s.params.setColor(shading::Param::BaseColor, {1, 1, 1});
+    s.params.set(shading::Param::SpecularStrength, 1.2f);
     // The phantom at 1 grid cell per mm (~150 k triangles): real-time on a
     // CPU rasteriser, and the light has faded to ~5 % at the far plane.
     s.mesh.phantomResolution = 1.0;

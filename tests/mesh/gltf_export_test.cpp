@@ -155,7 +155,7 @@ TEST(GltfExport, PhantomCarriesTheWetLookAndValidates) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     expectValidGltf(dir / "a.glb");
     const Glb g = parseGlb(readBytes(dir / "a.glb"));
-    const shading::ParamSet p;
+    const shading::ParamSet p = scene::defaultScene().params;  // the default look's material
     expectMucosaMaterial(g, p);
     const json& m = g.json["materials"][0];
     EXPECT_EQ(m["doubleSided"], true);  // an airway, seen from inside
@@ -533,7 +533,7 @@ TEST(GltfReexport, ReplacesTheLookOnlyWhenAskedAndRefusesWhatWouldBreakIt) {
     ASSERT_EQ(mu.exitCode, 0) << mu.err;
     expectValidGltf(dir / "mu.glb");
     const Glb g = parseGlb(readBytes(dir / "mu.glb"));
-    expectMucosaMaterial(g, shading::ParamSet());
+    expectMucosaMaterial(g, scene::defaultScene().params);
     EXPECT_EQ(g.json["meshes"][0]["primitives"].size(), 1u);
     // Plain: one untextured material, no tangents, no images. The UVs the
     // user has are still written, with a warning: the one UNUSED_* info a
@@ -563,7 +563,7 @@ TEST(GltfReexport, ReplacesTheLookOnlyWhenAskedAndRefusesWhatWouldBreakIt) {
                            " --uv centerline");
     ASSERT_EQ(ct.exitCode, 0) << ct.err;
     expectValidGltf(dir / "ct.glb");
-    expectMucosaMaterial(parseGlb(readBytes(dir / "ct.glb")), shading::ParamSet());
+    expectMucosaMaterial(parseGlb(readBytes(dir / "ct.glb")), scene::defaultScene().params);
     // keep needs a glTF input.
     const auto k = runCli("mesh " + q(dir / "tri.obj") + " -o " + q(dir / "k.glb") + " --material keep");
     EXPECT_NE(k.exitCode, 0);

@@ -5,6 +5,7 @@
 // reference than one without.
 #include <gtest/gtest.h>
 
+#include <mucosa/reflectance/map.hpp>
 #include <mucosa/render/antialias.hpp>
 
 #include "render_test_support.hpp"
@@ -25,6 +26,10 @@ TEST(SpecularAntiAliasing, FlickerDropsAndStillFramesConvergeTowardsSupersamplin
     // one path rather than the survey of the tree.
     scene.path.survey = false;
     scene.path.stopMm = 0.0f;
+    // The paper's look: its "bronchial" map of dense small glints, the case
+    // anti-aliasing is for.
+    scene.mapParams = reflectance::findPreset("bronchial").params;
+    scene.mapParams.bits = 8;
     // The paper's material and a camera that only exposes: sensor noise
     // would read as flicker, and the figures are of the highlights.
     test::paperLook(scene.params);
