@@ -46,6 +46,13 @@ constexpr double kLengthPerDiameter = 3.0;
 // drawing black lines (0.45 mm on a 4.5 mm period tilted 22 deg and read as
 // grooves).
 constexpr double kRingSpacing = 5.0, kRingHeight = 0.039;
+// No two rings alike (Minnich & Mathisen 2007: rings fork, fuse and vary in
+// width; bronchoscopically they are irregular, some barely raised under the
+// mucosa): each ring's spacing from the last varies by up to +-kRingJitter
+// of the mean, its height between kRingHeightMin and 1.3 of kRingHeight, its
+// plane tilts by up to kRingTiltMm of axial shift across the lumen, and the
+// gap of its C (the posterior membranous wall) starts at its own angle.
+constexpr double kRingJitter = 0.3, kRingHeightMin = 0.35, kRingTiltMm = 1.2, kRingGapJitter = 0.15;
 // Longitudinal folds of the posterior membranous wall (elastic fibre bundles
 // under the mucosa): spacing around the wall (mm) and height as a fraction of
 // the radius (0.2 mm on the trachea); wide enough for `render`'s 1 cell/mm.
@@ -69,6 +76,7 @@ struct Tube {
     double endRadius = 0;  // after the taper towards the children
     int parent = -1, generation = 0;
     bool leaf = true, rings = false;
+    TubeRings ringList;  // the cartilage rings (when `rings`)
     Vec3d planeNormal{0, 0, 1};  // normal of the plane it branched in
     std::string name;
     bool bent() const { return dot(bendA, bendA) + dot(bendB, bendB) > 0; }
@@ -225,6 +233,28 @@ std::vector<Tube> buildTree(const PhantomParams& p) {
         const Vec3d lateral = normalizeOr(t.dir - endDir * dot(t.dir, endDir), Vec3d{0, 0, 0});
         t.a = parent.end() + lateral * std::max(0.0, 0.8 * (parent.endRadius - t.radius));
     }
+    // The cartilage rings, from a generator of their own (the tree's jitter
+    // is unchanged by them).
+    std::mt19937_64 ringRng(p.seed * 0x9E3779B97F4A7C15ull + 0x52494E47ull);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (Tube& t : tubes) {
+        if (!t.rings) continue;
+        const double spacing = kRingSpacing * std::clamp(t.radius / r0, 0.6, 1.0);
+        t.ringList.branch = static_cast<int>(&t - tubes.data());
+        t.ringList.radius = t.radius;
+        t.ringList.halfWidth = 0.55 * spacing;
+        t.ringList.heightMm = kRingHeight * t.radius;
+        for (double s = spacing * unit(ringRng); s < t.length;) {
+            CartilageRing ring;
+            ring.s = s;
+            ring.height = kRingHeightMin + (1.3 - kRingHeightMin) * unit(ringRng);
+            ring.tilt = kRingTiltMm * (2 * unit(ringRng) - 1) * std::clamp(t.radius / r0, 0.3, 1.0);
+            ring.tiltAngle = 2 * kPi * unit(ringRng);
+            ring.gap = -0.625 + kRingGapJitter * (2 * unit(ringRng) - 1);
+            t.ringList.rings.push_back(ring);
+            s += spacing * (1 + kRingJitter * (2 * unit(ringRng) - 1));
+        }
+    }
     return tubes;
 }
 
@@ -260,16 +290,9 @@ WallDetail wallDetail(const Tube& t, double s, const Vec3d& rn) {
     const double anterior = dot(rn, t.e1);
     // Fade near both ends: the rings' pattern stops before the junctions.
     const double fade = smoothstep(0, 8, s) * smoothstep(0, 10, t.length - s);
-    // Ridge profile: 1 - ((1 - cos)/2)^2 of the phase (ring centres at 0):
-    // broad ridges (3.2 mm at half height) and narrower furrows between them,
-    // two harmonics only, so `render`'s 1 cell/mm grid follows it without
-    // the sawtooth a sharper profile shows.
-    const double g = 0.5 - 0.5 * std::cos(2 * kPi * s / kRingSpacing);
-    const double ridge = 1 - g * g;
     // The C: cartilage over the anterior and lateral ~270 deg, absent on the
-    // posterior membranous wall (-e1), its ends tapering.
-    const double cShape = smoothstep(-0.8, -0.45, anterior);
-    w.ring = ridge * cShape * fade;
+    // posterior membranous wall (-e1), its ends tapering, each ring's gap its own.
+    w.ring = t.ringList.ridge(s, std::atan2(dot(rn, t.e2), anterior)) * fade;
     w.membrane = smoothstep(-0.55, -0.85, anterior) * fade;
     // Folds along the airway: a cosine around the wall, each fold wandering
     // slowly sideways along its length.
@@ -412,7 +435,7 @@ Vec3d wallTint(const Field& F, const std::vector<Tube>& tubes, const Vec3d& p) {
     Vec3d rn{};
     tubeField(t, p, &s, &rn);
     const WallDetail w = wallDetail(t, s, rn);
-    const Vec3d c = kTintMucosa + (kTintCartilage - kTintMucosa) * w.ring;
+    const Vec3d c = kTintMucosa + (kTintCartilage - kTintMucosa) * std::min(w.ring, 1.0);
     return c + (kTintMembrane - c) * w.membrane;
 }
 
@@ -524,6 +547,33 @@ Centerline toCenterline(const std::vector<Tube>& tubes) {
 }
 
 }  // namespace
+
+// Each ring's ridge: a raised cosine halfWidth either side of its (tilted)
+// centre, times its height and its C; the highest ring at a point wins, so
+// neighbours meet in furrows (the annular ligaments). Broad and smooth (two
+// harmonics' worth), so `render`'s 1 cell/mm grid follows it without the
+// sawtooth a sharper profile shows.
+double TubeRings::ridge(double s, double theta) const {
+    const double anterior = std::cos(theta);
+    double ring = 0;
+    const auto first = std::lower_bound(rings.begin(), rings.end(), s - halfWidth - kRingTiltMm,
+                                        [](const CartilageRing& r, double x) { return r.s < x; });
+    for (auto it = first; it != rings.end() && it->s < s + halfWidth + kRingTiltMm; ++it) {
+        const double x = std::abs(s - (it->s + it->tilt * std::cos(theta - it->tiltAngle)));
+        if (x >= halfWidth) continue;
+        const double bump = 0.5 + 0.5 * std::cos(kPi * x / halfWidth);
+        ring = std::max(ring, it->height * bump * smoothstep(it->gap - 0.175, it->gap + 0.175, anterior));
+    }
+    return ring;
+}
+
+std::vector<TubeRings> phantomRings(const PhantomParams& params) {
+    checkParams(params);
+    std::vector<TubeRings> out;
+    for (Tube& t : buildTree(params))
+        if (t.rings) out.push_back(std::move(t.ringList));
+    return out;
+}
 
 Centerline phantomCenterline(const PhantomParams& params) {
     checkParams(params);

@@ -85,90 +85,110 @@ std::vector<TracheaSample> tracheaSamples(const mesh::Phantom& ph, double sLo, d
     return out;
 }
 
-// Ring phase of s: 0 on a ring's crest, 0.5 in the furrow between two.
-double ringPhase(double s) {
-    const double f = s / 5.0 - std::floor(s / 5.0);
-    return f > 0.5 ? 1 - f : f;
+// The ring list's ridge (mm into the lumen) where a trachea sample lies: the
+// samples' angle is positive towards +X (the patient's left), the ring list's
+// towards the trachea's e2 = -X.
+double predictedRidgeMm(const mesh::TubeRings& rings, const TracheaSample& t) {
+    return rings.heightMm * rings.ridge(t.s, -t.angleDeg * M_PI / 180.0);
 }
 
-struct RingProfile {
-    double crest = 0, furrow = 0;                     // mean radius (mm)
-    double height() const { return furrow - crest; }  // the ridge rises into the lumen: smaller radius
+// Least squares of the radius on the predicted ridge within 5-degree bins (the
+// lumen's ellipse and the flatter posterior wall cancel): the slope (-1 when
+// the surface carries the ridges exactly) and the residual's deviation (the
+// sawtooth a grid-aligned error would add).
+struct RidgeFit {
+    double slope = 0, residual = 0, spread = 0;  // spread: deviation of the predicted ridge
 };
-
-// Mean radius on crests and in furrows, within an angular window; radii are
-// taken relative to each vertex's neighbours in angle (the lumen's ellipse
-// and the flatter posterior wall cancel) by pairing crest and furrow samples
-// in 5-degree bins.
-RingProfile ringProfile(const std::vector<TracheaSample>& samples, double angleLo, double angleHi) {
-    std::map<int, std::pair<std::vector<double>, std::vector<double>>> bins;
-    for (const auto& t : samples) {
-        if (t.angleDeg < angleLo || t.angleDeg > angleHi) continue;
-        const double ph = ringPhase(t.s);
-        const int b = int(std::floor(t.angleDeg / 5));
-        if (ph < 0.06) bins[b].first.push_back(t.radius);
-        if (ph > 0.44) bins[b].second.push_back(t.radius);
+RidgeFit fitRidges(const std::vector<TracheaSample>& samples, const mesh::TubeRings& rings, double lo, double hi) {
+    std::map<int, std::vector<std::pair<double, double>>> bins;
+    for (const auto& t : samples)
+        if (t.angleDeg >= lo && t.angleDeg <= hi)
+            bins[int(std::floor(t.angleDeg / 5))].push_back({predictedRidgeMm(rings, t), t.radius});
+    double sxy = 0, sxx = 0;
+    std::vector<std::pair<double, double>> centred;
+    for (auto& [b, v] : bins) {
+        double mx = 0, my = 0;
+        for (auto [x, y] : v) mx += x, my += y;
+        mx /= double(v.size()), my /= double(v.size());
+        for (auto [x, y] : v) centred.push_back({x - mx, y - my}), sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
     }
-    RingProfile r;
-    int n = 0;
-    for (const auto& [b, v] : bins) {
-        if (v.first.empty() || v.second.empty()) continue;
-        double c = 0, f = 0;
-        for (double x : v.first) c += x;
-        for (double x : v.second) f += x;
-        r.crest += c / double(v.first.size());
-        r.furrow += f / double(v.second.size());
-        ++n;
-    }
-    if (n > 0) r.crest /= n, r.furrow /= n;
-    return r;
-}
-
-// Scatter of the radius about its mean per (ring phase, angle) cell, on the
-// anterior wall: the sawtooth a grid-aligned error would add.
-double ringScatter(const std::vector<TracheaSample>& samples) {
-    std::map<std::pair<int, int>, std::vector<double>> cells;
-    for (const auto& t : samples) {
-        if (std::abs(t.angleDeg) > 40) continue;
-        const double f = t.s / 5.0 - std::floor(t.s / 5.0);
-        cells[{int(f * 24), int(std::floor(t.angleDeg / 4))}].push_back(t.radius);
-    }
+    RidgeFit f;
+    f.slope = sxx > 0 ? sxy / sxx : 0;
     double ss = 0;
-    std::size_t n = 0;
-    for (const auto& [k, v] : cells) {
-        if (v.size() < 3) continue;
-        double m = 0;
-        for (double x : v) m += x;
-        m /= double(v.size());
-        for (double x : v) ss += (x - m) * (x - m), ++n;
-    }
-    return std::sqrt(ss / double(std::max<std::size_t>(n, 1)));
+    for (auto [x, y] : centred) ss += (y - f.slope * x) * (y - f.slope * x);
+    f.residual = std::sqrt(ss / double(std::max<std::size_t>(centred.size(), 1)));
+    f.spread = std::sqrt(sxx / double(std::max<std::size_t>(centred.size(), 1)));
+    return f;
 }
 
-// Cartilage rings are low ridges (0.3-0.6 mm on the 18 mm trachea, every 5 mm) over the
-// anterior and lateral wall, absent on the posterior membranous wall, and
-// smooth: at the test's 2 cells/mm and at render's 1 cell/mm.
+// Cartilage rings are low ridges over the anterior and lateral wall where the
+// ring list puts them (irregular: see RingsAreIrregular), absent on the
+// posterior membranous wall, and smooth: the surface's radius follows the
+// predicted ridges with slope -1, without a sawtooth, at the test's 2 cells/mm
+// and at render's 1 cell/mm.
 TEST(Phantom, RingsAreLowSmoothRidgesAbsentOnTheMembranousWall) {
     mesh::PhantomParams coarse;
     coarse.generations = 1;
     coarse.resolution = 1.0;
     const mesh::Phantom render = mesh::makePhantom(coarse);
+    const std::vector<mesh::TubeRings> rings = mesh::phantomRings(mesh::PhantomParams{});
+    ASSERT_FALSE(rings.empty());
+    ASSERT_EQ(rings.front().branch, 0);
     for (const mesh::Phantom* ph : {&defaultPhantom(), &render}) {
         const auto samples = tracheaSamples(*ph, 15, 95);
-        const RingProfile front = ringProfile(samples, -60, 60);
-        const RingProfile sides = ringProfile(samples, 60, 110);
-        const RingProfile back = ringProfile(samples, 160, 180);
-        const double scatter = ringScatter(samples);
+        const RidgeFit front = fitRidges(samples, rings.front(), -60, 60);
+        const RidgeFit sides = fitRidges(samples, rings.front(), 60, 110);
+        double back = 0;
+        for (const auto& t : samples)
+            if (std::abs(t.angleDeg) > 160) back = std::max(back, predictedRidgeMm(rings.front(), t));
         std::printf(
-            "rings (%zu samples): ridge height anterior %.3f mm, lateral %.3f mm, posterior %.3f mm; "
-            "scatter %.3f mm\n",
-            samples.size(), front.height(), sides.height(), back.height(), scatter);
-        EXPECT_GT(front.height(), 0.3);
-        EXPECT_LT(front.height(), 0.6);
-        EXPECT_GT(sides.height(), 0.2);
-        EXPECT_LT(std::abs(back.height()), 0.05) << "no rings on the membranous wall";
-        EXPECT_LT(scatter, 0.05) << "no sawtooth along the ridges";
+            "rings (%zu samples): radius per mm of predicted ridge anterior %.2f, lateral %.2f (ridges' deviation "
+            "%.3f mm); residual %.3f mm; largest ridge on the membranous wall %.3f mm\n",
+            samples.size(), front.slope, sides.slope, front.spread, front.residual, back);
+        EXPECT_GT(front.spread, 0.08) << "the ridges are there";
+        EXPECT_NEAR(front.slope, -1.0, 0.2);
+        EXPECT_NEAR(sides.slope, -1.0, 0.3);
+        EXPECT_LT(front.residual, 0.05) << "no sawtooth along the ridges";
+        EXPECT_LT(back, 0.02) << "no rings on the membranous wall";
     }
+}
+
+// No two rings alike: spacing 5 mm on average on the trachea, varying ring to
+// ring; heights from barely raised to 1.3 x; tilted planes; each C's gap its
+// own; every ring low (under 0.5 mm on the 18 mm trachea).
+TEST(Phantom, RingsAreIrregular) {
+    const std::vector<mesh::TubeRings> all = mesh::phantomRings(mesh::PhantomParams{});
+    ASSERT_EQ(all.size(), 3u) << "trachea and main bronchi";
+    const mesh::TubeRings& t = all.front();
+    ASSERT_GE(t.rings.size(), 18u);
+    std::vector<double> gaps;
+    double hmin = 1e9, hmax = 0, tiltMax = 0, gapLo = 1, gapHi = -1;
+    for (std::size_t i = 0; i < t.rings.size(); ++i) {
+        const mesh::CartilageRing& r = t.rings[i];
+        if (i > 0) gaps.push_back(r.s - t.rings[i - 1].s);
+        hmin = std::min(hmin, r.height), hmax = std::max(hmax, r.height);
+        tiltMax = std::max(tiltMax, std::abs(r.tilt));
+        gapLo = std::min(gapLo, r.gap), gapHi = std::max(gapHi, r.gap);
+        EXPECT_LT(r.height * t.heightMm, 0.5);
+    }
+    double mean = 0, var = 0;
+    for (double g : gaps) mean += g / double(gaps.size());
+    for (double g : gaps) var += (g - mean) * (g - mean) / double(gaps.size());
+    const double cv = std::sqrt(var) / mean;
+    std::printf("trachea: %zu rings, spacing %.2f mm (CV %.2f), heights %.2f-%.2f, tilt up to %.2f mm, gap %.2f..%.2f\n",
+                t.rings.size(), mean, cv, hmin, hmax, tiltMax, gapLo, gapHi);
+    EXPECT_NEAR(mean, 5.0, 0.5);
+    EXPECT_GT(cv, 0.1);
+    EXPECT_LT(cv, 0.3);
+    EXPECT_LT(hmin, 0.6);
+    EXPECT_GT(hmax, 1.1);
+    EXPECT_GT(tiltMax, 0.5);
+    EXPECT_GT(gapHi - gapLo, 0.1);
+    // Seeded: the same seed, the same rings; another, others.
+    mesh::PhantomParams other;
+    other.seed = 2;
+    EXPECT_EQ(mesh::phantomRings(mesh::PhantomParams{}).front().rings.front().s, t.rings.front().s);
+    EXPECT_NE(mesh::phantomRings(other).front().rings.front().s, t.rings.front().s);
 }
 
 TEST(Phantom, HasTheDocumentedDimensions) {
@@ -256,13 +276,15 @@ TEST(Phantom, TintIsPaleOnCartilageAndRedderOnTheMembranousWall) {
     for (const Vec3& c : ph.mesh.colors)
         for (float x : c) ASSERT_TRUE(x > 0.5f && x <= 1.0f) << x;
     const auto samples = tracheaSamples(ph, 15, 95);
+    const std::vector<mesh::TubeRings> rings = mesh::phantomRings(mesh::PhantomParams{});
     double crest = 0, furrow = 0, membrane = 0;
     int nc = 0, nf = 0, nm = 0;
     for (const auto& t : samples) {
         const Vec3& c = ph.mesh.colors[t.vertex];
         const double gr = c[1] / c[0];
-        if (std::abs(t.angleDeg) < 60 && ringPhase(t.s) < 0.06) crest += gr, ++nc;
-        if (std::abs(t.angleDeg) < 60 && ringPhase(t.s) > 0.44) furrow += gr, ++nf;
+        const double ridge = rings.front().ridge(t.s, -t.angleDeg * M_PI / 180.0);
+        if (std::abs(t.angleDeg) < 60 && ridge > 0.8) crest += gr, ++nc;
+        if (std::abs(t.angleDeg) < 60 && ridge < 0.05) furrow += gr, ++nf;
         if (std::abs(t.angleDeg) > 165) membrane += gr, ++nm;
     }
     ASSERT_TRUE(nc > 0 && nf > 0 && nm > 0);

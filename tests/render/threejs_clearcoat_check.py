@@ -34,14 +34,15 @@ SOURCE = os.path.dirname(os.path.dirname(HERE))
 THREE = os.path.join(SOURCE, "tools", "node", "node_modules", "three")
 CHROMIUM = "/usr/bin/chromium"
 
-# The comparison's tolerances, over the pixels both render. Measured: MAE
-# 0.32/255, bias +0.27, SSIM 0.998, glints 19.5 (as three ships; 0.34, +0.31,
-# 0.998 and 3.8 without its geometric roughness). The issue suggested <= 3/255
-# and >= 0.95: too loose to catch what these catch (docs/rendering.md): the
-# coat's Fresnel on the geometry's normal (MAE 1.03, SSIM 0.968), the coat
-# without its pi (glints 49.6), the base's diffuse without (1 - F) (MAE 0.89,
-# bias +0.86), three's mirrored coat normal (MAE 2.0, SSIM 0.91).
-MAX_MAE = 0.6  # mean absolute error, 0..255, all channels
+# The comparison's tolerances, over the pixels both render. Measured on the
+# phantom with its irregular cartilage rings: MAE 0.60/255, bias -0.06, SSIM
+# 0.997, glints 20.2 (as three ships; 0.61, -0.01, 0.998 and 10.0 without its
+# geometric roughness). Looser tolerances (<= 3/255, >= 0.95) would not catch
+# what these catch (docs/rendering.md): the coat's Fresnel on the geometry's
+# normal (MAE 1.03, SSIM 0.968), the coat without its pi (glints 49.6), the
+# base's diffuse without (1 - F) (MAE 0.89, bias +0.86), three's mirrored coat
+# normal (MAE 2.0, SSIM 0.91).
+MAX_MAE = 0.75  # mean absolute error, 0..255, all channels
 MAX_BIAS = 0.5  # |mean signed difference|, 0..255
 MIN_SSIM = 0.99  # Wang et al. 2004 on the luma
 MAX_GLINT_MAE = 30.0  # MAE over the pixels where either frame has a glint (min channel > 200)
