@@ -23,7 +23,7 @@ struct Rng {
 };
 
 // Tone anchors (L*, C*ab, h_ab in deg): grey-pink, yellowish salmon, orange-yellow.
-constexpr std::array<std::array<double, 3>, 3> kTones = {{{63, 22, 28}, {64, 36, 41}, {66, 42, 55}}};
+constexpr std::array<std::array<double, 3>, 3> kTones = {{{63, 20, 28}, {64, 32, 41}, {66, 38, 55}}};
 
 }  // namespace
 

@@ -35,7 +35,7 @@ const std::vector<Preset>& presets() {
          "Airway mucosa under its mucus film as a bronchoscope sees it: gentler, larger irregularities, so "
          "highlights are few, larger and elongated over the film's sheen, none glittering at the periphery "
          "(the default scene's map).",
-         make(8, 4, 2.0, 0.5, 0.012, false, "airway")},
+         make(6, 3, 2.0, 0.5, 0.012, false, "airway")},
         {"serosa", "Smooth wet serosa: broad, gentle undulations; highlights stay large and coherent.",
          make(4, 3, 2.0, 0.4, 0.02, false, "serosa")},
         {"rough", "Rough or ridged tissue (inflamed, cobblestoned): turbulence gives creases and sharp ridges.",

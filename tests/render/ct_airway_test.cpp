@@ -43,8 +43,9 @@ TEST(CtAirway, RawCtSurfaceRendersWithTheMethodsHighlightsInObjectSpace) {
     // top, looking 60 mm down its axis.
     const mesh::Vec3 eye = slabCentroid(m, 630, 640), target = slabCentroid(m, 570, 580);
     const std::string scene = fmt::format(
-        // The paper's material and a camera that only exposes (as test::paperLook).
+        // The paper's map and material and a camera that only exposes (as test::paperLook).
         R"({{"mesh": "{}", "mode": "procedural", "noise_space": "object", "resolution": [640, 480],
+            "reflectance_map": {{"preset": "bronchial"}},
             "material": {{"noise_scale_mm": 12, "specular_strength": 0.8, "shininess": 40, "sheen": 0, "wrap": 0,
                           "base_color": [0.8, 0.45, 0.4]}},
             "light": {{"spread": 0}},

@@ -30,7 +30,7 @@ struct AppearanceRange {
 // The ranges drawAppearance draws from (the table in docs/theory.md).
 struct AppearanceRanges {
     AppearanceRange tone{0.0, 1.0};             // triangular, mode 0.5
-    AppearanceRange hueVariation{6.0, 12.0};    // deg, uniform
+    AppearanceRange hueVariation{4.0, 9.0};     // deg, uniform
     AppearanceRange vesselDensity{0.5, 1.8};    // x default, log-uniform
     AppearanceRange vesselDepth{0.18, 0.45};    // mm, uniform
     AppearanceRange vesselContrast{0.55, 0.9};  // uniform

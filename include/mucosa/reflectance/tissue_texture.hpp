@@ -29,16 +29,18 @@ struct TissueParams {
     // median real frame of ../shared/realism, under the default lamp and
     // camera, measures h ~37 deg).
     double lightness = 64;
-    double chroma = 36;
+    double chroma = 32;
     double hue = 41;
     // Standard deviations of the low-frequency patches (~10-20 mm across):
     // hue (deg), chroma and lightness (CIELAB units). Hyperaemic patches are
     // redder, more saturated and a little darker (one shared field).
     // Real mucosa is patchy within one view (hue spread ~6.5 deg in real
-    // frames): redder hyperaemic areas beside paler, yellower ones.
-    double hueVariation = 9;
-    double chromaVariation = 5;
-    double lightnessVariation = 4;
+    // frames): redder hyperaemic areas beside paler, yellower ones. (The
+    // phantom adds seamless patches of its own in its vertex tint; on the
+    // texture, stronger patches show the UV atlas's seams.)
+    double hueVariation = 6;
+    double chromaVariation = 4;
+    double lightnessVariation = 3;
     // Standard deviation of the fine mottle (~1-2 mm grains), in L*.
     double mottle = 2.4;
 
