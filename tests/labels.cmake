@@ -25,7 +25,7 @@ set(mucosa_sanitize_binaries
 # generation and the renders (no untrusted input; minutes under ASan).
 set(mucosa_unsanitized_test_mesh "^Phantom" "^MikkTSpace\\." "^GltfExport\\.Phantom" "^MeshCli\\.OrientLumen")
 set(mucosa_unsanitized_test_cli "^DemoCli\\." "^RenderResume\\." "^CliOutput\\.(CountsAreSingular|AKilledRun)")
-set(mucosa_unsanitized_camera_tests "^Camera\\.DefaultFlyThrough")
+set(mucosa_unsanitized_camera_tests "^Camera\\.DefaultFlyThrough" "^Camera\\.Survey(VisitsEveryBranch|MovesContinuously)")
 
 set(mucosa_slow_test_demo_patient ".")
 set(mucosa_slow_test_cli "^DemoCli\\.")
