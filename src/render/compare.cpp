@@ -93,8 +93,12 @@ image::Image8 compareSheet(const scene::Scene& scene, const scene::SceneAssets& 
         drawText(sheet, cellX(c), headerH + 6, std::string(shading::modeName(modes[c])), white, 2);
 
     OffscreenSession session(scene, assets, tw, th);
-    // Views spread along the camera path (the middle part, away from the ends).
-    const std::vector<camera::Pose> path = scene::cameraPoses(scene, assets, 9);
+    // Views spread along one path down the tree (the middle part, away from
+    // the ends), looking ahead into the lumen as the paper's figures do: the
+    // survey's views, turned to the walls, show the modes' highlights less.
+    scene::Scene onePath = scene;
+    onePath.path.survey = false;
+    const std::vector<camera::Pose> path = scene::cameraPoses(onePath, assets, 9);
     std::vector<camera::Pose> viewPoses;
     for (int v = 0; v < views; ++v) {
         const int idx = views == 1 ? 2 : 1 + v * 5 / std::max(1, views - 1);
