@@ -383,7 +383,8 @@ std::vector<Pose> surveyTree(const mesh::Centerline& tree, const FlyThrough& o, 
     std::vector<std::vector<int>> children(n);
     for (std::size_t b = 0; b < n; ++b) {
         const int p = tree.branches[b].parent;
-        if (p >= static_cast<int>(b)) throw InputError("camera.path.centerline", "", "parents must come before children");
+        if (p >= static_cast<int>(b))
+            throw InputError("camera.path.centerline", "", "parents must come before children");
         if (p >= 0) children[static_cast<std::size_t>(p)].push_back(static_cast<int>(b));
     }
     std::vector<int> leaves, stack;
@@ -460,8 +461,7 @@ std::vector<Pose> surveyTree(const mesh::Centerline& tree, const FlyThrough& o, 
     constexpr float kDeg = std::numbers::pi_v<float> / 180.0f;
     const float maxTurn = o.lookAroundDeg * kDeg, maxRoll = sv.rollDeg * kDeg;
     const float ahead = std::max(o.lookAheadMm, 1e-3f);
-    const float step =
-        o.speedMm > 0.0f ? o.speedMm : (o.frames > 1 ? total / static_cast<float>(o.frames - 1) : 0.0f);
+    const float step = o.speedMm > 0.0f ? o.speedMm : (o.frames > 1 ? total / static_cast<float>(o.frames - 1) : 0.0f);
 
     std::vector<Pose> out;
     glm::vec3 up = v(o.up), prevForward(0.0f);

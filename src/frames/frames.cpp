@@ -302,8 +302,8 @@ const char* toneCurveName(int curve) noexcept {
 
 double Response::linear(double value) const noexcept {
     if (toneCurve >= 0)
-        return shading::inverseToneCurve(
-            shading::inverseKneeCurve(static_cast<float>(value), static_cast<float>(knee)), toneCurve);
+        return shading::inverseToneCurve(shading::inverseKneeCurve(static_cast<float>(value), static_cast<float>(knee)),
+                                         toneCurve);
     return gamma == 1.0 ? value : std::pow(value, gamma);
 }
 

@@ -16,8 +16,8 @@
 #include <mucosa/core/memory.hpp>
 #include <mucosa/core/parallel.hpp>
 #include <mucosa/mesh/tangents.hpp>
-#include <mucosa/noise/perlin.hpp>
 #include <mucosa/mesh/uv.hpp>
+#include <mucosa/noise/perlin.hpp>
 
 #include "marching_tetrahedra.hpp"
 #include "vecmath.hpp"
@@ -77,7 +77,7 @@ struct Tube {
     double endRadius = 0;  // after the taper towards the children
     int parent = -1, generation = 0;
     bool leaf = true, rings = false;
-    TubeRings ringList;  // the cartilage rings (when `rings`)
+    TubeRings ringList;          // the cartilage rings (when `rings`)
     Vec3d planeNormal{0, 0, 1};  // normal of the plane it branched in
     std::string name;
     bool bent() const { return dot(bendA, bendA) + dot(bendB, bendB) > 0; }

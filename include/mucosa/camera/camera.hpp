@@ -93,14 +93,13 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrou
 // shorter than their radius are not entered. Throws InputError for a tree
 // without branches or options out of range.
 struct Survey {
-    float rollDeg = 30.0f;            // the scope's roll about its axis: within +-rollDeg (0..90)
-    float pauseMm = 10.0f;            // each pause lasts as long as advancing this far
-    float withdrawSpeed = 2.5f;       // withdrawing is this many times faster than advancing (>= 1)
-    float carinaBackoff = 0.6f;       // the withdrawal stops this many parent radii above a carina
+    float rollDeg = 30.0f;       // the scope's roll about its axis: within +-rollDeg (0..90)
+    float pauseMm = 10.0f;       // each pause lasts as long as advancing this far
+    float withdrawSpeed = 2.5f;  // withdrawing is this many times faster than advancing (>= 1)
+    float carinaBackoff = 0.6f;  // the withdrawal stops this many parent radii above a carina
 };
 void validate(const Survey& survey);
-std::vector<Pose> surveyTree(const mesh::Centerline& tree, const FlyThrough& fly, const Survey& survey,
-                             float stopMm);
+std::vector<Pose> surveyTree(const mesh::Centerline& tree, const FlyThrough& fly, const Survey& survey, float stopMm);
 
 // Length of a polyline (mm).
 float pathLength(const std::vector<Vec3>& polyline);

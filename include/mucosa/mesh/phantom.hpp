@@ -50,10 +50,10 @@ struct CartilageRing {
     double s = 0, height = 1, tilt = 0, tiltAngle = 0, gap = -0.625;
 };
 struct TubeRings {
-    int branch = 0;           // index into the centerline's branches
-    double radius = 0;        // the tube's radius at its start (mm)
-    double halfWidth = 0;     // each ridge's half-width along the tube (mm)
-    double heightMm = 0;      // the mean ridge's height into the lumen (mm) at height 1
+    int branch = 0;                    // index into the centerline's branches
+    double radius = 0;                 // the tube's radius at its start (mm)
+    double halfWidth = 0;              // each ridge's half-width along the tube (mm)
+    double heightMm = 0;               // the mean ridge's height into the lumen (mm) at height 1
     std::vector<CartilageRing> rings;  // in order along the tube
     // The ridge at axial s and angle theta (radians from anterior, towards
     // e2), relative: the highest ring's raised cosine x its height x its C,
