@@ -152,6 +152,35 @@ glm::vec3 rotateAbout(const glm::vec3& x, const glm::vec3& axis, float angle) {
     return x * c + glm::cross(axis, x) * s + axis * (glm::dot(axis, x) * (1.0f - c));
 }
 
+// The up vector carried along a path of view directions without twist: at
+// the first frame made orthogonal to f (any up if parallel), then
+// parallel-transported (double reflection, Wang et al. 2008, simplified to
+// one rotation): rotated by the rotation taking prevForward to f.
+glm::vec3 transportUp(glm::vec3 up, const glm::vec3& prevForward, const glm::vec3& f, bool first) {
+    if (first) {
+        glm::vec3 r = glm::cross(f, up);
+        if (glm::length(r) < 1e-6f) r = glm::cross(f, std::abs(f.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0));
+        return glm::normalize(glm::cross(glm::normalize(r), f));
+    }
+    const glm::vec3 axis = glm::cross(prevForward, f);
+    const float sinA = glm::length(axis), cosA = glm::dot(prevForward, f);
+    if (sinA > 1e-7f) {
+        const glm::vec3 k = axis / sinA;
+        up = up * cosA + glm::cross(k, up) * sinA + k * glm::dot(k, up) * (1.0f - cosA);
+    }
+    return glm::normalize(up - f * glm::dot(up, f));
+}
+
+// The view turned (the tip's bending section): yaw about up, then pitch about
+// the turned right axis; up turns with it.
+void turnView(glm::vec3& forward, glm::vec3& poseUp, const glm::vec3& up, const glm::vec3& right, float yaw,
+              float pitch) {
+    forward = rotateAbout(forward, up, yaw);
+    const glm::vec3 r2 = rotateAbout(right, up, yaw);
+    forward = glm::normalize(rotateAbout(forward, r2, pitch));
+    poseUp = glm::normalize(rotateAbout(up, r2, pitch));
+}
+
 }  // namespace
 
 void validate(const FlyThrough& o) {
@@ -236,22 +265,7 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrou
         glm::vec3 f = at(s + ahead) - p;
         if (glm::length(f) < 1e-3f * ahead) f = p - at(s - ahead);
         f = glm::normalize(f);
-        if (i == 0) {
-            glm::vec3 r = glm::cross(f, up);
-            if (glm::length(r) < 1e-6f)
-                r = glm::cross(f, std::abs(f.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0));
-            up = glm::normalize(glm::cross(glm::normalize(r), f));
-        } else {
-            // Parallel transport (double reflection, Wang et al. 2008, simplified
-            // to one rotation): rotate `up` by the rotation taking prevForward to f.
-            const glm::vec3 axis = glm::cross(prevForward, f);
-            const float sinA = glm::length(axis), cosA = glm::dot(prevForward, f);
-            if (sinA > 1e-7f) {
-                const glm::vec3 k = axis / sinA;
-                up = up * cosA + glm::cross(k, up) * sinA + k * glm::dot(k, up) * (1.0f - cosA);
-            }
-            up = glm::normalize(up - f * glm::dot(up, f));
-        }
+        up = transportUp(up, prevForward, f, i == 0);
         prevForward = f;
         glm::vec3 forward = f, poseUp = up;
         const glm::vec3 right = glm::normalize(glm::cross(f, up));
@@ -264,13 +278,7 @@ std::vector<Pose> flyThrough(const std::vector<Vec3>& centerline, const FlyThrou
             p += right * (k * offsetX(s)) + up * (k * offsetY(s));
         }
         if (turns) {
-            // Turn the view (the tip's bending section): yaw about up, then
-            // pitch about the turned right axis; up turns with it.
-            const float yaw = maxTurn * yawWave(s), pitch = maxTurn * pitchWave(s);
-            forward = rotateAbout(forward, up, yaw);
-            const glm::vec3 r2 = rotateAbout(right, up, yaw);
-            forward = glm::normalize(rotateAbout(forward, r2, pitch));
-            poseUp = glm::normalize(rotateAbout(up, r2, pitch));
+            turnView(forward, poseUp, up, right, maxTurn * yawWave(s), maxTurn * pitchWave(s));
         }
         Pose pose;
         pose.position = a3(p);
@@ -483,20 +491,7 @@ std::vector<Pose> surveyTree(const mesh::Centerline& tree, const FlyThrough& o, 
             const glm::vec3 m = glm::mix(f0, f, e);
             f = glm::length(m) > 1e-4f ? glm::normalize(m) : f;
         }
-        if (i == 0) {
-            glm::vec3 rr = glm::cross(f, up);
-            if (glm::length(rr) < 1e-6f)
-                rr = glm::cross(f, std::abs(f.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0));
-            up = glm::normalize(glm::cross(glm::normalize(rr), f));
-        } else {
-            const glm::vec3 axis = glm::cross(prevForward, f);
-            const float sinA = glm::length(axis), cosA = glm::dot(prevForward, f);
-            if (sinA > 1e-7f) {
-                const glm::vec3 k = axis / sinA;
-                up = up * cosA + glm::cross(k, up) * sinA + k * glm::dot(k, up) * (1.0f - cosA);
-            }
-            up = glm::normalize(up - f * glm::dot(up, f));
-        }
+        up = transportUp(up, prevForward, f, i == 0);
         prevForward = f;
         const glm::vec3 right = glm::normalize(glm::cross(f, up));
         // Off the centre, within a disc of radius min(wander R, R - clearance).
@@ -508,11 +503,7 @@ std::vector<Pose> surveyTree(const mesh::Centerline& tree, const FlyThrough& o, 
         }
         glm::vec3 forward = f, poseUp = up;
         if (maxTurn > 0.0f) {
-            const float yaw = maxTurn * yawWave(tau), pitch = maxTurn * pitchWave(tau);
-            forward = rotateAbout(forward, up, yaw);
-            const glm::vec3 r2 = rotateAbout(right, up, yaw);
-            forward = glm::normalize(rotateAbout(forward, r2, pitch));
-            poseUp = glm::normalize(rotateAbout(up, r2, pitch));
+            turnView(forward, poseUp, up, right, maxTurn * yawWave(tau), maxTurn * pitchWave(tau));
         }
         if (maxRoll > 0.0f) poseUp = glm::normalize(rotateAbout(poseUp, forward, maxRoll * rollWave(tau)));
         Pose pose;
