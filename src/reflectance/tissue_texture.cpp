@@ -59,11 +59,11 @@ struct Rng {
 // fine vessels take short steps so their curvature stays smooth at texel
 // scale, wide blurred ones long steps (their curvature is blurred anyway),
 // which keeps drawing cost proportional to length rather than area.
-constexpr double kMinStepMm = 0.25, kMaxStepMm = 1.0;
+constexpr double kMinStepMm = 0.25, kMaxStepMm = 1.0, kMaxTurnRad = 0.25;
 // Width of the scattering blur per mm of depth (see "Vessel rendering").
 constexpr double kBlurPerDepth = 0.6;
-constexpr double kCurvatureCorrMm = 4.0;
-constexpr double kCurvatureStd = 0.09;     // rad/mm
+constexpr double kCurvatureCorrMm = 2.5;
+constexpr double kCurvatureStd = 0.22;     // rad/mm
 constexpr double kLongitudinalRate = 0.6;  // 1/mm at longitudinal = 1
 constexpr double kTaperMm = 80.0;
 constexpr double kBranchPerRadius = 45.0;  // mean mm between branch points / radius in mm
@@ -74,10 +74,10 @@ constexpr double kMinDepthMm = 0.03;
 // submucosa over the first 30 % of its length and every vessel dives back
 // over its last 30 % (kDiveMm deeper), so they fade in and out.
 constexpr double kDiveMm = 0.7;
-constexpr double kTreesPerTile = 20.0;
+constexpr double kTreesPerTile = 14.0;
 // The plexus: short trees (8-20 % of a tile), a third of the trunks' radius
 // and depth.
-constexpr double kPlexusTreesPerTile = 24.0, kPlexusRadius = 0.35, kPlexusDepth = 0.5;
+constexpr double kPlexusTreesPerTile = 80.0, kPlexusRadius = 0.35, kPlexusDepth = 0.5;
 constexpr int kMaxSegmentsPerTree = 5000;
 
 struct Tip {
@@ -109,6 +109,7 @@ void validate(const TissueParams& p) {
     need(p.chromaVariation >= 0, "chroma_variation", p.chromaVariation, "must not be negative");
     need(p.lightnessVariation >= 0, "lightness_variation", p.lightnessVariation, "must not be negative");
     need(p.mottle >= 0, "mottle", p.mottle, "must not be negative");
+    need(p.stipple >= 0, "stipple", p.stipple, "must not be negative");
     need(p.vesselDensity >= 0 && p.vesselDensity <= 8, "vessel_density", p.vesselDensity, "must be in 0..8");
     need(p.trunkRadius > 0 && p.trunkRadius <= 2, "trunk_radius", p.trunkRadius, "must be in (0, 2] mm");
     need(p.vesselDepth > 0 && p.vesselDepth <= 3, "vessel_depth", p.vesselDepth, "must be in (0, 3] mm");
@@ -147,8 +148,10 @@ void growTree(const TissueParams& p, const TreeKind& kind, Rng& rng, int tree, d
         tips.pop_back();
         while (t.r >= kMinRadiusMm && t.path < t.maxPath && segments < kMaxSegmentsPerTree) {
             const double blur = std::sqrt(t.r * t.r / 3 + kBlurPerDepth * kBlurPerDepth * t.depth * t.depth);
-            const double ds = std::clamp(3 * blur, kMinStepMm, kMaxStepMm);
+            double ds = std::clamp(3 * blur, kMinStepMm, kMaxStepMm);
             t.kappa += -t.kappa * ds / kCurvatureCorrMm + sigmaK * std::sqrt(ds) * rng.normal();
+            // ... and short enough that one step turns by at most kMaxTurnRad.
+            ds = std::max(kMinStepMm, std::min(ds, kMaxTurnRad / std::max(std::abs(t.kappa), 1e-9)));
             t.theta += (t.kappa - lambda * 0.5 * std::sin(2 * t.theta)) * ds;
             VesselSegment s{};
             s.x0 = t.x;
@@ -409,8 +412,8 @@ std::vector<VesselSegment> vesselNetwork(const TissueParams& p) {
     // Poisson-like count: the expected number, rounded stochastically.
     const int trees = static_cast<int>(std::floor(kTreesPerTile * p.vesselDensity + rng.uniform()));
     const int plexus = static_cast<int>(std::floor(kPlexusTreesPerTile * p.vesselDensity + rng.uniform()));
-    const TreeKind trunk{p.trunkRadius, p.vesselDepth, 0.45, 0.85};
-    const TreeKind fine{p.trunkRadius * kPlexusRadius, p.vesselDepth * kPlexusDepth, 0.12, 0.3};
+    const TreeKind trunk{p.trunkRadius, p.vesselDepth, 0.3, 0.6};
+    const TreeKind fine{p.trunkRadius * kPlexusRadius, p.vesselDepth * kPlexusDepth, 0.05, 0.15};
     std::vector<VesselSegment> out;
     // Roots stratified around the airway (u), uniform along it: the
     // longitudinal vessels spread evenly around the wall instead of clumping.
@@ -432,6 +435,7 @@ image::Image8 tissueTexture(const TissueParams& p, int size) {
     const std::vector<float> lightF = field(size, 64, 4, 3, seeds.next(), 0.79);
     const std::vector<float> fine = field(size, 512, 24, 3, seeds.next(), 0.53);
     const std::vector<float> grain = field(size, 512, 48, 2, seeds.next(), 0.17);
+    const std::vector<float> stippleF = field(size, 1024, 128, 2, seeds.next(), 0.41);
 
     std::vector<float> T;
     drawVessels(p, vesselNetwork(p), size, T);
@@ -445,7 +449,8 @@ image::Image8 tissueTexture(const TissueParams& p, int size) {
         const double h = (p.hue + p.hueVariation * (-0.7 * e + 0.71 * hueF[i])) * deg;
         const double C =
             std::max(0.0, p.chroma + p.chromaVariation * (0.6 * e + 0.8 * chromaF[i]) + 0.35 * p.mottle * grain[i]);
-        const double L = p.lightness + p.lightnessVariation * (-0.8 * e + 0.6 * lightF[i]) + p.mottle * fine[i];
+        const double L = p.lightness + p.lightnessVariation * (-0.8 * e + 0.6 * lightF[i]) + p.mottle * fine[i] +
+                         p.stipple * stippleF[i];
         const auto rgb = labToLinear(L, C * std::cos(h), C * std::sin(h));
         std::uint8_t* px = img.data() + 3 * i;
         for (std::size_t c = 0; c < 3; ++c) px[c] = encode(static_cast<float>(std::max(0.0, rgb[c])) * T[3 * i + c]);

@@ -67,6 +67,11 @@ scene::Scene patientScene(const PatientOptions& o, int branch) {
     s.path.fly.wallClearanceMm = 1.5f;
     s.path.fly.wanderPeriodMm = 40.0f;
     s.path.fly.seed = o.seed;
+    // The plainer fine texture registration is measured on (docs/theory.md,
+    // "A synthetic patient"): pq reads the default look's 0.2-0.4 mm stipple
+    // and stronger mottle as shape.
+    s.appearance.tissue.mottle = 2.4;
+    s.appearance.tissue.stipple = 0.0;
     if (o.look == PatientLook::Category4) {
         using P = shading::Param;
         const shading::BrdfParams b = truthBrdf();

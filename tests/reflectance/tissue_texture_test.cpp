@@ -276,17 +276,25 @@ TEST(VesselNetwork, CurvesSmoothlyWithoutRightAngles) {
     EXPECT_LT(branchWorst, 90);  // branches leave at Murray's acute angles
 }
 
-TEST(VesselNetwork, RunsMostlyAlongTheAirway) {
+TEST(VesselNetwork, MeandersButTendsAlongTheAirway) {
+    // An isotropic walk's |cos| averages 2 / pi = 0.64; the default network
+    // leans along the airway, yet meanders (well short of straight lines at 1).
     TissueParams p;
-    EXPECT_GT(longitudinality(vesselNetwork(p)), 0.85);
-    // The parameter is what does it: an isotropic walk is near 2 / pi.
+    const double tends = longitudinality(vesselNetwork(p));
+    EXPECT_GT(tends, 0.68);
+    EXPECT_LT(tends, 0.85);
+    // The parameter is what does it.
     p.longitudinal = 0;
-    EXPECT_LT(longitudinality(vesselNetwork(p)), 0.78);
+    EXPECT_LT(longitudinality(vesselNetwork(p)), tends - 0.03);
+    p.longitudinal = 3;
+    EXPECT_GT(longitudinality(vesselNetwork(p)), 0.85);
 }
 
 TEST(VesselTexture, VesselPixelsAreConnectedLongitudinalStructures) {
     constexpr int kSize = 256;
-    const auto A = vesselAbsorbance(TissueParams{}, kSize);
+    TissueParams p;
+    p.longitudinal = 3;  // the orientation check below needs a clear lean
+    const auto A = vesselAbsorbance(p, kSize);
     // Vessel pixels: green absorbance above 0.05 (a 5 % darkening).
     std::vector<int> label(A.size(), -1);
     std::vector<std::size_t> sizes;

@@ -41,8 +41,10 @@ struct TissueParams {
     double hueVariation = 6;
     double chromaVariation = 4;
     double lightnessVariation = 3;
-    // Standard deviation of the fine mottle (~1-2 mm grains), in L*.
-    double mottle = 2.4;
+    // Standard deviations, in L*, of the fine mottle (~1-2 mm grains) and of
+    // the stipple of the mucosa's glands and folds (~0.2-0.4 mm).
+    double mottle = 3.6;
+    double stipple = 2.7;
 
     // Vessels: trees per tile at density 1 (x vesselDensity), the trunks'
     // mean radius (mm) and mean depth under the surface (mm), the share of
@@ -52,7 +54,7 @@ struct TissueParams {
     double trunkRadius = 0.22;
     double vesselDepth = 0.3;
     double vesselContrast = 0.75;
-    double longitudinal = 1;
+    double longitudinal = 0.3;
 };
 
 // One straight piece of a vessel, in mm, unwrapped (the torus wraps x and y
