@@ -7,8 +7,9 @@
 // unsigned literals, no swizzles, no in/out parameters.
 //
 // Per pixel, in the order light meets them:
-//   1. optics: a Gaussian point-spread function over 5 x 5 pixels (softness) and natural
-//      vignetting, cos^k of the field angle;
+//   1. optics: a Gaussian point-spread function over 5 x 5 pixels (softness), natural
+//      vignetting, cos^k of the field angle, and veiling glare: light the lenses scatter,
+//      spread evenly over the sensor (camera.flare x the field's mean radiance);
 //   2. exposure: the radiance times 2^EV (fixed, or from auto-exposure);
 //   3. the sensor: Poisson-Gaussian noise (shot noise with variance
 //      signal / full well, read noise with a fixed deviation), then clipping
@@ -38,21 +39,22 @@ const float kSoftMax = 1.2f;
 const float kMaskMarginPx = 3.0f;
 
 struct Camera {
-    float exposure;          // 2^EV: sensor signal per unit of radiance (after auto-exposure)
-    float vignettingPower;   // k of cos^k(field angle); 0 = off, 4 = the natural cos^4 law
-    float tanHalfFovX;       // tan of half the horizontal field of view (the projection's)
-    float tanHalfFovY;       // tan of half the vertical field of view
-    float width;             // frame size in pixels
+    float exposure;         // 2^EV: sensor signal per unit of radiance (after auto-exposure)
+    float vignettingPower;  // k of cos^k(field angle); 0 = off, 4 = the natural cos^4 law
+    float tanHalfFovX;      // tan of half the horizontal field of view (the projection's)
+    float tanHalfFovY;      // tan of half the vertical field of view
+    float width;            // frame size in pixels
     float height;
-    int mask;                // kMaskNone, kMaskCircle, kMaskOctagon
-    float maskRadius;        // mask radius (inradius for the octagon) / half the smaller frame side
-    float softness;          // sigma of the Gaussian PSF in pixels; 0 = sharp
-    float fullWell;          // sensor signal 1 = this many photo-electrons; 0 = no noise
-    float readNoise;         // deviation of the read noise, in units of the full signal
-    int toneCurve;           // kToneLinear, kToneBt709, kToneSrgb
-    int frameSeed;           // the noise pattern of this frame
-    float saturation;        // colour gain about the luma after the tone curve; 1 = none
-    float knee;              // the highlight knee's output level; 1 = none
+    int mask;          // kMaskNone, kMaskCircle, kMaskOctagon
+    float maskRadius;  // mask radius (inradius for the octagon) / half the smaller frame side
+    float softness;    // sigma of the Gaussian PSF in pixels; 0 = sharp
+    float fullWell;    // sensor signal 1 = this many photo-electrons; 0 = no noise
+    float readNoise;   // deviation of the read noise, in units of the full signal
+    int toneCurve;     // kToneLinear, kToneBt709, kToneSrgb
+    int frameSeed;     // the noise pattern of this frame
+    float saturation;  // colour gain about the luma after the tone curve; 1 = none
+    float knee;        // the highlight knee's output level; 1 = none
+    vec3 veil;         // veiling glare on the sensor: camera.flare x the field's mean radiance
 };
 
 // The PSF's weight of a tap dx, dy pixels from the centre, unnormalised:
@@ -180,7 +182,7 @@ vec3 enhanceColour(vec3 v, float g) {
 vec3 cameraPixel(vec3 radiance, int ix, int iy, Camera c) {
     float px = float(ix) + 0.5f;
     float py = float(iy) + 0.5f;
-    vec3 s = radiance * (c.exposure * vignetting(px, py, c));
+    vec3 s = (radiance * vignetting(px, py, c) + c.veil) * c.exposure;
     if (c.fullWell > 0.0f || c.readNoise > 0.0f) {
         vec3 g = pixelGaussians(ix, iy, c.frameSeed);
         s = vec3(sensorNoise(s.x, g.x, c), sensorNoise(s.y, g.y, c), sensorNoise(s.z, g.z, c));

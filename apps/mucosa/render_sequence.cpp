@@ -93,6 +93,7 @@ void writeDatasetManifest(const std::filesystem::path& manifestFile, const std::
         set.response.vignetting = scene.params[shading::Param::Vignetting];
         set.response.colourGain = scene.params[shading::Param::Saturation];
         set.response.knee = scene.params[shading::Param::Knee];
+        set.response.flare = scene.params[shading::Param::Flare];
         set.autoExposure = scene.params[shading::Param::AutoExposure] != 0.0f;
     } else {
         set.response.toneCurve = 0;  // linear

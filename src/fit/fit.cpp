@@ -231,6 +231,12 @@ FitResult fitFrames(const mesh::Mesh& mesh, const frames::FrameSet& set, const F
         h.compared /= 3;
         r.holdout.push_back(h);
     }
+    if (set.response.flare > 0)
+        r.warnings.push_back(fmt::format(
+            "the frames carry veiling glare (flare {:g}: that share of each view's mean radiance on every pixel), "
+            "which the fit does not undo: it lifts the dark, distant samples and flattens the fitted fall-off; "
+            "render with --set camera.flare=0 for a fit",
+            set.response.flare));
     r.totalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o.progress) o.progress("fitted", 1.0);
     return r;

@@ -103,6 +103,9 @@ void parseCommon(const json& j, const std::string& file, Response& response, Vec
         throw InputError("field 'knee'", file, "must be in (0, 1] (the highlight knee's output level; 1 = none)");
     if (response.knee != 1 && response.toneCurve < 0)
         throw InputError("field 'knee'", file, "needs a 'tone_curve' (the knee bends the camera's response)");
+    response.flare = number(j, "flare", "", file, false, 0.0);
+    if (!(response.flare >= 0 && response.flare <= 1))
+        throw InputError("field 'flare'", file, "must be in 0..1 (the veiling glare's share of the mean radiance)");
     if (j.contains("light")) {
         const json& l = j["light"];
         if (!l.is_object()) throw InputError("field 'light'", file, "must be an object");
@@ -293,6 +296,7 @@ void writeResponse(nlohmann::json& j, const Response& response) {
     if (response.vignetting != 0) j["vignetting"] = response.vignetting;
     if (response.colourGain != 1) j["saturation"] = response.colourGain;
     if (response.knee != 1) j["knee"] = response.knee;
+    if (response.flare != 0) j["flare"] = response.flare;
 }
 
 const char* toneCurveName(int curve) noexcept {

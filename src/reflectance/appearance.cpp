@@ -60,6 +60,13 @@ Appearance drawAppearance(std::uint64_t seed) {
     a.tissue.vesselContrast = rng.uniform(R.vesselContrast);
     a.mucus = rng.uniform(R.mucus);
     a.exposureEv = rng.uniform(R.exposureEv);
+    // Drawn last, so the draws above stay what they were for every seed.
+    const auto logUniform = [&](const AppearanceRange& r) {
+        return std::exp(std::log(r.lo) + (std::log(r.hi) - std::log(r.lo)) * rng.uniform());
+    };
+    a.softness = rng.uniform(R.softness);
+    a.noise = logUniform(R.noise);
+    a.flare = logUniform(R.flare);
     return a;
 }
 

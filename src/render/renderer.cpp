@@ -703,12 +703,15 @@ void Renderer::Impl::occludeOutsideMask(const shading::FrameSetup& frame) {
 
 // The camera (camera.glsl): meter the HDR frame on a kMeterGrid^2 grid (a
 // nearest-neighbour blit picks the same pixels as shading::meterPixel), set
-// the exposure (shading::exposureFor), then the post pass into `target`.
+// the exposure (shading::exposureFor) and the veiling glare
+// (shading::veilingGlare), then the post pass into `target`.
 void Renderer::Impl::developFrame(const shading::FrameSetup& frame, GLint target, const GLint viewport[4]) {
     const bool fixed = frame.fixedExposure > 0.0f;
     if ((frame.frameIndex == 0 || frame.restartExposure) && !fixed) exposure = {};
     float metered = 0.0f;
-    if (frame.params[shading::Param::AutoExposure] != 0.0f && !fixed) {
+    glm::vec3 veil(0.0f);
+    const bool meter = frame.params[shading::Param::AutoExposure] != 0.0f && !fixed;
+    if (meter || frame.params[shading::Param::Flare] > 0.0f) {
         constexpr int n = shading::kMeterGrid;
         glBindFramebuffer(GL_READ_FRAMEBUFFER, hdr.fbo);
         glBindFramebuffer(GL_DRAW_FRAMEBUFFER, hdr.meterFbo);
@@ -718,9 +721,12 @@ void Renderer::Impl::developFrame(const shading::FrameSetup& frame, GLint target
         glReadPixels(0, 0, n, n, GL_RGBA, GL_FLOAT, rgba.data());
         for (std::size_t i = 0; i < static_cast<std::size_t>(n) * n; ++i)
             for (std::size_t k = 0; k < 3; ++k) rgb[3 * i + k] = rgba[4 * i + k];
-        metered = shading::meterLuminance(rgb.data(), frame);
+        if (meter) metered = shading::meterLuminance(rgb.data(), frame);
+        const std::array<float, 3> v = shading::veilingGlare(rgb.data(), frame);
+        veil = glm::vec3(v[0], v[1], v[2]);
     }
-    const shading::glsl::Camera cam = shading::glsl::packCamera(frame, shading::exposureFor(frame, metered, exposure));
+    const shading::glsl::Camera cam =
+        shading::glsl::packCamera(frame, shading::exposureFor(frame, metered, exposure), veil);
     glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(target));
     glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
     glDisable(GL_DEPTH_TEST);

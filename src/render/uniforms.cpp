@@ -77,6 +77,7 @@ constexpr std::array kCamera = {
     MUCOSA_UNIFORM(Camera, mask),        MUCOSA_UNIFORM(Camera, maskRadius),      MUCOSA_UNIFORM(Camera, softness),
     MUCOSA_UNIFORM(Camera, fullWell),    MUCOSA_UNIFORM(Camera, readNoise),       MUCOSA_UNIFORM(Camera, toneCurve),
     MUCOSA_UNIFORM(Camera, frameSeed),   MUCOSA_UNIFORM(Camera, saturation),      MUCOSA_UNIFORM(Camera, knee),
+    MUCOSA_UNIFORM(Camera, veil),
 };
 constexpr std::array kProcedural = {
     MUCOSA_UNIFORM(Procedural, frequency),  MUCOSA_UNIFORM(Procedural, octaves),

@@ -563,6 +563,9 @@ void readCamera(const Parser& P, const json& j, Scene& s) {
     // The lens and the path, and the registry's camera group (exposure,
     // sensor, tone curve, mask: shaders/camera.glsl).
     P.registryGroup(c, "camera", s.params, {"fov_deg", "near_mm", "far_mm", "lens", "pose", "path"});
+    for (auto it = c.begin(); it != c.end(); ++it)
+        if (const shading::ParamInfo* q = shading::findParam(it.key()); q != nullptr && q->group == "camera")
+            s.fileMaterial.push_back(q->id);  // the variation leaves it as the file sets it
     if (c.contains("lens")) {
         const json& l = c["lens"];
         if (l.is_object()) {
@@ -606,6 +609,12 @@ void applyVariation(Scene& scene, std::uint64_t seed) {
     };
     scale(shading::Param::MucusOpacity, reflectance::mucusOpacityScale(scene.appearance.mucus));
     scale(shading::Param::SpecularStrength, reflectance::specularScale(scene.appearance.mucus));
+    // The scope and its processor.
+    const double noise = scene.appearance.noise;
+    scale(shading::Param::Softness, scene.appearance.softness);
+    scale(shading::Param::ReadNoise, noise);
+    scale(shading::Param::FullWell, 1.0 / (noise * noise));
+    scale(shading::Param::Flare, scene.appearance.flare);
     // The patient's exposure offset: auto-exposure's compensation (or the
     // fixed exposure), on top of what the scene sets.
     const shading::ParamInfo& ev = shading::info(shading::Param::ExposureEv);

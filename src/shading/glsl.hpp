@@ -82,8 +82,9 @@ inline Material packMaterial(const ParamSet& p) {
 
 // The registry's camera values and the frame's size and projection in the
 // layout of the GLSL Camera struct (camera.glsl). `exposure` is the linear
-// factor the frame uses (2^EV, after auto-exposure: shading::ExposureState).
-inline Camera packCamera(const FrameSetup& f, float exposure) {
+// factor the frame uses (2^EV, after auto-exposure: shading::ExposureState);
+// `veil` the veiling glare's radiance (shading::veilingGlare).
+inline Camera packCamera(const FrameSetup& f, float exposure, glm::vec3 veil = glm::vec3(0.0f)) {
     const ParamSet& p = f.params;
     Camera c;
     c.exposure = exposure;
@@ -105,6 +106,7 @@ inline Camera packCamera(const FrameSetup& f, float exposure) {
                                    (static_cast<std::uint32_t>(p[Param::NoiseSeed]) * 0x9E3779B1u));
     c.saturation = p[Param::Saturation];
     c.knee = p[Param::Knee];
+    c.veil = veil;
     return c;
 }
 

@@ -463,6 +463,17 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      "The video processor's highlight knee: above this output level the response bends, smoothly compressing "
      "everything up to the sensor's saturation below white (1 = none: the sensor clips to white)",
      false},
+    {P::Flare,
+     "flare",
+     "camera",
+     1,
+     {0.03f, 0, 0},
+     0.0f,
+     0.3f,
+     "",
+     "Veiling glare of the scope's optics: this share of the field's mean radiance, scattered by the lenses, "
+     "lies evenly over the sensor and lifts the dark lumen (0 = none)",
+     false},
 }};
 
 constexpr bool registryInOrder() {

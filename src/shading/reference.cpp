@@ -172,7 +172,8 @@ std::vector<glm::vec3> applyCamera(const std::vector<glm::vec3>& hdr, const Fram
     ExposureState fresh;
     ExposureState& s = state != nullptr ? *state : fresh;
     const float exposure = exposureFor(frame, meterLuminance(grid.data(), frame), s);
-    const glsl::Camera c = glsl::packCamera(frame, exposure);
+    const std::array<float, 3> veil = veilingGlare(grid.data(), frame);
+    const glsl::Camera c = glsl::packCamera(frame, exposure, glm::vec3(veil[0], veil[1], veil[2]));
     std::vector<glm::vec3> out(hdr.size());
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
@@ -268,12 +269,12 @@ bool cameraIsIdentity(const ParamSet& p) noexcept {
     return p[Param::AutoExposure] == 0.0f && p[Param::ExposureEv] == 0.0f && p[Param::Vignetting] == 0.0f &&
            p[Param::Mask] == 0.0f && p[Param::Softness] == 0.0f && p[Param::FullWell] == 0.0f &&
            p[Param::ReadNoise] == 0.0f && p[Param::ToneCurve] == 0.0f && p[Param::Saturation] == 1.0f &&
-           p[Param::Knee] == 1.0f;
+           p[Param::Knee] == 1.0f && p[Param::Flare] == 0.0f;
 }
 
 void setCameraIdentity(ParamSet& p) {
     for (Param q : {Param::AutoExposure, Param::ExposureEv, Param::Vignetting, Param::Mask, Param::Softness,
-                    Param::FullWell, Param::ReadNoise, Param::ToneCurve})
+                    Param::FullWell, Param::ReadNoise, Param::ToneCurve, Param::Flare})
         p.set(q, 0.0f);
     p.set(Param::Saturation, 1.0f);
     p.set(Param::Knee, 1.0f);
@@ -308,6 +309,26 @@ float meterLuminance(const float* rgb, const FrameSetup& frame) {
     const float peak = inside[static_cast<std::size_t>(k)];
     const float w = frame.params[Param::AutoPeak];
     return (1.0f - w) * static_cast<float>(sum / weights) + w * peak;
+}
+
+std::array<float, 3> veilingGlare(const float* rgb, const FrameSetup& frame) {
+    const float flare = frame.params[Param::Flare];
+    if (flare <= 0.0f) return {0.0f, 0.0f, 0.0f};
+    const glsl::Camera c = glsl::packCamera(frame, 1.0f);
+    glm::dvec3 sum(0.0);
+    double weights = 0.0;
+    for (int j = 0; j < kMeterGrid; ++j)
+        for (int i = 0; i < kMeterGrid; ++i) {
+            const float* p = rgb + 3 * (static_cast<std::size_t>(j) * kMeterGrid + static_cast<std::size_t>(i));
+            const float px = static_cast<float>(meterPixel(i, frame.width)) + 0.5f;
+            const float py = static_cast<float>(meterPixel(j, frame.height)) + 0.5f;
+            const double w = glsl::fovMask(px, py, c);
+            sum += w * static_cast<double>(glsl::vignetting(px, py, c)) * glm::dvec3(p[0], p[1], p[2]);
+            weights += w;
+        }
+    if (weights <= 0.0) return {0.0f, 0.0f, 0.0f};
+    const glm::dvec3 veil = static_cast<double>(flare) * sum / weights;
+    return {static_cast<float>(veil.x), static_cast<float>(veil.y), static_cast<float>(veil.z)};
 }
 
 float toneCurve(float signal, int curve) noexcept {

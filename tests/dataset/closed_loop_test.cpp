@@ -275,10 +275,12 @@ void keep(const test::TempDir& dir) {
 // its I / (z^2 + a^2) a smooth factor of delta), and the truth it gives.
 constexpr double kIntensity = 10000, kSourceRadius = 100;
 
+// (And no veiling glare: the fit does not undo it, and says so.)
 std::string paperLighting() {
     return fmt::format(
         " --set material.base_color=1,1,1 --set material.mucus_opacity=0 --set material.ambient=0 "
-        "--set material.wrap=0 --set light.spread=0 --set light.source_radius_mm={} --set light.intensity={}",
+        "--set material.wrap=0 --set light.spread=0 --set light.source_radius_mm={} --set light.intensity={} "
+        "--set camera.flare=0",
         kSourceRadius, kIntensity);
 }
 

@@ -396,3 +396,24 @@ TEST(AtlasShape, TexelsAreSquareOnTheSurfaceAndKeepDetailAlongTheTube) {
     EXPECT_NEAR(shaped.keptV / shaped.keptU, 1.0, 0.05);
     EXPECT_LT(square.keptV / square.keptU, shaped.keptV / shaped.keptU - 0.05);
 }
+
+// Frames that carry veiling glare (a dataset rendered with camera.flare, as
+// its manifest's "flare" says) are fitted as they are, with one warning line
+// naming it: the glare lifts the dark, distant samples.
+TEST_F(Falloff, FramesWithVeilingGlareAreFittedWithAWarning) {
+    fit::FitOptions o;
+    o.textureSize = 64;
+    o.holdout = 0;
+    const fit::FitResult clean = fit::fitFrames(*phantom_, *frames_, o);
+    for (const std::string& w : clean.warnings) EXPECT_EQ(w.find("veiling glare"), std::string::npos) << w;
+    frames::FrameSet glared = *frames_;
+    glared.response.flare = 0.03;
+    const fit::FitResult r = fit::fitFrames(*phantom_, glared, o);
+    int lines = 0;
+    for (const std::string& w : r.warnings)
+        if (w.find("veiling glare (flare 0.03") != std::string::npos) {
+            ++lines;
+            EXPECT_EQ(w.find('\n'), std::string::npos) << w;
+        }
+    EXPECT_EQ(lines, 1);
+}

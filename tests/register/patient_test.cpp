@@ -55,15 +55,18 @@ TEST(Response, ToneCurvesAreInvertedExactlyAndAPowerLawIsAPowerLaw) {
 
 TEST(Response, FramesAndCameraFilesReadAndWriteToneCurveAndVignetting) {
     test::TempDir dir;
-    writeText(dir / "frames.json", std::string(R"({"tone_curve": "bt709", "vignetting": 1.5, )") + kFrame + "}");
+    writeText(dir / "frames.json",
+              std::string(R"({"tone_curve": "bt709", "vignetting": 1.5, "flare": 0.03, )") + kFrame + "}");
     const frames::FrameSet set = frames::readFrames(dir / "frames.json");
     EXPECT_EQ(set.response.toneCurve, 1);
     EXPECT_DOUBLE_EQ(set.response.vignetting, 1.5);
+    EXPECT_DOUBLE_EQ(set.response.flare, 0.03);
     // Written back: the same keys (and the image relative to the file).
     frames::writeFrames(dir / "again.json", set);
     const auto j = nlohmann::json::parse(std::ifstream(dir / "again.json"));
     EXPECT_EQ(j["tone_curve"], "bt709");
     EXPECT_EQ(j["vignetting"], 1.5);
+    EXPECT_EQ(j["flare"], 0.03);
     EXPECT_FALSE(j.contains("gamma"));
     EXPECT_EQ(j["frames"][0]["image"], "f.png");
     const frames::FrameSet back = frames::readFrames(dir / "again.json");
@@ -91,6 +94,7 @@ TEST(Response, FramesAndCameraFilesReadAndWriteToneCurveAndVignetting) {
     refused(R"("tone_curve": "bt709", "gamma": 2.2)", "'gamma'");
     refused(R"("vignetting": -1)", "'vignetting'");
     refused(R"("vignetting": 1e999)", "out of range");
+    refused(R"("flare": -0.1)", "'flare'");
 }
 
 TEST(Response, LoadFrameImageDividesTheVignettingOut) {

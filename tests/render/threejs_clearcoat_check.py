@@ -187,7 +187,7 @@ def mucosa_frame(cli, work, glb, map_png):
         "light": LIGHT,
         "camera": {"fov_deg": FOV_X_DEG, "near_mm": NEAR_MM, "far_mm": FAR_MM,
                    "auto_exposure": 0, "exposure_ev": EV, "vignetting": 0, "mask": 0, "softness_px": 0,
-                   "full_well": 0, "read_noise": 0, "tone_curve": 2, "saturation": 1,
+                   "full_well": 0, "read_noise": 0, "tone_curve": 2, "saturation": 1, "flare": 0,
                    "pose": {"position": EYE_MM, "look_at": LOOK_AT_MM, "up": UP}},
         "resolution": [W, H],
     }

@@ -201,6 +201,57 @@ TEST(CameraModel, VignettingFollowsCosineToThePowerK) {
     EXPECT_EQ(vignetting(640.0f, 480.0f, c), 1.0f);
 }
 
+// Veiling glare: camera.flare x the mean radiance the sensor sees over the
+// mask (after vignetting), added to every pixel; the lumen is lifted by it,
+// a lit wall by the same amount.
+TEST(CameraModel, VeilingGlareAddsTheFlareTimesTheFieldsMeanRadiance) {
+    shading::FrameSetup f;
+    f.width = 640;
+    f.height = 480;
+    neutralCamera(f.params);
+    f.params.set(Param::Flare, 0.05f);
+    constexpr int n = shading::kMeterGrid;
+    std::vector<float> grid(3 * n * n, 0.0f);
+    for (int j = 0; j < n; ++j)
+        for (int i = n / 2; i < n; ++i) {  // the right half lit, the left half a black lumen
+            float* p = &grid[3 * static_cast<std::size_t>(j * n + i)];
+            p[0] = 0.4f, p[1] = 0.2f, p[2] = 0.1f;
+        }
+    std::array<float, 3> veil = shading::veilingGlare(grid.data(), f);
+    EXPECT_NEAR(veil[0], 0.05f * 0.5f * 0.4f, 1e-6f);
+    EXPECT_NEAR(veil[1], 0.05f * 0.5f * 0.2f, 1e-6f);
+    EXPECT_NEAR(veil[2], 0.05f * 0.5f * 0.1f, 1e-6f);
+    // On the sensor, before exposure: the black lumen reads the veil (times
+    // the exposure), the wall its radiance plus the veil.
+    Camera c = packCamera(f, 2.0f, glm::vec3(veil[0], veil[1], veil[2]));
+    const glm::vec3 lumen = cameraPixel(glm::vec3(0.0f), 10, 240, c);
+    EXPECT_NEAR(lumen.x, 2.0f * veil[0], 1e-6f);
+    EXPECT_NEAR(lumen.z, 2.0f * veil[2], 1e-6f);
+    EXPECT_NEAR(cameraPixel(glm::vec3(0.4f, 0.2f, 0.1f), 600, 240, c).y, 2.0f * (0.2f + veil[1]), 1e-6f);
+    // Only what the mask lets through counts: with a circle of half the
+    // frame's height, the lit columns beyond it add nothing.
+    f.params.set(Param::Mask, 1.0f);
+    f.params.set(Param::MaskRadius, 1.0f);
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const float x = static_cast<float>(shading::meterPixel(i, 640)) + 0.5f - 320.0f;
+            const float y = static_cast<float>(shading::meterPixel(j, 480)) + 0.5f - 240.0f;
+            const bool outside = std::hypot(x, y) > 241.0f;
+            for (int k = 0; k < 3; ++k) grid[3 * static_cast<std::size_t>(j * n + i) + k] = outside ? 1.0f : 0.0f;
+        }
+    EXPECT_EQ(shading::veilingGlare(grid.data(), f)[0], 0.0f);
+    // Vignetting darkens what reaches the sensor, and so the glare.
+    f.params.set(Param::Mask, 0.0f);
+    std::fill(grid.begin(), grid.end(), 1.0f);
+    const float flat = shading::veilingGlare(grid.data(), f)[1];
+    EXPECT_NEAR(flat, 0.05f, 1e-6f);
+    f.params.set(Param::Vignetting, 4.0f);
+    EXPECT_LT(shading::veilingGlare(grid.data(), f)[1], 0.8f * flat);
+    // No flare, no veil.
+    f.params.set(Param::Flare, 0.0f);
+    EXPECT_EQ(shading::veilingGlare(grid.data(), f)[1], 0.0f);
+}
+
 TEST(CameraModel, FieldOfViewMasksCoverACircleOrAnOctagon) {
     Camera c = testCamera();
     c.width = c.height = 400.0f;

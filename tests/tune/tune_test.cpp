@@ -151,7 +151,7 @@ scene::Scene smallScene() {
 TEST(Tune, FitRecoversAShininessFromItsHighlights) {
     const scene::Scene s = smallScene();
     tune::ProbeOptions po;
-    po.views = 4;
+    po.views = 6;
     po.size = 320;
     const tune::TuneParam& shin = tune::findTuneParam("shininess");
     // The target: the same views at a known shininess, 2.5x the scene's 40.
@@ -178,7 +178,8 @@ TEST(Tune, FitRecoversAShininessFromItsHighlights) {
     EXPECT_DOUBLE_EQ(r.start[0].second, 40.0);
     EXPECT_LT(r.after.total, 0.5 * r.before.total);
     // Within 25 % of the true value: the statistics count pixels, so nearby
-    // shininess values give the same frames (measured: 111.7, distance 10.1 -> 2.8).
+    // shininess values give the same frames (measured: 97.4, distance 1.62 -> 0.05). Six views: with
+    // four, the veiling glare's small shifts were enough to move the noisy optimum to 207.
     EXPECT_NEAR(std::log(r.best[0].second / kTrue), 0.0, std::log(1.25))
         << "fitted " << r.best[0].second << ", true " << kTrue << ", distance " << r.after.total;
     EXPECT_LE(r.evaluations, 24);

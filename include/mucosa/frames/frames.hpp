@@ -54,6 +54,10 @@ struct Response {
     double vignetting = 0;  // k of cos^k(field angle); 0 = none
     double colourGain = 1;  // "saturation": colour gain g about the luma after the tone curve; 1 = none
     double knee = 1;        // "knee": the highlight knee's output level (with a tone curve); 1 = none
+    // "flare": the veiling glare the frames carry (camera.flare: that share of
+    // the field's mean radiance on every pixel). Recorded, not undone: it
+    // depends on each view, and `mucosa fit` warns that it biases the fit.
+    double flare = 0;
     Response() = default;
     Response(double powerLaw) : gamma(powerLaw) {}  // NOLINT(google-explicit-constructor): a number is a power law
     double linear(double value) const noexcept;

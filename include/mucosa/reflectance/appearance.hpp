@@ -1,7 +1,8 @@
 #pragma once
 // Patient-to-patient appearance: the tissue colour, the vessel network, the
 // amount of mucus and the exposure vary between patients (and bronchoscopes'
-// automatic gain). drawAppearance(seed) draws one patient from the ranges of
+// automatic gain), and the scope's softness, noise and glare between
+// bronchoscopes and their video processors. drawAppearance(seed) draws one patient from the ranges of
 // kAppearanceRanges (docs/theory.md, "Patient variation"); seed 0 is the
 // default look.
 #include <cstdint>
@@ -21,6 +22,14 @@ struct Appearance {
     double mucus = 0.3;
     // Exposure offset in EV (stops) the camera applies on top of its own.
     double exposureEv = 0;
+    // The bronchoscope and its video processor, as factors on the camera's
+    // defaults: the optics' softness (camera.softness_px), the noise left
+    // after the processor's noise reduction (camera.read_noise times it,
+    // camera.full_well divided by its square: the shot noise's deviation
+    // times it) and the veiling glare (camera.flare).
+    double softness = 1;
+    double noise = 1;
+    double flare = 1;
 };
 
 struct AppearanceRange {
@@ -36,6 +45,9 @@ struct AppearanceRanges {
     AppearanceRange vesselContrast{0.55, 0.9};  // uniform
     AppearanceRange mucus{0.0, 1.0};            // uniform
     AppearanceRange exposureEv{-0.7, 0.7};      // EV, uniform
+    AppearanceRange softness{0.55, 1.5};        // x default, uniform
+    AppearanceRange noise{0.5, 2.0};            // x default, log-uniform
+    AppearanceRange flare{0.3, 2.0};            // x default, log-uniform
 };
 inline constexpr AppearanceRanges kAppearanceRanges{};
 

@@ -100,12 +100,13 @@ struct Scene {
     // "variation" / --variation: a patient's appearance drawn by
     // reflectance::drawAppearance (0: the default look). It shapes the
     // generated tissue texture (appearance.tissue), scales
-    // material.mucus_opacity and specular_strength by the mucus amount (those
-    // a scene file sets itself stay), and adds appearance.exposureEv to
+    // material.mucus_opacity and specular_strength by the mucus amount and
+    // the camera's softness, noise and flare by the scope's draw (those a
+    // scene file sets itself stay), and adds appearance.exposureEv to
     // camera.exposure_ev (applyVariation).
     std::uint64_t variation = 0;
     reflectance::Appearance appearance = reflectance::defaultAppearance();
-    // The material parameters the scene file set explicitly.
+    // The material and camera parameters the scene file set explicitly.
     std::vector<shading::Param> fileMaterial;
     // What parsing accepted but warns about (a deprecated key), one line each
     // ("<field> in <file>: <why>"), for the CLI to print.
@@ -123,8 +124,10 @@ void setMapParameter(Scene& scene, const std::string& key, const std::string& va
 // Draws patient `seed` (reflectance::drawAppearance; 0 = the default look)
 // into scene.variation and scene.appearance, and sets material.mucus_opacity
 // and specular_strength to their registry defaults times
-// reflectance::mucusOpacityScale / specularScale of its mucus amount, except
-// those in scene.fileMaterial. Applying another seed later replaces it.
+// reflectance::mucusOpacityScale / specularScale of its mucus amount, and
+// camera.softness_px, read_noise, full_well and flare to theirs times the
+// scope's factors, except those in scene.fileMaterial. Applying another seed
+// later replaces it.
 void applyVariation(Scene& scene, std::uint64_t seed);
 
 // The built-in default: the phantom, 'bronchial' map (1024 texels), flying

@@ -114,8 +114,9 @@ enum class Param : int {
     Clearcoat,           // KHR_materials_clearcoat clearcoatFactor (the clearcoat mode)
     ClearcoatRoughness,  // clearcoatRoughnessFactor
     Knee,                // the video processor's highlight knee (camera.knee)
+    Flare,               // the optics' veiling glare (camera.flare)
 };
-inline constexpr std::size_t kParamCount = 43;
+inline constexpr std::size_t kParamCount = 44;
 
 struct ParamInfo {
     Param id;

@@ -95,6 +95,11 @@ int meterPixel(int i, int size) noexcept;
 // exposure 1 (times vignetting): the mean over the mask (each point weighted
 // by its coverage) mixed with the 95th percentile by camera.auto_peak.
 float meterLuminance(const float* rgb, const FrameSetup& frame);
+// The veiling glare of the same grid: camera.flare x the mean radiance over
+// the mask (coverage-weighted) as the sensor sees it at exposure 1 (times
+// vignetting), per channel; camera.glsl adds it to every pixel. Zero when
+// camera.flare is 0.
+std::array<float, 3> veilingGlare(const float* rgb, const FrameSetup& frame);
 // Whether the camera changes nothing: fixed exposure 2^0, no vignetting,
 // mask, softness or noise, the linear response. The renderers then draw the
 // photographic modes straight to the output, clamped, as before the camera
