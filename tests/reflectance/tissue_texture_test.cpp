@@ -400,7 +400,7 @@ TEST(TissueTexture, BadParametersAreInputErrors) {
 TEST(Appearance, DrawsStayInsideTheStatedRangesAndCoverThem) {
     const AppearanceRanges& R = kAppearanceRanges;
     auto inside = [](double v, const AppearanceRange& r) { return v >= r.lo && v <= r.hi; };
-    double toneMin = 1, toneMax = 0, evMin = 1, evMax = -1, mucusMin = 1, mucusMax = 0;
+    double toneMin = 1, toneMax = 0, evMin = 1, evMax = -1, mucusMin = 1, mucusMax = 0, noiseMin = 9, noiseMax = 0;
     for (std::uint64_t seed = 1; seed <= 3000; ++seed) {
         const Appearance a = drawAppearance(seed);
         ASSERT_TRUE(inside(a.tone, R.tone)) << seed;
@@ -410,6 +410,11 @@ TEST(Appearance, DrawsStayInsideTheStatedRangesAndCoverThem) {
         ASSERT_TRUE(inside(a.tissue.vesselContrast, R.vesselContrast)) << seed;
         ASSERT_TRUE(inside(a.mucus, R.mucus)) << seed;
         ASSERT_TRUE(inside(a.exposureEv, R.exposureEv)) << seed;
+        ASSERT_TRUE(inside(a.softness, R.softness)) << seed;
+        ASSERT_TRUE(inside(a.noise, R.noise)) << seed;
+        ASSERT_TRUE(inside(a.flare, R.flare)) << seed;
+        noiseMin = std::min(noiseMin, a.noise);
+        noiseMax = std::max(noiseMax, a.noise);
         ASSERT_GE(a.tissue.hue, 28);
         ASSERT_LE(a.tissue.hue, 55);
         toneMin = std::min(toneMin, a.tone);
@@ -425,6 +430,8 @@ TEST(Appearance, DrawsStayInsideTheStatedRangesAndCoverThem) {
     EXPECT_GT(evMax, R.exposureEv.hi - 0.05);
     EXPECT_LT(mucusMin, 0.02);
     EXPECT_GT(mucusMax, 0.98);
+    EXPECT_LT(noiseMin, R.noise.lo * 1.02);
+    EXPECT_GT(noiseMax, R.noise.hi * 0.98);
 }
 
 TEST(Appearance, DeterministicPerSeedAndZeroIsTheDefaultLook) {
@@ -438,6 +445,9 @@ TEST(Appearance, DeterministicPerSeedAndZeroIsTheDefaultLook) {
     EXPECT_EQ(d.tone, 0.5);
     EXPECT_EQ(d.mucus, 0.3);
     EXPECT_EQ(d.exposureEv, 0);
+    EXPECT_EQ(d.softness, 1);
+    EXPECT_EQ(d.noise, 1);
+    EXPECT_EQ(d.flare, 1);
     EXPECT_EQ(tissueTexture(d.tissue, 64), tissueTexture(64));
     EXPECT_DOUBLE_EQ(mucusOpacityScale(d.mucus), 1);
     EXPECT_DOUBLE_EQ(specularScale(d.mucus), 1);
@@ -457,6 +467,17 @@ TEST(SceneVariation, KeySetsTheAppearanceAndTheMucusButKeepsTheFilesOwnMaterial)
                     static_cast<float>(plain.params[Param::MucusOpacity] * mucusOpacityScale(want.mucus)));
     EXPECT_FLOAT_EQ(v.params[Param::SpecularStrength],
                     static_cast<float>(plain.params[Param::SpecularStrength] * specularScale(want.mucus)));
+    // The scope: softness, noise (read noise x n, full well / n^2) and glare.
+    EXPECT_FLOAT_EQ(v.params[Param::Softness], static_cast<float>(plain.params[Param::Softness] * want.softness));
+    EXPECT_FLOAT_EQ(v.params[Param::ReadNoise], static_cast<float>(plain.params[Param::ReadNoise] * want.noise));
+    EXPECT_FLOAT_EQ(v.params[Param::FullWell],
+                    static_cast<float>(plain.params[Param::FullWell] / (want.noise * want.noise)));
+    EXPECT_FLOAT_EQ(v.params[Param::Flare], static_cast<float>(plain.params[Param::Flare] * want.flare));
+    // A camera value the file sets stays as set.
+    const scene::Scene sharp =
+        scene::parseScene(R"({"mesh": "tube", "variation": 7, "camera": {"softness_px": 0.5}})", "s.json");
+    EXPECT_FLOAT_EQ(sharp.params[Param::Softness], 0.5f);
+    EXPECT_FLOAT_EQ(sharp.params[Param::Flare], v.params[Param::Flare]);
     // The file's own mucus_opacity stays; the specular strength still follows the mucus.
     const scene::Scene own =
         scene::parseScene(R"({"mesh": "tube", "variation": 7, "material": {"mucus_opacity": 0.5}})", "s.json");

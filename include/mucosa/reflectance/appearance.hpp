@@ -45,7 +45,7 @@ struct AppearanceRanges {
     AppearanceRange vesselContrast{0.55, 0.9};  // uniform
     AppearanceRange mucus{0.0, 1.0};            // uniform
     AppearanceRange exposureEv{-0.7, 0.7};      // EV, uniform
-    AppearanceRange softness{0.55, 1.5};        // x default, uniform
+    AppearanceRange softness{0.55, 1.2};        // x default, uniform (1.2: camera.softness_px at most)
     AppearanceRange noise{0.5, 2.0};            // x default, log-uniform
     AppearanceRange flare{0.3, 2.0};            // x default, log-uniform
 };
