@@ -44,8 +44,9 @@ void addRenderCommand(CLI::App& app, Global& g) {
                   "none (fastest to write; docs/datasets.md) [zip]");
     c->add_option("--lens", a->lens,
                   "Render through this lens: a lens JSON (pinhole, fisheye, omnidirectional) or OCamCalib's "
-                  "calib_results.txt, at its size (docs/datasets.md, \"Lens models\") [the scene's camera.lens, else "
-                  "the pinhole of camera.fov_deg]");
+                  "calib_results.txt, at its size (docs/datasets.md, \"Lens models\"), or equidistant[:DEG], a "
+                  "bronchoscope's fisheye at the frame's size whose image circle spans DEG degrees [camera.fov_deg] "
+                  "[the scene's camera.lens, else the pinhole of camera.fov_deg]");
     c->callback([a, &g] { renderSequence(*a, g); });
 }
 

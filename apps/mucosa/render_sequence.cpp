@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -25,6 +26,7 @@
 #include <mucosa/image/exr.hpp>
 #include <mucosa/image/png.hpp>
 #include <mucosa/render/offscreen.hpp>
+#include <mucosa/render/renderer.hpp>
 
 #include "render_manifest.hpp"
 
@@ -32,11 +34,39 @@ namespace mucosa::cli {
 
 namespace {
 
+// The bronchoscope preset {"model": "equidistant", "fov_deg": F} (F default
+// camera.fov_deg): an equidistant fisheye at the frame's size whose image
+// circle (camera.mask_radius x half the smaller side) spans F degrees.
+std::optional<dataset::Lens> equidistantPreset(const nlohmann::json& j, const scene::Scene& scene,
+                                               const std::string& where) {
+    if (!j.is_object() || !j.contains("model") || j["model"] != "equidistant") return std::nullopt;
+    for (auto it = j.begin(); it != j.end(); ++it)
+        if (it.key() != "model" && it.key() != "fov_deg")
+            throw InputError("field 'camera.lens." + it.key() + "'", where,
+                             "is not a key of the equidistant preset (model, fov_deg)");
+    double fov = scene.lens.fovDeg;
+    if (j.contains("fov_deg")) {
+        if (!j["fov_deg"].is_number() || !(j["fov_deg"].get<double>() > 0 && j["fov_deg"].get<double>() < 360))
+            throw InputError("field 'camera.lens.fov_deg'", where, "must be a number of degrees in (0, 360)");
+        fov = j["fov_deg"].get<double>();
+    }
+    const double circle = scene.params[shading::Param::MaskRadius] * 0.5 * std::min(scene.width, scene.height);
+    dataset::Lens lens = dataset::equidistantFisheye(scene.width, scene.height, 120.0);
+    lens.fx = lens.fy = circle / (0.5 * fov * M_PI / 180.0);
+    dataset::validateLens(lens);
+    return lens;
+}
+
 // The scene's lens model (camera.lens, or --lens), checked against the
 // frame size; nullopt: the pinhole of camera.fov_deg.
 std::optional<dataset::Lens> sceneLens(const scene::Scene& scene) {
     std::optional<dataset::Lens> lens;
     std::string where;
+    if (!scene.lensModelJson.empty()) {
+        const nlohmann::json j = nlohmann::json::parse(scene.lensModelJson);
+        if (auto preset = equidistantPreset(j, scene, scene.file.empty() ? "the scene" : scene.file.string()))
+            return preset;
+    }
     if (!scene.lensModelFile.empty()) {
         where = scene.lensModelFile.string();
         if (!std::filesystem::exists(scene.lensModelFile)) throw IoError("lens", where, "no such file");
@@ -174,7 +204,21 @@ Prepared prepare(const RenderArgs& a) {
         throw InputError("--rgb-bits", "the command line", "16-bit frames come from OpenGL; drop --reference");
     if (!(a.depthScaleMm > 0 && a.depthScaleMm <= 1000))
         throw InputError("--depth-png-scale", "the command line", "must be in (0, 1000] mm");
-    if (!a.lens.empty()) {
+    if (a.lens == "equidistant" || a.lens.starts_with("equidistant:")) {
+        // The bronchoscope preset, at the frame's size.
+        nlohmann::json j = {{"model", "equidistant"}};
+        if (a.lens.size() > 12) {
+            const std::string deg = a.lens.substr(12);
+            char* end = nullptr;
+            const double v = std::strtod(deg.c_str(), &end);
+            if (deg.empty() || end != deg.c_str() + deg.size() || !std::isfinite(v))
+                throw InputError("--lens", "the command line",
+                                 "equidistant:DEG needs a number of degrees, not '" + deg + "'");
+            j["fov_deg"] = v;
+        }
+        scene.lensModelJson = j.dump();
+        scene.lensModelFile.clear();
+    } else if (!a.lens.empty()) {
         scene.lensModelFile = a.lens;
         scene.lensModelJson.clear();
     }
@@ -312,14 +356,21 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
     const scene::SceneAssets assets = scene::loadAssets(scene, g.threads, shading::info(scene.mode).readsMap);
     for (const std::string& n : assets.notes) info(g, n);
     const std::vector<camera::Pose> poses = scene::cameraPoses(scene, assets, frames);
+    const bool photographic = shading::info(scene.mode).photographic;
+    bool oneFace = false;  // the lens drawn in one wide face (its near plane is planar)
     std::unique_ptr<render::OffscreenSession> session;
     if (!a.reference) {
         session = std::make_unique<render::OffscreenSession>(scene, assets, scene.width, scene.height);
         info(g, "GL_RENDERER: " + session->glRendererName());
         if (lens) {
-            session->renderer().setLensRays(dataset::rayImage(*lens));
-            info(g, fmt::format("lens: {} {}x{}, drawn through a cube map of {}-pixel faces",
-                                dataset::lensModelName(lens->model), lens->width, lens->height,
+            // The photographic modes' frames end at the scope's mask: the
+            // rays beyond it are never seen.
+            image::ImageF rays = dataset::rayImage(*lens);
+            if (photographic) render::clipRaysToMask(rays, scene.params);
+            oneFace = render::drawnInOneFace(rays);
+            session->renderer().setLensRays(rays);
+            info(g, fmt::format("lens: {} {}x{}, drawn through {} of {} pixels", dataset::lensModelName(lens->model),
+                                lens->width, lens->height, oneFace ? "one wide face" : "a cube map with faces",
                                 session->renderer().cubeFaceSize()));
         }
     }
@@ -336,10 +387,10 @@ void renderSequence(const RenderArgs& a, const Global& g, const PlanShard* shard
     // along), cast into a tree of the mesh built once.
     std::optional<dataset::RayCaster> caster;
     if (lens && outputs.any()) caster.emplace(assets.mesh);
-    const bool photographic = shading::info(scene.mode).photographic;
     auto truthOf = [&](int i) {
         dataset::GroundTruth t =
-            caster ? dataset::groundTruth(*caster, *lens, cameraToWorld(i), scene.lens.nearMm, g.threads)
+            caster ? dataset::groundTruth(*caster, *lens, cameraToWorld(i), scene.lens.nearMm, g.threads,
+                                          oneFace ? dataset::NearClip::Planar : dataset::NearClip::CubeFaces)
                    : dataset::groundTruth(assets.mesh, K, cameraToWorld(i), scene.lens.nearMm, g.threads);
         // The scope's field-of-view mask is the camera's (camera.glsl): only
         // the photographic modes' frames go through it; the others (brdf,

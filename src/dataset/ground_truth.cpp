@@ -198,8 +198,8 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const frames::Intrinsics& K, con
     return t;
 }
 
-GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const frames::Mat4& c2w, double nearMm,
-                        int threads) {
+GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const frames::Mat4& c2w, double nearMm, int threads,
+                        NearClip clip) {
     const mesh::Mesh& mesh = caster.mesh();
     if (mesh.triangleCount() > (std::size_t{1} << 24))
         throw InputError("mesh", "ground truth",
@@ -232,9 +232,11 @@ GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const frames:
                 const Vec3d& d = *ray;
                 t.inView[static_cast<std::size_t>(y) * w + x] = 1;
                 if (!(d[2] > 0)) continue;  // 90 degrees or more from the axis: no planar depth
-                // The renderer draws a lens through a cube map whose faces clip
-                // at nearMm along their own axis: the ray's largest component.
-                const double axis = std::max({std::fabs(d[0]), std::fabs(d[1]), d[2]});
+                // The renderer's faces clip at nearMm along their own axis:
+                // a cube face's is the ray's largest component, the one wide
+                // face's the optical axis.
+                const double axis =
+                    clip == NearClip::Planar ? d[2] : std::max({std::fabs(d[0]), std::fabs(d[1]), d[2]});
                 const frames::Vec3d dir = frames::transformDirection(c2w, d);
                 const std::optional<Hit> hit = caster.firstHit(eye, dir, nearMm / axis);
                 if (!hit) continue;
@@ -245,8 +247,9 @@ GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const frames:
     return t;
 }
 
-GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const frames::Mat4& c2w, double nearMm, int threads) {
-    return groundTruth(RayCaster(mesh), lens, c2w, nearMm, threads);
+GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const frames::Mat4& c2w, double nearMm, int threads,
+                        NearClip clip) {
+    return groundTruth(RayCaster(mesh), lens, c2w, nearMm, threads, clip);
 }
 
 namespace {

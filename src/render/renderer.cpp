@@ -136,11 +136,15 @@ struct HdrTarget {
     }
 };
 
-// Rendering through a lens (Renderer::setLensRays): the faces of a cube map
-// around the camera that the rays reach, drawn by the surface pass (RGBA16F,
-// one depth buffer shared by the faces), and the rays as a texture.
+// Rendering through a lens (Renderer::setLensRays): the rays as a texture,
+// and what the surface pass draws for them (RGBA16F, one depth buffer): one
+// wide perspective face when every ray lies within kOneFaceMaxTan of the
+// axis (a bronchoscope's 120 degrees: one pass, as a pinhole), else the faces
+// of a cube map around the camera that the rays reach.
 struct LensTarget {
     GLuint cube = 0, depth = 0, fbo = 0, rays = 0;
+    GLuint plane = 0;    // the one wide face (2D texture), or 0: the cube
+    float planeTan = 0;  // the wide face's half-width and half-height: tan of its half-angle
     int faceSize = 0, width = 0, height = 0;
     std::array<bool, 6> faces{};  // GL_TEXTURE_CUBE_MAP_POSITIVE_X + i drawn
     // Each face's texels the rays (and their bilinear footprint) reach, as
@@ -153,9 +157,11 @@ struct LensTarget {
     void release() {
         if (fbo != 0) glDeleteFramebuffers(1, &fbo);
         if (cube != 0) glDeleteTextures(1, &cube);
+        if (plane != 0) glDeleteTextures(1, &plane);
         if (rays != 0) glDeleteTextures(1, &rays);
         if (depth != 0) glDeleteRenderbuffers(1, &depth);
-        fbo = cube = rays = depth = 0;
+        fbo = cube = plane = rays = depth = 0;
+        planeTan = 0;
         faceSize = width = height = 0;
         faces = {};
         rects = {};
@@ -420,6 +426,7 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
     glUseProgram(impl_->lens.remap.id);
     glUniform1i(glGetUniformLocation(impl_->lens.remap.id, "uFaces"), 0);
     glUniform1i(glGetUniformLocation(impl_->lens.remap.id, "uRays"), 1);
+    glUniform1i(glGetUniformLocation(impl_->lens.remap.id, "uPlane"), 2);
     glGenVertexArrays(1, &impl_->postVao);
     glGenVertexArrays(1, &impl_->vao);
     glGenBuffers(1, &impl_->vbo);
@@ -761,6 +768,127 @@ int lensFaceSize(const image::ImageF& rays) {
     return std::clamp(static_cast<int>(std::ceil(2.0 / std::max(smallest, 1e-6))), 16, 4096);
 }
 
+namespace {
+
+// The widest ray (OpenCV axes) from the axis as max(|x|, |y|) / z: the
+// half-width of the one square perspective face that holds every ray, or
+// infinity when a ray is 90 degrees or more from the axis.
+double widestRayTan(const image::ImageF& rays) {
+    double widest = 0;
+    for (int y = 0; y < rays.height(); ++y)
+        for (int x = 0; x < rays.width(); ++x) {
+            const double dx = rays.at(x, y, 0), dy = rays.at(x, y, 1), dz = rays.at(x, y, 2);
+            if (dx == 0 && dy == 0 && dz == 0) continue;
+            if (!(dz > 0)) return std::numeric_limits<double>::infinity();
+            widest = std::max(widest, std::max(std::abs(dx), std::abs(dy)) / dz);
+        }
+    return widest;
+}
+
+// The rays as the remap pass reads them: eye axes (OpenCV's y and z
+// negated), rows bottom-up as GL counts them, w = 1 where there is a ray.
+void uploadRays(LensTarget& t, const image::ImageF& rays) {
+    const int w = rays.width(), h = rays.height();
+    std::vector<float> texels(4 * static_cast<std::size_t>(w) * h, 0.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const glm::vec3 d(rays.at(x, y, 0), -rays.at(x, y, 1), -rays.at(x, y, 2));
+            if (glm::dot(d, d) == 0.0f) continue;
+            float* o = &texels[4 * (static_cast<std::size_t>(h - 1 - y) * w + x)];
+            o[0] = d.x, o[1] = d.y, o[2] = d.z, o[3] = 1.0f;
+        }
+    glGenTextures(1, &t.rays);
+    glBindTexture(GL_TEXTURE_2D, t.rays);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, texels.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+}
+
+// One wide perspective face holding every ray (max(|x|, |y|) / z <= widest):
+// square, symmetric about the axis, kOneFaceDensity texels per output pixel
+// where the rays are densest (unless `faceSize` says), the texels the rays
+// reach (plus their bilinear footprint) in rects[0].
+void makeOneFace(LensTarget& t, const image::ImageF& rays, double widest, int faceSize) {
+    const int w = rays.width(), h = rays.height();
+    if (faceSize <= 0) {
+        // lensFaceSize: a cube face (tan 1) with a texel per ray at the densest.
+        const double perTan = 0.5 * lensFaceSize(rays) * kOneFaceDensity;
+        faceSize = std::clamp(static_cast<int>(std::ceil(2.0 * std::max(widest, 1e-3) * perTan)) + 4, 16, 4096);
+    }
+    if (faceSize > 8192) throw InputError("lens", "", fmt::format("a face of {} pixels is too large", faceSize));
+    // Two texels to spare beyond the widest ray, for the bilinear footprint.
+    const double tanHalf = std::max(widest, 1e-3) * static_cast<double>(faceSize) / (faceSize - 4);
+    const std::uint64_t faceTexels = static_cast<std::uint64_t>(faceSize) * static_cast<std::uint64_t>(faceSize);
+    requireMemory(saturatingMul(faceTexels, 8 + 4) + saturatingMul(static_cast<std::uint64_t>(w) * h, 16),
+                  "the lens's face");
+    std::array<int, 4>& r = t.rects[0];
+    r = {faceSize, faceSize, 0, 0};
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double dz = rays.at(x, y, 2);
+            if (!(dz > 0)) continue;
+            const double s = (0.5 * rays.at(x, y, 0) / (dz * tanHalf) + 0.5) * faceSize;
+            const double u = (0.5 * -rays.at(x, y, 1) / (dz * tanHalf) + 0.5) * faceSize;  // GL's t grows up
+            r[0] = std::min(r[0], static_cast<int>(std::floor(s)) - 2);
+            r[1] = std::min(r[1], static_cast<int>(std::floor(u)) - 2);
+            r[2] = std::max(r[2], static_cast<int>(std::ceil(s)) + 2);
+            r[3] = std::max(r[3], static_cast<int>(std::ceil(u)) + 2);
+        }
+    r = {std::max(r[0], 0), std::max(r[1], 0), std::min(r[2], faceSize), std::min(r[3], faceSize)};
+    t.faces = {};
+    t.faces[0] = r[2] > r[0] && r[3] > r[1];
+    t.faceSize = faceSize;
+    t.planeTan = static_cast<float>(tanHalf);
+    t.width = w;
+    t.height = h;
+    uploadRays(t, rays);
+    glGenTextures(1, &t.plane);
+    glBindTexture(GL_TEXTURE_2D, t.plane);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, faceSize, faceSize, 0, GL_RGBA, GL_FLOAT, nullptr);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    glGenRenderbuffers(1, &t.depth);
+    glBindRenderbuffer(GL_RENDERBUFFER, t.depth);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, faceSize, faceSize);
+    glGenFramebuffers(1, &t.fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, t.fbo);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, t.depth);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, t.plane, 0);
+    const bool complete = glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    if (!complete) {
+        const GLuint remap = t.remap.id;
+        t.release();
+        t.remap.id = remap;
+        throw GraphicsError("framebuffer", "", "the lens's face (RGBA16F) is incomplete");
+    }
+}
+
+}  // namespace
+
+bool drawnInOneFace(const image::ImageF& rays) {
+    return widestRayTan(rays) <= kOneFaceMaxTan;
+}
+
+void clipRaysToMask(image::ImageF& rays, const shading::ParamSet& params) {
+    if (rays.empty() || params[shading::Param::Mask] == 0.0f) return;
+    shading::FrameSetup f;
+    f.width = rays.width();
+    f.height = rays.height();
+    f.params = params;
+    shading::glsl::Camera c = shading::glsl::packCamera(f, 1.0f);
+    // The mask widened by the point-spread function's reach and a pixel.
+    c.maskRadius += static_cast<float>(shading::glsl::kSoftRadius + 1) / (0.5f * std::min(c.width, c.height));
+    for (int y = 0; y < rays.height(); ++y)
+        for (int x = 0; x < rays.width(); ++x)
+            if (shading::glsl::fovMask(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f, c) <= 0.0f)
+                for (int k = 0; k < 3; ++k) rays.at(x, y, k) = 0.0f;
+}
+
 void Renderer::setLensRays(const image::ImageF& rays, int faceSize) {
     LensTarget& t = impl_->lens;
     const GLuint remap = t.remap.id;
@@ -768,22 +896,24 @@ void Renderer::setLensRays(const image::ImageF& rays, int faceSize) {
     t.remap.id = remap;
     if (rays.empty()) return;
     if (rays.channels() != 3) throw InputError("lens rays", "", "need 3 channels (x, y, z)");
+    const double widest = widestRayTan(rays);
+    if (widest <= kOneFaceMaxTan) {
+        makeOneFace(t, rays, widest, faceSize);
+        return;
+    }
     if (faceSize <= 0) faceSize = lensFaceSize(rays);
     if (faceSize > 8192) throw InputError("lens", "", fmt::format("cube faces of {} pixels are too large", faceSize));
     const int w = rays.width(), h = rays.height();
     const std::uint64_t faceTexels = static_cast<std::uint64_t>(faceSize) * static_cast<std::uint64_t>(faceSize);
     requireMemory(saturatingMul(faceTexels, 6 * 8 + 4) + saturatingMul(static_cast<std::uint64_t>(w) * h, 16),
                   "the lens's cube map");
-    // The rays in eye axes (OpenCV's y and z negated), rows bottom-up as GL
-    // counts them; and the faces they (or their bilinear footprint) reach.
-    std::vector<float> texels(4 * static_cast<std::size_t>(w) * h, 0.0f);
+    // The faces the rays (or their bilinear footprint) reach, in eye axes
+    // (OpenCV's y and z negated).
     const float edge = 1.0f - 2.0f / static_cast<float>(faceSize);
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             const glm::vec3 d(rays.at(x, y, 0), -rays.at(x, y, 1), -rays.at(x, y, 2));
             if (glm::dot(d, d) == 0.0f) continue;
-            float* o = &texels[4 * (static_cast<std::size_t>(h - 1 - y) * w + x)];
-            o[0] = d.x, o[1] = d.y, o[2] = d.z, o[3] = 1.0f;
             const glm::vec3 a = glm::abs(d);
             const float major = std::max({a.x, a.y, a.z});
             for (int k = 0; k < 3; ++k)
@@ -812,12 +942,7 @@ void Renderer::setLensRays(const image::ImageF& rays, int faceSize) {
     t.faceSize = faceSize;
     t.width = w;
     t.height = h;
-    glGenTextures(1, &t.rays);
-    glBindTexture(GL_TEXTURE_2D, t.rays);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, texels.data());
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    uploadRays(t, rays);
     glGenTextures(1, &t.cube);
     glBindTexture(GL_TEXTURE_CUBE_MAP, t.cube);
     for (int i = 0; i < 6; ++i)
@@ -856,9 +981,11 @@ float Renderer::lastExposure() const noexcept {
     return std::exp2(impl_->exposure.ev);
 }
 
-// Each face the rays reach: the frame's camera turned to the face, a 90
-// degree square frustum with the frame's near and far planes; then the
-// remap pass into the HDR target (develop) or the caller's framebuffer.
+// The one wide face (the frame's camera, a square frustum of half-width
+// planeTan), or each cube face the rays reach (the frame's camera turned to
+// the face, a 90 degree square frustum), with the frame's near and far
+// planes; then the remap pass into the HDR target (develop) or the caller's
+// framebuffer.
 void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& program, const shading::glsl::Frame& f,
                                      const shading::glsl::Material& m, const shading::ModeInfo& info, bool develop) {
     GLint target = 0, viewport[4] = {0, 0, 0, 0};
@@ -879,7 +1006,21 @@ void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& 
     proj[3][2] = -2.0f * farPlane * nearPlane / (farPlane - nearPlane);
     glBindFramebuffer(GL_FRAMEBUFFER, lens.fbo);
     glViewport(0, 0, lens.faceSize, lens.faceSize);
-    for (int i = 0; i < 6; ++i) {
+    if (lens.plane != 0) {
+        // The one wide face: the camera's own view, a square frustum of half-width planeTan.
+        glm::mat4 wide = proj;
+        wide[0][0] = wide[1][1] = 1.0f / lens.planeTan;
+        const std::array<int, 4>& r = lens.rects[0];
+        glEnable(GL_SCISSOR_TEST);
+        glScissor(r[0], r[1], r[2] - r[0], r[3] - r[1]);
+        setPipelineState(frame);
+        shading::glsl::Frame face = f;
+        face.viewProj = wide * face.view;
+        uploadUniforms(program, frame, face, m, info);
+        bindTextures(frame.specularAA);
+        drawVisibleChunks(face.viewProj);
+    }
+    for (int i = 0; i < 6 && lens.plane == 0; ++i) {
         if (!lens.faces[static_cast<std::size_t>(i)]) continue;
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0,
                                static_cast<GLenum>(GL_TEXTURE_CUBE_MAP_POSITIVE_X + i), lens.cube, 0);
@@ -906,6 +1047,9 @@ void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& 
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
     glUseProgram(lens.remap.id);
+    glUniform1f(glGetUniformLocation(lens.remap.id, "uPlaneTan"), lens.plane != 0 ? lens.planeTan : 0.0f);
+    glActiveTexture(GL_TEXTURE2);
+    glBindTexture(GL_TEXTURE_2D, lens.plane);
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_2D, lens.rays);
     glActiveTexture(GL_TEXTURE0);
@@ -914,6 +1058,9 @@ void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& 
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glBindVertexArray(0);
     glBindTexture(GL_TEXTURE_CUBE_MAP, 0);
+    glActiveTexture(GL_TEXTURE2);
+    glBindTexture(GL_TEXTURE_2D, 0);
+    glActiveTexture(GL_TEXTURE0);
     glEnable(GL_DEPTH_TEST);
     if (develop) developFrame(frame, target, viewport);
 }

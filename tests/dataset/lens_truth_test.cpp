@@ -251,6 +251,33 @@ TEST(LensTruth, APlaneThroughEveryLensIsExactAtEveryPixel) {
     }
 }
 
+// Near clipping where the renderer clips: a camera 0.6 mm above the z = 0
+// plane, looking along it. Through the one wide face (NearClip::Planar) no
+// hit is nearer than the near plane (planar depth >= 0.5 mm); a cube's side
+// face clips along its own axis, so rays steeply down see the plane nearer
+// than that, and the two agree within 45 degrees of the axis.
+TEST(LensTruth, NearClippingIsTheOneFacesPlaneOrEachCubeFacesAxis) {
+    const mesh::Mesh plane = mesh::makeQuad(400.0f, 8);
+    const dataset::Lens lens = dataset::equidistantFisheye(120, 120, 120.0, dataset::FieldOfViewSpan::Horizontal);
+    const frames::Mat4 c2w = frames::lookAtPose({0, 0, 0.6}, {0, 100, 0.6}, {0, 0, 1});
+    const dataset::GroundTruth planar = dataset::groundTruth(plane, lens, c2w, 0.5, 1, dataset::NearClip::Planar);
+    const dataset::GroundTruth cube = dataset::groundTruth(plane, lens, c2w, 0.5, 1, dataset::NearClip::CubeFaces);
+    int nearer = 0, agree = 0, within45 = 0;
+    for (int y = 0; y < lens.height; ++y)
+        for (int x = 0; x < lens.width; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * lens.width + x;
+            if (planar.valid[i]) EXPECT_GE(planar.depth.at(x, y), 0.5f) << x << "," << y;
+            if (cube.valid[i] && cube.depth.at(x, y) < 0.5f) ++nearer;
+            const auto ray = dataset::unproject(lens, x, y);
+            if (ray && (*ray)[2] >= std::max(std::abs((*ray)[0]), std::abs((*ray)[1]))) {
+                ++within45;
+                agree += planar.valid[i] == cube.valid[i];
+            }
+        }
+    EXPECT_GT(nearer, 50);
+    EXPECT_EQ(agree, within45);
+}
+
 TEST(LensTruth, ThePinholeThroughTheRayCasterIsTheRasterisedPinhole) {
     const mesh::Mesh sphere = mesh::makeSphere(30.0f, 96, 48);  // seen from inside
     const frames::Mat4 c2w = frames::lookAtPose({3, -2, 5}, {10, 4, -20}, {0, 1, 0});

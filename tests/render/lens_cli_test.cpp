@@ -95,6 +95,38 @@ TEST(LensCli, RenderDrawsThroughTheLensAndRecordsIt) {
     EXPECT_DOUBLE_EQ(ns["cx"].get<double>(), 48.0);
 }
 
+// The bronchoscope preset: an equidistant fisheye at the frame's size whose
+// image circle (the default mask: half the smaller side) spans 120 degrees,
+// or the degrees given; drawn in one wide face, its ground truth through the
+// same lens; the scene's form gives the same bytes.
+TEST(LensCli, TheEquidistantPresetIsABronchoscopesFisheyeAtTheFramesSize) {
+    test::TempDir dir;
+    test::RunResult r = test::runCli("render -o '" + (dir / "e.png").string() +
+                                     "' --size 96x72 --frames 2 --outputs rgb,mask --lens equidistant");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("lens: fisheye 96x72, drawn through one wide face"), std::string::npos) << r.out;
+    const nlohmann::json manifest = nlohmann::json::parse(test::readBytes(dir / "e.frames.json"));
+    EXPECT_EQ(manifest["lens"]["model"], "fisheye");
+    EXPECT_NEAR(manifest["lens"]["fx"].get<double>(), 36.0 / (M_PI / 3.0), 1e-9);
+    EXPECT_DOUBLE_EQ(manifest["lens"]["cx"].get<double>(), 47.5);
+    const image::PngImage mask = image::readPng(dir / "e_0001.mask.png"), rgb = image::readPng(dir / "e_0001.png");
+    EXPECT_GE(test::maskAgreesWithLitPixels(rgb, mask), 0.97);
+    std::ofstream(dir / "scene.json")
+        << R"({"mesh": "phantom", "resolution": [96, 72], "camera": {"lens": {"model": "equidistant", "fov_deg": 140}}})";
+    r = test::runCli("render '" + (dir / "scene.json").string() + "' -o '" + (dir / "s.png").string() + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = test::runCli("render -o '" + (dir / "c.png").string() + "' --size 96x72 --lens equidistant:140");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(test::readBytes(dir / "s.png"), test::readBytes(dir / "c.png"));
+    r = test::runCli("render -o '" + (dir / "bad.png").string() + "' --size 96x72 --lens equidistant:wide");
+    test::expectOneErrorLine(r, "--lens");
+    std::ofstream(dir / "bad.json")
+        << R"({"mesh": "phantom", "camera": {"lens": {"model": "equidistant", "fov_deg": 120, "fx": 3}}})";
+    r = test::runCli("render '" + (dir / "bad.json").string() + "' -o '" + (dir / "bad.png").string() + "'");
+    test::expectOneErrorLine(r, "camera.lens.fx");
+    EXPECT_FALSE(fs::exists(dir / "bad.png"));
+}
+
 TEST(LensCli, AnOmnidirectionalDatasetExportsItsTrajectoryOnly) {
     test::TempDir dir;
     std::ofstream(dir / "ocam.json")

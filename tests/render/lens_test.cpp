@@ -1,5 +1,6 @@
-// Rendering through a lens (Renderer::setLensRays): the frame drawn into a
-// cube map around the camera and resampled along every pixel's ray. Checked
+// Rendering through a lens (Renderer::setLensRays): the frame drawn into one
+// wide face (a lens within 70 degrees of its axis) or a cube map around the
+// camera, and resampled along every pixel's ray. Checked
 // on an analytic scene: a plane facing the camera whose texture coordinates
 // are its world position (the `uv` debug mode shows them, in a half-float
 // target), so every pixel says which point of the plane it sees; that point,
@@ -47,7 +48,7 @@ struct Reprojection {
 
 // Renders the plane through `lens` (or the pinhole frame when `rays` is
 // empty) and measures where the points it shows project back.
-Reprojection renderPlane(const dataset::Lens& lens, bool throughLens) {
+Reprojection renderPlane(const dataset::Lens& lens, bool throughLens, bool clipToMask = false) {
     test::glContext();
     render::Renderer renderer;
     mesh::Mesh plane = mesh::makeQuad(400.0f, 16);
@@ -55,7 +56,9 @@ Reprojection renderPlane(const dataset::Lens& lens, bool throughLens) {
         plane.uvs[i] = {plane.positions[i][0] / kPeriod, plane.positions[i][1] / kPeriod};
     renderer.setMesh(plane);
     const int w = lens.width, h = lens.height;
-    if (throughLens) renderer.setLensRays(dataset::rayImage(lens));
+    image::ImageF rays = dataset::rayImage(lens);
+    if (clipToMask) render::clipRaysToMask(rays, shading::ParamSet());  // the default circle: black beyond
+    if (throughLens) renderer.setLensRays(rays);
     const camera::Pose pose = camera::lookAt({0, 0, kPlaneDistance}, {0, 0, 0}, {0, 1, 0});
     camera::Lens pinhole;
     pinhole.fovDeg = 2.0f * static_cast<float>(std::atan(0.5 * std::max(w, h) / lens.fx) * 180.0 / M_PI);
@@ -74,6 +77,7 @@ Reprojection renderPlane(const dataset::Lens& lens, bool throughLens) {
         for (int x = 0; x < w; ++x) {
             const auto ray = dataset::unproject(lens, x, y), next = dataset::unproject(lens, x + 1, y);
             if (!ray || !next || (*ray)[2] < 0.25 || (*next)[2] < 0.25) continue;  // within ~75 degrees
+            if (rays.at(x, y, 2) == 0.0f) continue;                                // beyond the mask
             ++out.seen;
             // Where a pixel spans more than 1/8 of the pattern's period, its
             // sawtooth is not resolved (the frame is not supersampled).
@@ -116,7 +120,36 @@ TEST(LensRender, AFisheyeFrameShowsWhatItsModelSeesAtEveryPixel) {
     EXPECT_LE(r.p99, 0.1);
 }
 
-TEST(LensRender, AKannalaBrandtLensAndAPinholeThroughTheCubeAgreeWithTheirModels) {
+// A bronchoscope's fisheye, 120 degrees across its image circle: its corners
+// see 85 degrees out, but the scope's mask hides them, and without them it is
+// drawn in one wide face, as exactly as through the cube.
+TEST(LensRender, ABronchoscopesFisheyeIsDrawnInOneWideFace) {
+    const dataset::Lens scope = dataset::equidistantFisheye(200, 200, 120.0, dataset::FieldOfViewSpan::Horizontal);
+    image::ImageF rays = dataset::rayImage(scope);
+    EXPECT_FALSE(render::drawnInOneFace(rays));
+    render::clipRaysToMask(rays, shading::ParamSet());
+    EXPECT_TRUE(render::drawnInOneFace(rays));
+    // Only the corners beyond the circle (and the PSF's reach) lost their rays.
+    int kept = 0;
+    for (int y = 0; y < 200; ++y)
+        for (int x = 0; x < 200; ++x) {
+            const bool ray = rays.at(x, y, 2) != 0.0f;
+            kept += ray;
+            const double r = std::hypot(x + 0.5 - 100.0, y + 0.5 - 100.0);
+            if (r < 100.0) EXPECT_TRUE(ray) << x << ", " << y;
+            if (r > 104.0) EXPECT_FALSE(ray) << x << ", " << y;
+        }
+    EXPECT_NEAR(kept, M_PI * 102.0 * 102.0, 0.02 * M_PI * 102.0 * 102.0);
+    EXPECT_FALSE(render::drawnInOneFace(dataset::rayImage(dataset::equidistantFisheye(200, 160, 160.0))));
+    const Reprojection r = renderPlane(scope, true, true);
+    std::printf("equidistant fisheye 120 deg in one face: %zu pixels checked of %zu, rms %.3f px, p99 %.3f px\n",
+                r.checked, r.seen, r.rms, r.p99);
+    EXPECT_GT(r.checked, 0.3 * static_cast<double>(r.seen));
+    EXPECT_LE(r.rms, 0.05);
+    EXPECT_LE(r.p99, 0.1);
+}
+
+TEST(LensRender, AKannalaBrandtLensAndAPinholeThroughTheirFacesAgreeWithTheirModels) {
     dataset::Lens kb = dataset::equidistantFisheye(160, 120, 150.0);
     kb.k1 = -0.02, kb.k2 = 0.004, kb.k3 = -0.0005;
     dataset::validateLens(kb);
@@ -124,17 +157,17 @@ TEST(LensRender, AKannalaBrandtLensAndAPinholeThroughTheCubeAgreeWithTheirModels
     std::printf("Kannala-Brandt: %zu pixels checked, rms %.3f px, p99 %.3f px\n", r.checked, r.rms, r.p99);
     EXPECT_LE(r.rms, 0.05);
     EXPECT_LE(r.p99, 0.1);
-    // The renderer's own pinhole frame, through the cube and drawn directly.
+    // The renderer's own pinhole frame, through its rays (one wide face) and drawn directly.
     const dataset::Lens pin = dataset::fromIntrinsics(dataset::intrinsicsOf(camera::Lens{}, 160, 120));
-    const Reprojection cube = renderPlane(pin, true), direct = renderPlane(pin, false);
-    std::printf("pinhole: through the cube rms %.3f px, p99 %.3f; drawn directly rms %.3f, p99 %.3f\n", cube.rms,
-                cube.p99, direct.rms, direct.p99);
-    EXPECT_LE(cube.rms, 0.05);
+    const Reprojection face = renderPlane(pin, true), direct = renderPlane(pin, false);
+    std::printf("pinhole: through one face rms %.3f px, p99 %.3f; drawn directly rms %.3f, p99 %.3f\n", face.rms,
+                face.p99, direct.rms, direct.p99);
+    EXPECT_LE(face.rms, 0.05);
     EXPECT_LE(direct.rms, 0.05);
 }
 
 // A photographic mode through the camera (exposure, noise, mask): the
-// pinhole's own rays through the cube give the pinhole frame.
+// pinhole's own rays (one wide face) give the pinhole frame.
 TEST(LensRender, APhotographicFrameThroughThePinholesRaysIsThePinholeFrame) {
     test::glContext();
     render::Renderer renderer;

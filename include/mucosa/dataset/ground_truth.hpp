@@ -125,10 +125,12 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const frames::Intrinsics& K, con
 // (unproject, double precision) is cast from the camera centre into the
 // mesh (raycast.hpp: the first triangle it meets, watertight, in double
 // precision), so every output is that triangle's at the ray's own hit.
-//  - Near clipping: a hit counts from nearMm along the axis of the cube-map
-//    face the ray falls in (t max(|x|, |y|, z) >= nearMm for the unit ray),
-//    where the renderer's cube faces clip it; for rays within 45 degrees of
-//    the optical axis that is planar z >= nearMm, the pinhole's near plane.
+//  - Near clipping, where the renderer clips (render::drawnInOneFace):
+//    NearClip::CubeFaces, a hit counts from nearMm along the axis of the
+//    cube-map face the ray falls in (t max(|x|, |y|, z) >= nearMm for the
+//    unit ray); NearClip::Planar (the renderer's one wide face), from the
+//    plane z = nearMm, the pinhole's near plane. For rays within 45 degrees
+//    of the optical axis the two agree.
 //  - Depth stays planar: the hit's z along the optical axis (not the ray's
 //    length), as the pinhole's. A ray 90 degrees or more from the axis
 //    (z <= 0: a fisheye wider than 180 degrees) has no planar depth: its
@@ -142,10 +144,11 @@ GroundTruth groundTruth(const mesh::Mesh& mesh, const frames::Intrinsics& K, con
 // mesh builds one per call (0.1 s for the phantom's 140k triangles). Throws
 // InputError for a mesh of more than 2^24 triangles, ResourceError when the
 // buffers would not fit in memory.
+enum class NearClip { CubeFaces, Planar };
 GroundTruth groundTruth(const RayCaster& caster, const Lens& lens, const frames::Mat4& cameraToWorld, double nearMm,
-                        int threads = 0);
+                        int threads = 0, NearClip clip = NearClip::CubeFaces);
 GroundTruth groundTruth(const mesh::Mesh& mesh, const Lens& lens, const frames::Mat4& cameraToWorld, double nearMm,
-                        int threads = 0);
+                        int threads = 0, NearClip clip = NearClip::CubeFaces);
 
 // Fills `current.flow`: each pixel's surface point projected into the
 // previous frame's camera (exact: from the depth and the two poses, not

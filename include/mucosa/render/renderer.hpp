@@ -19,6 +19,24 @@ enum class TextureSlot { Diffuse, Reflectance, Highlight };
 // between neighbouring rays of `rays` (Renderer::setLensRays), 16..4096.
 int lensFaceSize(const image::ImageF& rays);
 
+// Through a lens whose every ray lies within kOneFaceMaxTan of the axis
+// (max(|x|, |y|) / z <= 2.75: 70 degrees along the image's axes), the
+// renderer draws one wide perspective face, in one pass as a pinhole frame,
+// with kOneFaceDensity of a texel per output pixel where the rays are
+// densest (the frame is softer than that anyway: camera.softness_px); wider
+// lenses go through a cube map. A face clips at the near plane along the
+// optical axis, the cube's along each face's own axis
+// (dataset::NearClip).
+inline constexpr double kOneFaceMaxTan = 2.75;
+inline constexpr double kOneFaceDensity = 0.6;
+bool drawnInOneFace(const image::ImageF& rays);
+
+// Removes the rays of the pixels the scope's field-of-view mask
+// (camera.mask, camera.mask_radius of `params`) blacks out, keeping those
+// within the optics' point-spread reach of the field: they are never seen,
+// and a 120-degree fisheye's corners would otherwise need a cube map.
+void clipRaysToMask(image::ImageF& rays, const shading::ParamSet& params);
+
 class Renderer {
 public:
     Renderer();  // needs a current context; throws GraphicsError if a shader fails
