@@ -1,4 +1,4 @@
-// Dataset throughput (issue 17): frames per second of `mucosa render
+// Dataset throughput: frames per second of `mucosa render
 // --outputs` with every ground-truth output against the colour frame alone,
 // at 640x480 and 1350x1080 (C3VD's size), on the default scene (the
 // phantom, 141 k triangles), and where the time goes: the GL frame (draw and

@@ -1,4 +1,4 @@
-// Closed loop (issue 17): a dataset rendered in the brdf mode with known
+// Closed loop: a dataset rendered in the brdf mode with known
 // c0..c3, d1..d3 goes through `mucosa fit` unchanged and gives them back.
 // Everything through the CLI, as a user would run it:
 //   mucosa render scene.json --mode brdf --set brdf.c0=... --outputs rgb -o frames/f.png --frames N

@@ -1,4 +1,4 @@
-// The fit on a bronchoscope's lamp (issue 16): ten frames down the phantom's
+// The fit on a bronchoscope's lamp: ten frames down the phantom's
 // trachea towards the carina, lit by an inverse-square lamp at the camera, so
 // that the far lumen is dark. No cubic delta(r) fits 1 / z^2 over 3-100 mm; the
 // unconstrained one swings back up at the far end and lights what the real
