@@ -816,6 +816,7 @@ void makeOneFace(LensTarget& t, const image::ImageF& rays, double widest, int fa
         const double perTan = 0.5 * lensFaceSize(rays) * kOneFaceDensity;
         faceSize = std::clamp(static_cast<int>(std::ceil(2.0 * std::max(widest, 1e-3) * perTan)) + 4, 16, 4096);
     }
+    faceSize = std::max(faceSize, 16);
     if (faceSize > 8192) throw InputError("lens", "", fmt::format("a face of {} pixels is too large", faceSize));
     // Two texels to spare beyond the widest ray, for the bilinear footprint.
     const double tanHalf = std::max(widest, 1e-3) * static_cast<double>(faceSize) / (faceSize - 4);
@@ -1006,7 +1007,7 @@ void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& 
     proj[3][2] = -2.0f * farPlane * nearPlane / (farPlane - nearPlane);
     glBindFramebuffer(GL_FRAMEBUFFER, lens.fbo);
     glViewport(0, 0, lens.faceSize, lens.faceSize);
-    if (lens.plane != 0) {
+    if (lens.plane != 0 && lens.faces[0]) {
         // The one wide face: the camera's own view, a square frustum of half-width planeTan.
         glm::mat4 wide = proj;
         wide[0][0] = wide[1][1] = 1.0f / lens.planeTan;

@@ -197,6 +197,25 @@ TEST(LensRender, APhotographicFrameThroughThePinholesRaysIsThePinholeFrame) {
     if (d.meanAbs > 2.0) test::writeComparison("lens_pinhole_cube", cube, direct);
 }
 
+// A lens whose every ray the mask removed sees nothing: a black frame.
+TEST(LensRender, RaysThatSeeNothingGiveABlackFrame) {
+    test::glContext();
+    render::Renderer renderer;
+    renderer.setMesh(mesh::makeQuad(10.0f, 2));
+    renderer.setLensRays(image::ImageF(40, 30, 3));
+    shading::FrameSetup f;
+    f.view = camera::viewMatrix(camera::lookAt({0, 0, 5}, {0, 0, 0}));
+    f.projection = camera::projectionMatrix(camera::Lens{}, 40, 30);
+    f.mode = shading::Mode::Uv;
+    f.width = 40;
+    f.height = 30;
+    render::Framebuffer fb(40, 30);
+    fb.bind();
+    renderer.draw(f);
+    const image::Image8 img = fb.readRgb();
+    EXPECT_EQ(std::count(img.data(), img.data() + img.size(), std::uint8_t{0}), static_cast<long>(img.size()));
+}
+
 TEST(LensRender, RaysForAnotherSizeAreRefused) {
     test::glContext();
     render::Renderer renderer;

@@ -63,11 +63,14 @@ public:
     // "Lens models"). `rays` holds every output pixel's ray: a unit vector in
     // the camera's frame with OpenCV axes (x right, y down, z forward; row 0
     // the image's top row), or (0, 0, 0) where the lens sees nothing (black).
-    // draw() then renders the faces of a cube map around the camera that the
-    // rays reach, `faceSize` pixels square (0: lensFaceSize(rays), a texel per
-    // output pixel where the rays are densest), and resamples it along each
-    // ray (bilinear, seamless across faces); the camera (exposure, noise,
-    // mask) develops the result as it does a pinhole frame. The frame's
+    // draw() then renders one wide face along the camera's axis when every
+    // ray lies within kOneFaceMaxTan of it (drawnInOneFace), else the faces of
+    // a cube map around the camera that the rays reach, `faceSize` pixels
+    // square (0: a texel per output pixel where the rays are densest,
+    // lensFaceSize(rays), times kOneFaceDensity for the one face), and
+    // resamples it along each ray (bilinear, seamless across a cube's faces);
+    // the camera (exposure, noise, mask) develops the result as it does a
+    // pinhole frame. The frame's
     // projection matrix gives only the near and far planes; its size must be
     // the rays'. Empty `rays`: back to the pinhole. Throws InputError for
     // rays that are not 3-channel, ResourceError before allocating what does
