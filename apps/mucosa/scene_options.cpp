@@ -23,9 +23,9 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
                   "Specular anti-aliasing: on (Toksvig on the map's mips; octave fade procedurally) or off (the "
                   "full-resolution map, every octave) [on, or the scene's specular_aa]");
     c->add_option("--variation", o.variation,
-                  "Patient variation: draw tissue colour, vessels, mucus and exposure for patient SEED (a whole "
-                  "number; 0 = the default look; ranges: docs/theory.md, \"Patient variation\") [0, or the scene's "
-                  "variation]");
+                  "Patient variation: draw tissue colour, vessels, mucus, exposure and the scope's softness, noise and "
+                  "glare for patient SEED (a whole number; 0 = the default look; ranges: docs/theory.md, \"Patient "
+                  "variation\") [0, or the scene's variation]");
     c->add_option("--set", o.sets,
                   "Override a parameter, e.g. --set material.shininess=80 or --set reflectance_map.frequency=32 "
                   "(repeatable; reflectance_map takes the keys of a scene's \"reflectance_map\" object and applies to "
