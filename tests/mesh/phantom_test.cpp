@@ -110,7 +110,8 @@ RidgeFit fitRidges(const std::vector<TracheaSample>& samples, const mesh::TubeRi
         double mx = 0, my = 0;
         for (auto [x, y] : v) mx += x, my += y;
         mx /= double(v.size()), my /= double(v.size());
-        for (auto [x, y] : v) centred.push_back({x - mx, y - my}), sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
+        for (auto [x, y] : v)
+            centred.push_back({x - mx, y - my}), sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
     }
     RidgeFit f;
     f.slope = sxx > 0 ? sxy / sxx : 0;
@@ -175,8 +176,9 @@ TEST(Phantom, RingsAreIrregular) {
     for (double g : gaps) mean += g / double(gaps.size());
     for (double g : gaps) var += (g - mean) * (g - mean) / double(gaps.size());
     const double cv = std::sqrt(var) / mean;
-    std::printf("trachea: %zu rings, spacing %.2f mm (CV %.2f), heights %.2f-%.2f, tilt up to %.2f mm, gap %.2f..%.2f\n",
-                t.rings.size(), mean, cv, hmin, hmax, tiltMax, gapLo, gapHi);
+    std::printf(
+        "trachea: %zu rings, spacing %.2f mm (CV %.2f), heights %.2f-%.2f, tilt up to %.2f mm, gap %.2f..%.2f\n",
+        t.rings.size(), mean, cv, hmin, hmax, tiltMax, gapLo, gapHi);
     EXPECT_NEAR(mean, 5.0, 0.5);
     EXPECT_GT(cv, 0.1);
     EXPECT_LT(cv, 0.3);
