@@ -54,6 +54,14 @@ MUCOSA_CONSTEXPR bool modeIsPhotographic(int mode) {
     return mode == kModeNoise || mode == kModeVertexPhong || mode == kModeMultitexture || mode == kModeDiffuse ||
            mode == kModeProcedural || mode == kModeClearcoat || mode == kModeClearcoatProcedural;
 }
+// The modes whose body light scatters under the surface (scatter.glsl): the
+// photographic modes with a separate white specular. Not the clear coat, a
+// glTF engine's material, which has no scattering: its diffuse base and coat
+// stay in one colour.
+MUCOSA_CONSTEXPR bool modeScatters(int mode) {
+    return mode == kModeNoise || mode == kModeVertexPhong || mode == kModeMultitexture || mode == kModeDiffuse ||
+           mode == kModeProcedural;
+}
 // The largest finite half float: the camera's HDR target (RGBA16F) holds no more.
 const float kHalfMax = 65504.0f;
 // Noise evaluated per pixel (procedural_noise.glsl) instead of the map.
@@ -486,8 +494,12 @@ float specularGate(Varyings v) {
 // the fitted modes read it as it is). Returns linear radiance for the
 // photographic modes (shading::ModeInfo::photographic: the camera,
 // camera.glsl, comes next), display values in [0, 1] for the others.
-vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight, float footprint, Material m,
-                    Procedural pr, Frame f, int mode) {
+// Split in two (tissueFragment adds them): rgb, the body's light, which the
+// modes that scatter (modeScatters) diffuse under the surface (scatter.glsl);
+// a, the white light the mucus film reflects. The other modes return
+// everything in rgb.
+vec4 tissueFragmentParts(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight, float footprint, Material m,
+                         Procedural pr, Frame f, int mode) {
     vec3 albedo = mucusAlbedo(srgbToLinear3(albedoTex) * m.baseColor * v.tint, m);
     float ambientE = ambientIrradiance(m);
     vec3 mapRgb = vec3(mapSample);
@@ -497,7 +509,7 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
         float spec = methodSpecular(Nm, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt),
                                     mapSampleVariance(mapSample, m, f), m.shininess);
-        return albedo * (ambientE + v.diffuseLight) + vec3((v.specular * spec + v.sheen) * specularGate(v));
+        return vec4(albedo * (ambientE + v.diffuseLight), (v.specular * spec + v.sheen) * specularGate(v));
     }
     if (mode == kModeProcedural || mode == kModeProceduralNormals || mode == kModeClearcoatProcedural) {
         // The noise gradient as a surface gradient (Mikkelsen 2010): the
@@ -514,9 +526,11 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             // the map's normals are made (reflectance::encodeNormals8).
             vec3 Nt = normalize(vec3(-(slope * s.h.y), slope * s.h.z, 1.0f));
             if (mode == kModeProceduralNormals)
-                return normalize(Nt.x * v.T + Nt.y * v.B + Nt.z * v.N) * 0.5f + vec3(0.5f);
-            if (mode == kModeClearcoatProcedural)
-                return clearcoatFragment(albedo, normalize(Nt.x * v.T + Nt.y * v.B + Nt.z * v.N), v, ambientE, m, f);
+                return vec4(normalize(Nt.x * v.T + Nt.y * v.B + Nt.z * v.N) * 0.5f + vec3(0.5f), 0.0f);
+            if (mode == kModeClearcoatProcedural) {
+                vec3 Nc = normalize(Nt.x * v.T + Nt.y * v.B + Nt.z * v.N);
+                return vec4(clearcoatFragment(albedo, Nc, v, ambientE, m, f), 0.0f);
+            }
             specP = methodSpecular(Nt, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt), sigma2, m.shininess);
         } else {
             // Solid noise h(P) = strength scale H(P / scale): grad h =
@@ -524,12 +538,12 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
             vec3 N = normalize(v.N);
             vec3 g = vec3(s.h.y, s.h.z, s.h.w) * slope;
             vec3 Np = normalize(N - (g - N * dot(N, g)));
-            if (mode == kModeProceduralNormals) return Np * 0.5f + vec3(0.5f);
-            if (mode == kModeClearcoatProcedural) return clearcoatFragment(albedo, Np, v, ambientE, m, f);
+            if (mode == kModeProceduralNormals) return vec4(Np * 0.5f + vec3(0.5f), 0.0f);
+            if (mode == kModeClearcoatProcedural) return vec4(clearcoatFragment(albedo, Np, v, ambientE, m, f), 0.0f);
             specP = methodSpecular(Np, normalize(MUCOSA_LIGHT_POSITION(f) - v.P), normalize(f.eye - v.P), sigma2,
                                    m.shininess);
         }
-        return albedo * (ambientE + v.diffuseLight) + vec3((v.specular * specP + v.sheen) * specularGate(v));
+        return vec4(albedo * (ambientE + v.diffuseLight), (v.specular * specP + v.sheen) * specularGate(v));
     }
     if (mode == kModeClearcoat) {
         // The map's normal in the tangent frame is the coat's. With specular
@@ -537,37 +551,44 @@ vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight,
         // mipmapped normal texture; glTF has no lobe widening, so the mips'
         // slope variance is unused.
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
-        return clearcoatFragment(albedo, normalize(Nm.x * v.T + Nm.y * v.B + Nm.z * v.N), v, ambientE, m, f);
+        return vec4(clearcoatFragment(albedo, normalize(Nm.x * v.T + Nm.y * v.B + Nm.z * v.N), v, ambientE, m, f),
+                    0.0f);
     }
     if (mode == kModeDiffuse) {
-        return albedo * (ambientE + v.diffuseLight);
+        return vec4(albedo * (ambientE + v.diffuseLight), 0.0f);
     }
     if (mode == kModeBrdf) {
-        return albedoTex * v.diffuseLight;
+        return vec4(albedoTex * v.diffuseLight, 0.0f);
     }
     if (mode == kModeBrdfNoise) {
         vec3 Nb = decodeReflectanceNormal(mapRgb, m.bumpScale);
         float specB = methodSpecular(Nb, normalize(MUCOSA_LIGHT_T(v)), normalize(v.Vt),
                                      mapSampleVariance(mapSample, m, f), m.shininess);
-        return albedoTex * v.diffuseLight + vec3(v.specular * specB * specularGate(v));
+        return vec4(albedoTex * v.diffuseLight, v.specular * specB * specularGate(v));
     }
     if (mode == kModeVertexPhong) {
-        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * specularGate(v));
+        return vec4(albedo * (ambientE + v.diffuseLight), v.specular * specularGate(v));
     }
     if (mode == kModeMultitexture) {
-        return albedo * (ambientE + v.diffuseLight) + vec3(v.specular * highlight * specularGate(v));
+        return vec4(albedo * (ambientE + v.diffuseLight), v.specular * highlight * specularGate(v));
     }
     if (mode == kModeNormals) {
         vec3 Nm = decodeReflectanceNormal(mapRgb, m.bumpScale);
         vec3 Nw = normalize(Nm.x * v.T + Nm.y * v.B + Nm.z * v.N);
-        return Nw * 0.5f + vec3(0.5f);
+        return vec4(Nw * 0.5f + vec3(0.5f), 0.0f);
     }
     if (mode == kModeTangents) {
-        return normalize(v.T) * 0.5f + vec3(0.5f);
+        return vec4(normalize(v.T) * 0.5f + vec3(0.5f), 0.0f);
     }
     if (mode == kModeUv) {
-        return vec3(fract(v.uv.x), fract(v.uv.y), 0.0f);
+        return vec4(fract(v.uv.x), fract(v.uv.y), 0.0f, 0.0f);
     }
     float r = depthRatio(length(v.Vt), m.depthMin, m.depthMax);
-    return vec3(1.0f - r);
+    return vec4(vec3(1.0f - r), 0.0f);
+}
+
+vec3 tissueFragment(Varyings v, vec3 albedoTex, vec4 mapSample, float highlight, float footprint, Material m,
+                    Procedural pr, Frame f, int mode) {
+    vec4 parts = tissueFragmentParts(v, albedoTex, mapSample, highlight, footprint, m, pr, f, mode);
+    return vec3(parts) + vec3(parts.w);
 }

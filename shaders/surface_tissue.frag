@@ -12,6 +12,7 @@ uniform Procedural uProcedural;
 uniform sampler2D uDiffuse;      // subject texture (RGB)
 uniform sampler2D uReflectance;  // reflectance map, rgb = 0.5 N + 0.5, a = slope deviation (mips)
 uniform sampler2D uHighlight;    // multitexture: sphere-mapped highlight (R)
+uniform int uSplit;              // 1: the body light in rgb, the specular in alpha (scatter.frag reads them)
 
 out vec4 fragColor;
 
@@ -37,9 +38,12 @@ void main() {
     }
     if (modeReadsHighlight(MUCOSA_MODE))
         highlight = texture(uHighlight, v.sphereUv).r;
-    vec3 color =
-        tissueFragment(v, albedoTex, mapSample, highlight, footprint, uMaterial, uProcedural, uFrame, MUCOSA_MODE);
+    vec4 parts =
+        tissueFragmentParts(v, albedoTex, mapSample, highlight, footprint, uMaterial, uProcedural, uFrame, MUCOSA_MODE);
     // Linear radiance for the camera's HDR target or a float framebuffer, or
     // display values (an RGBA8 target clamps them to [0, 1]).
-    fragColor = vec4(clamp(color, 0.0f, kHalfMax), 1.0f);
+    if (uSplit != 0)
+        fragColor = clamp(parts, 0.0f, kHalfMax);
+    else
+        fragColor = vec4(clamp(parts.rgb + vec3(parts.a), 0.0f, kHalfMax), 1.0f);
 }

@@ -3,8 +3,8 @@
 //              [--light-offset X,Y,Z]  (mm in the camera's frame; default: the scene's, the default
 //                                       scene's is 0: the light at the eye, the renderer's headlight programs)
 // A mode may carry "@bare": the mode without the endoscope's camera and the
-// wet film (camera.* at identity, so no HDR target or post pass; no sheen or
-// wrap): the frame as it was drawn before the camera existed, the peer of the
+// wet film (camera.* at identity, so no HDR target or post pass; no sheen,
+// wrap or scattering): the frame as it was drawn before the camera existed, the peer of the
 // default look's cost ("noise" vs "noise@bare").
 // Frames per second of each shading mode, headless: every frame is drawn and
 // finished with glFinish (no read-back), along the scene's camera path, after
@@ -120,6 +120,7 @@ int main(int argc, char** argv) try {
                         shading::setCameraIdentity(f.params);
                         f.params.set(P::SheenStrength, 0.0f);
                         f.params.set(P::Wrap, 0.0f);
+                        f.params.set(P::ScatterShare, 0.0f);
                     }
                     return f;
                 };

@@ -14,6 +14,7 @@
 #include <mucosa/mesh/tangents.hpp>
 #include <mucosa/reflectance/specular_mips.hpp>
 #include <mucosa/render/context.hpp>
+#include <mucosa/shading/scatter.hpp>
 
 #include "render/embedded_shaders.hpp"
 #include "render/gl.hpp"
@@ -31,6 +32,7 @@ struct Program {
     UniformBlock frame, material;  // uFrame, uMaterial (render/uniforms.hpp)
     ProceduralUniforms procedural;
     std::uint64_t permutationVersion = 0;  // Impl's version of the tables in uPerm, uPermSlice; 0: none yet
+    GLint split = -1;                      // uSplit: body light and specular apart, for the scattering
 };
 
 // Texture units of the samplers.
@@ -52,6 +54,7 @@ Program link(int mode, const std::string& defines = "") {
     p.frame = UniformBlock(p.id, frameUniforms());
     p.material = UniformBlock(p.id, materialUniforms());
     p.procedural = ProceduralUniforms(p.id);
+    p.split = glGetUniformLocation(p.id, "uSplit");
     glUseProgram(p.id);
     for (std::size_t unit = 0; unit < kSamplers.size(); ++unit)
         glUniform1i(glGetUniformLocation(p.id, kSamplers[unit]), static_cast<GLint>(unit));
@@ -82,9 +85,34 @@ PostProgram linkCameraPass(const char* frag, const char* name) {
     return p;
 }
 
+// A depth buffer the scattering passes can read (scatter.frag): a 24-bit
+// depth texture, sampled texel by texel.
+GLuint makeDepthTexture(int w, int h) {
+    GLuint id = 0;
+    glGenTextures(1, &id);
+    glBindTexture(GL_TEXTURE_2D, id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, w, h, 0, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, nullptr);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    return id;
+}
+
+// An RGBA16F texture of w x h texels, sampled texel by texel.
+GLuint makeHalfTexture(int w, int h) {
+    GLuint id = 0;
+    glGenTextures(1, &id);
+    glBindTexture(GL_TEXTURE_2D, id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_FLOAT, nullptr);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    return id;
+}
+
 // The surface pass's target for the photographic modes: linear radiance in
 // half floats (RGBA16F: renderable on every GL 3.3 implementation), a depth
-// buffer, and the auto-exposure meter's kMeterGrid^2 target.
+// texture, and the auto-exposure meter's kMeterGrid^2 target.
 struct HdrTarget {
     GLuint fbo = 0, color = 0, depth = 0;
     GLuint meterFbo = 0, meterColor = 0;
@@ -98,18 +126,11 @@ struct HdrTarget {
         requireMemory(saturatingMul(saturatingMul(static_cast<std::uint64_t>(w), static_cast<std::uint64_t>(h)), 12),
                       "the camera's HDR target");
         glGenFramebuffers(1, &fbo);
-        glGenTextures(1, &color);
-        glBindTexture(GL_TEXTURE_2D, color);
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_FLOAT, nullptr);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-        glGenRenderbuffers(1, &depth);
-        glBindRenderbuffer(GL_RENDERBUFFER, depth);
-        glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+        color = makeHalfTexture(w, h);
+        depth = makeDepthTexture(w, h);
         glBindFramebuffer(GL_FRAMEBUFFER, fbo);
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, color, 0);
-        glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, depth, 0);
         if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
             throw GraphicsError("framebuffer", "", "the HDR target (RGBA16F) is incomplete");
         glGenFramebuffers(1, &meterFbo);
@@ -130,8 +151,90 @@ struct HdrTarget {
         if (meterFbo != 0) glDeleteFramebuffers(1, &meterFbo);
         if (color != 0) glDeleteTextures(1, &color);
         if (meterColor != 0) glDeleteTextures(1, &meterColor);
-        if (depth != 0) glDeleteRenderbuffers(1, &depth);
+        if (depth != 0) glDeleteTextures(1, &depth);
         fbo = color = depth = meterFbo = meterColor = 0;
+        width = height = 0;
+    }
+};
+
+// A float texture of w x h texels, sampled texel by texel.
+GLuint makeFloatTexture(int w, int h) {
+    GLuint id = 0;
+    glGenTextures(1, &id);
+    glBindTexture(GL_TEXTURE_2D, id);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, nullptr);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    return id;
+}
+
+// The sub-surface scattering's passes (scatter.frag): the program, the
+// kernel of the distances it last served, its targets (grown to the largest
+// image they have served): the two half-size images (RGBA32F: rgb and the
+// eye depth) and a copy of the image the passes read (RGBA16F), and the
+// framebuffers. The last pass writes through `finalFbo`, which has no depth,
+// so the depth texture the passes read is never attached where they draw.
+struct ScatterPass {
+    GLuint program = 0;
+    GLuint halfA = 0, halfB = 0, kept = 0;
+    GLuint fboA = 0, fboB = 0, keptFbo = 0, readFbo = 0, finalFbo = 0;
+    int width = 0, height = 0;  // full size
+    std::array<float, 3> distances{-1.0f, -1.0f, -1.0f};
+    GLint rect = -1, pass = -1, focal = -1, projection = -1, share = -1;
+
+    void link() {
+        program = linkProgram("#version 330 core\n" + std::string(shaderSource("camera_post.vert")),
+                              "#version 330 core\n" + std::string(shaderSource("scatter.glsl")) +
+                                  std::string(shaderSource("scatter.frag")),
+                              "scatter");
+        glUseProgram(program);
+        glUniform1i(glGetUniformLocation(program, "uSource"), 0);
+        glUniform1i(glGetUniformLocation(program, "uDepth"), 1);
+        glUniform1i(glGetUniformLocation(program, "uHalf"), 2);
+        rect = glGetUniformLocation(program, "uRect");
+        pass = glGetUniformLocation(program, "uPass");
+        focal = glGetUniformLocation(program, "uFocalPx");
+        projection = glGetUniformLocation(program, "uProjection");
+        share = glGetUniformLocation(program, "uShare");
+        for (GLuint* f : {&fboA, &fboB, &keptFbo, &readFbo, &finalFbo}) glGenFramebuffers(1, f);
+    }
+    void setKernel(const std::array<float, 3>& d) {
+        if (d == distances) return;
+        const shading::ScatterKernel k = shading::scatterKernel(d);
+        glUseProgram(program);
+        glUniform1fv(glGetUniformLocation(program, "uOffsetMm"), shading::kScatterTaps, k.offsetMm.data());
+        glUniform3fv(glGetUniformLocation(program, "uWeight"), shading::kScatterTaps, k.weight[0].data());
+        distances = d;
+    }
+    static void attach(GLuint fbo, GLuint tex, const char* what) {
+        glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, tex, 0);
+        if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+            throw GraphicsError("framebuffer", "", fmt::format("the scattering's {} is incomplete", what));
+    }
+    void ensure(int w, int h) {
+        if (kept != 0 && w <= width && h <= height) return;
+        for (GLuint* t : {&halfA, &halfB, &kept})
+            if (*t != 0) glDeleteTextures(1, t), *t = 0;
+        width = std::max(w, width), height = std::max(h, height);
+        const std::uint64_t pixels = static_cast<std::uint64_t>(width) * static_cast<std::uint64_t>(height);
+        requireMemory(saturatingMul(pixels, 8 + 2 * 16 / 4 + 16), "the scattering's targets");
+        const int hw = (width + 1) / 2, hh = (height + 1) / 2;
+        halfA = makeFloatTexture(hw, hh);
+        halfB = makeFloatTexture(hw, hh);
+        kept = makeHalfTexture(width, height);
+        attach(fboA, halfA, "half-size target");
+        attach(fboB, halfB, "half-size target");
+        attach(keptFbo, kept, "copy");
+    }
+    void release() {
+        if (program != 0) glDeleteProgram(program);
+        for (GLuint* f : {&fboA, &fboB, &keptFbo, &readFbo, &finalFbo})
+            if (*f != 0) glDeleteFramebuffers(1, f), *f = 0;
+        for (GLuint* t : {&halfA, &halfB, &kept})
+            if (*t != 0) glDeleteTextures(1, t), *t = 0;
+        program = 0;
         width = height = 0;
     }
 };
@@ -144,6 +247,7 @@ struct HdrTarget {
 struct LensTarget {
     GLuint cube = 0, depth = 0, fbo = 0, rays = 0;
     GLuint plane = 0;    // the one wide face (2D texture), or 0: the cube
+    GLuint flat = 0;     // the cube's faces when they scatter: drawn here, scattered into the cube (2D texture)
     float planeTan = 0;  // the wide face's half-width and half-height: tan of its half-angle
     int faceSize = 0, width = 0, height = 0;
     std::array<bool, 6> faces{};  // GL_TEXTURE_CUBE_MAP_POSITIVE_X + i drawn
@@ -158,9 +262,10 @@ struct LensTarget {
         if (fbo != 0) glDeleteFramebuffers(1, &fbo);
         if (cube != 0) glDeleteTextures(1, &cube);
         if (plane != 0) glDeleteTextures(1, &plane);
+        if (flat != 0) glDeleteTextures(1, &flat);
         if (rays != 0) glDeleteTextures(1, &rays);
-        if (depth != 0) glDeleteRenderbuffers(1, &depth);
-        fbo = cube = plane = rays = depth = 0;
+        if (depth != 0) glDeleteTextures(1, &depth);
+        fbo = cube = plane = flat = rays = depth = 0;
         planeTan = 0;
         faceSize = width = height = 0;
         faces = {};
@@ -398,6 +503,7 @@ struct Renderer::Impl {
     HdrTarget hdr;
     shading::ExposureState exposure;
     LensTarget lens;
+    ScatterPass scatter;
 
     // The phases of draw(), in order.
     Program& programFor(const shading::FrameSetup& frame, const shading::ModeInfo& info);
@@ -408,8 +514,10 @@ struct Renderer::Impl {
     void drawVisibleChunks(const glm::mat4& viewProj);
     void developFrame(const shading::FrameSetup& frame, GLint target, const GLint viewport[4]);
     void occludeOutsideMask(const shading::FrameSetup& frame);
+    void scatterImage(const shading::FrameSetup& frame, const glm::mat4& projection, GLuint source, GLuint depth,
+                      const int size[2], const std::array<int, 4>& rect, GLenum destTarget, GLuint dest);
     void drawThroughLens(const shading::FrameSetup& frame, Program& program, const shading::glsl::Frame& f,
-                         const shading::glsl::Material& m, const shading::ModeInfo& info, bool develop);
+                         const shading::glsl::Material& m, const shading::ModeInfo& info, bool develop, bool scatters);
 };
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
@@ -420,6 +528,7 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
                 link(static_cast<int>(m.id), "#define MUCOSA_HEADLIGHT 1\n");
     impl_->post = linkCameraPass("camera_post.frag", "camera_post");
     impl_->mask = linkCameraPass("camera_mask.frag", "camera_mask");
+    impl_->scatter.link();
     impl_->lens.remap.id =
         linkProgram("#version 330 core\n" + std::string(shaderSource("camera_post.vert")),
                     "#version 330 core\n" + std::string(shaderSource("lens_remap.frag")), "lens_remap");
@@ -447,6 +556,7 @@ Renderer::~Renderer() {
     glDeleteVertexArrays(1, &impl_->postVao);
     impl_->hdr.release();
     impl_->lens.release();
+    impl_->scatter.release();
     glDeleteVertexArrays(1, &impl_->vao);
     glDeleteBuffers(1, &impl_->vbo);
     glDeleteBuffers(1, &impl_->ibo);
@@ -635,9 +745,11 @@ namespace {
 
 // Depth test, and back faces culled only for meshes declared closed
 // (watertight and consistently wound), where a face turned away from the eye
-// is hidden by a nearer one, so culling changes no pixel.
-void setPipelineState(const shading::FrameSetup& frame) {
-    glClearColor(0, 0, 0, 1);
+// is hidden by a nearer one, so culling changes no pixel. `split`: the
+// surface pass writes body light and specular apart (alpha: no specular where
+// nothing is drawn).
+void setPipelineState(const shading::FrameSetup& frame, bool split) {
+    glClearColor(0, 0, 0, split ? 0.0f : 1.0f);
     glClearDepth(1.0);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glEnable(GL_DEPTH_TEST);
@@ -670,9 +782,13 @@ void Renderer::draw(const shading::FrameSetup& frame) {
     // camera then develops it into the caller's framebuffer.
     // (A camera that changes nothing is skipped: the frame goes straight to
     // the target, whose 8-bit format clamps it.)
-    const bool develop = info.photographic && !shading::cameraIsIdentity(frame.params);
+    // Scattering needs the HDR target too (its body light and specular apart).
+    const bool scatter = shading::scattersLight(frame);
+    const bool develop = info.photographic && (!shading::cameraIsIdentity(frame.params) || scatter);
+    glUseProgram(program.id);
+    glUniform1i(program.split, scatter ? 1 : 0);
     if (impl_->lens.active()) {
-        impl_->drawThroughLens(frame, program, f, m, info, develop);
+        impl_->drawThroughLens(frame, program, f, m, info, develop, scatter);
         return;
     }
     GLint target = 0, viewport[4] = {0, 0, 0, 0};
@@ -683,11 +799,16 @@ void Renderer::draw(const shading::FrameSetup& frame) {
         glBindFramebuffer(GL_FRAMEBUFFER, impl_->hdr.fbo);
         glViewport(0, 0, viewport[2], viewport[3]);
     }
-    setPipelineState(frame);
+    setPipelineState(frame, scatter);
     if (develop && frame.params[shading::Param::Mask] != 0.0f) impl_->occludeOutsideMask(frame);
     impl_->uploadUniforms(program, frame, f, m, info);
     impl_->bindTextures(frame.specularAA);
     impl_->drawVisibleChunks(f.viewProj);
+    if (scatter) {
+        const int size[2] = {viewport[2], viewport[3]};
+        impl_->scatterImage(frame, shading::glsl::toMat4(frame.projection), impl_->hdr.color, impl_->hdr.depth, size,
+                            {0, 0, size[0], size[1]}, GL_TEXTURE_2D, impl_->hdr.color);
+    }
     if (develop) impl_->developFrame(frame, target, viewport);
 }
 
@@ -706,6 +827,69 @@ void Renderer::Impl::occludeOutsideMask(const shading::FrameSetup& frame) {
     glBindVertexArray(0);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     if (frame.cullBackFaces) glEnable(GL_CULL_FACE);
+}
+
+// The scattering (scatter.frag) over a perspective image of size[0] x size[1]
+// drawn with `projection`, within `rect` (x0, y0, x1, y1): `source` (body
+// light, specular) and `depth` in, the radiance out into `dest` (a 2D
+// texture or a cube's face, destTarget), which may be `source`.
+void Renderer::Impl::scatterImage(const shading::FrameSetup& frame, const glm::mat4& projection, GLuint source,
+                                  GLuint depth, const int size[2], const std::array<int, 4>& rect, GLenum destTarget,
+                                  GLuint dest) {
+    const auto& d = frame.params.color(shading::Param::Scatter);
+    scatter.setKernel({d[0], d[1], d[2]});
+    scatter.ensure(size[0], size[1]);
+    // The source as it is (the last pass reads it while it writes `dest`, which may be the source).
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, scatter.readFbo);
+    glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, source, 0);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, scatter.keptFbo);
+    glDisable(GL_SCISSOR_TEST);
+    glBlitFramebuffer(rect[0], rect[1], rect[2], rect[3], rect[0], rect[1], rect[2], rect[3], GL_COLOR_BUFFER_BIT,
+                      GL_NEAREST);
+    glFramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, 0, 0);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glEnable(GL_SCISSOR_TEST);
+    glUseProgram(scatter.program);
+    glUniform4i(scatter.rect, rect[0], rect[1], rect[2], rect[3]);
+    glUniform2f(scatter.projection, projection[2][2], projection[3][2]);
+    glUniform2f(scatter.focal, projection[0][0] * 0.5f * static_cast<float>(size[0]),
+                projection[1][1] * 0.5f * static_cast<float>(size[1]));
+    glUniform1f(scatter.share, frame.params[shading::Param::ScatterShare]);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D, depth);
+    glBindVertexArray(postVao);
+    const int half[4] = {rect[0] / 2, rect[1] / 2, (rect[2] + 1) / 2, (rect[3] + 1) / 2};  // scatterHalfRect
+    glViewport(0, 0, (size[0] + 1) / 2, (size[1] + 1) / 2);
+    glScissor(half[0], half[1], half[2] - half[0], half[3] - half[1]);
+    // 0: along x, into the first half-size image.
+    glBindFramebuffer(GL_FRAMEBUFFER, scatter.fboA);
+    glUniform1i(scatter.pass, 0);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, scatter.kept);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    // 1: along y, into the second.
+    glBindFramebuffer(GL_FRAMEBUFFER, scatter.fboB);
+    glUniform1i(scatter.pass, 1);
+    glActiveTexture(GL_TEXTURE2);
+    glBindTexture(GL_TEXTURE_2D, scatter.halfA);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    // 2: full size, into the destination.
+    glBindFramebuffer(GL_FRAMEBUFFER, scatter.finalFbo);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, destTarget, dest, 0);
+    glViewport(0, 0, size[0], size[1]);
+    glScissor(rect[0], rect[1], rect[2] - rect[0], rect[3] - rect[1]);
+    glUniform1i(scatter.pass, 2);
+    glBindTexture(GL_TEXTURE_2D, scatter.halfB);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, 0, 0);
+    glBindVertexArray(0);
+    for (GLenum unit : {GL_TEXTURE2, GL_TEXTURE1, GL_TEXTURE0}) {
+        glActiveTexture(unit);
+        glBindTexture(GL_TEXTURE_2D, 0);
+    }
+    glDisable(GL_SCISSOR_TEST);
+    glEnable(GL_DEPTH_TEST);
 }
 
 // The camera (camera.glsl): meter the HDR frame on a kMeterGrid^2 grid (a
@@ -788,12 +972,10 @@ double widestRayTan(const image::ImageF& rays) {
 // The lens's framebuffer, bound, with its faceSize-square depth buffer; the
 // caller attaches the colour.
 void bindFaceTarget(LensTarget& t, int faceSize) {
-    glGenRenderbuffers(1, &t.depth);
-    glBindRenderbuffer(GL_RENDERBUFFER, t.depth);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, faceSize, faceSize);
+    t.depth = makeDepthTexture(faceSize, faceSize);
     glGenFramebuffers(1, &t.fbo);
     glBindFramebuffer(GL_FRAMEBUFFER, t.fbo);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, t.depth);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, t.depth, 0);
 }
 
 // The rays as the remap pass reads them: eye axes (OpenCV's y and z
@@ -989,7 +1171,8 @@ float Renderer::lastExposure() const noexcept {
 // planes; then the remap pass into the HDR target (develop) or the caller's
 // framebuffer.
 void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& program, const shading::glsl::Frame& f,
-                                     const shading::glsl::Material& m, const shading::ModeInfo& info, bool develop) {
+                                     const shading::glsl::Material& m, const shading::ModeInfo& info, bool develop,
+                                     bool scatters) {
     GLint target = 0, viewport[4] = {0, 0, 0, 0};
     glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
     glGetIntegerv(GL_VIEWPORT, viewport);
@@ -1015,27 +1198,38 @@ void Renderer::Impl::drawThroughLens(const shading::FrameSetup& frame, Program& 
         const std::array<int, 4>& r = lens.rects[0];
         glEnable(GL_SCISSOR_TEST);
         glScissor(r[0], r[1], r[2] - r[0], r[3] - r[1]);
-        setPipelineState(frame);
+        setPipelineState(frame, scatters);
         shading::glsl::Frame face = f;
         face.viewProj = wide * face.view;
         uploadUniforms(program, frame, face, m, info);
         bindTextures(frame.specularAA);
         drawVisibleChunks(face.viewProj);
+        const int size[2] = {lens.faceSize, lens.faceSize};
+        if (scatters) scatterImage(frame, wide, lens.plane, lens.depth, size, r, GL_TEXTURE_2D, lens.plane);
     }
+    if (lens.plane == 0 && scatters && lens.flat == 0) lens.flat = makeHalfTexture(lens.faceSize, lens.faceSize);
     for (int i = 0; i < 6 && lens.plane == 0; ++i) {
         if (!lens.faces[static_cast<std::size_t>(i)]) continue;
-        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0,
-                               static_cast<GLenum>(GL_TEXTURE_CUBE_MAP_POSITIVE_X + i), lens.cube, 0);
+        const GLenum cubeFace = static_cast<GLenum>(GL_TEXTURE_CUBE_MAP_POSITIVE_X + i);
+        // Scattering: the face is drawn flat, then scattered into the cube.
+        glBindFramebuffer(GL_FRAMEBUFFER, lens.fbo);
+        glViewport(0, 0, lens.faceSize, lens.faceSize);
+        if (scatters)
+            glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, lens.flat, 0);
+        else
+            glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, cubeFace, lens.cube, 0);
         const std::array<int, 4>& r = lens.rects[static_cast<std::size_t>(i)];
         glEnable(GL_SCISSOR_TEST);  // the clear and the draw: only what the rays read
         glScissor(r[0], r[1], r[2] - r[0], r[3] - r[1]);
-        setPipelineState(frame);
+        setPipelineState(frame, scatters);
         shading::glsl::Frame face = f;  // the lamp's axis, eye and light stay the camera's
         face.view = faceRotation(i) * f.view;
         face.viewProj = proj * face.view;
         uploadUniforms(program, frame, face, m, info);
         bindTextures(frame.specularAA);
         drawVisibleChunks(face.viewProj);
+        const int size[2] = {lens.faceSize, lens.faceSize};
+        if (scatters) scatterImage(frame, proj, lens.flat, lens.depth, size, r, cubeFace, lens.cube);
     }
     glDisable(GL_SCISSOR_TEST);
     if (develop) {

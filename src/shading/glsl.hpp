@@ -40,6 +40,7 @@ inline int permSlicePairAt(int j, int Z0) {
 // their Procedural struct and sRGB decoding.
 #include "../../shaders/camera.glsl"
 #include "../../shaders/procedural_noise.glsl"
+#include "../../shaders/scatter.glsl"
 // (A separate block, so include sorting keeps the order.)
 #include "../../shaders/common_shading.glsl"
 #if defined(__GNUC__)

@@ -243,7 +243,8 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      0.0f,
      1.0f,
      "",
-     "Wrap lighting w, a sub-surface approximation: the diffuse cosine becomes (cos + w) / (1 + w)",
+     "Wrap lighting w, a cheap stand-in for sub-surface light (scatter is the model): the diffuse cosine "
+     "becomes (cos + w) / (1 + w)",
      false},
     {P::SheenStrength,
      "sheen",
@@ -473,6 +474,28 @@ constexpr std::array<ParamInfo, kParamCount> kRegistry = {{
      "",
      "Veiling glare of the scope's optics: this share of the field's mean radiance, scattered by the lenses, "
      "lies evenly over the sensor and lifts the dark lumen (0 = none)",
+     false},
+    {P::Scatter,
+     "scatter",
+     "material",
+     3,
+     {0.2f, 0.1f, 0.06f},
+     0.0f,
+     3.0f,
+     "mm",
+     "Sub-surface scattering: the distance d of Burley's diffusion profile per channel (red, green, blue), how far "
+     "light travels under the mucosa before it leaves it; diffused in screen space (0 = off)",
+     false},
+    {P::ScatterShare,
+     "scatter_share",
+     "material",
+     1,
+     {0.0f, 0, 0},
+     0.0f,
+     1.0f,
+     "",
+     "The share of the body's light that diffuses under the surface by scatter (0.5: translucent mucosa); the "
+     "rest leaves the epithelium where it entered, with the texture's fine detail (0 = no scattering)",
      false},
 }};
 

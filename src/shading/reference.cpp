@@ -1,4 +1,5 @@
 #include <mucosa/shading/reference.hpp>
+#include <mucosa/shading/scatter.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -54,7 +55,7 @@ std::vector<ClipVertex> clipPolygon(const std::vector<ClipVertex>& in, Dist dist
 struct Target {
     int width, height;
     std::vector<float> depth;
-    std::vector<glm::vec3> color;
+    std::vector<glm::vec4> color;  // rgb and the specular apart when the frame scatters (else 0)
 };
 
 struct ScreenVertex {
@@ -385,7 +386,8 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
     const glsl::PermutationScope permScope(perm.table().data());
     const int mode = static_cast<int>(frame.mode);
     const bool photographic = info(frame.mode).photographic;
-    const bool develop = photographic && !cameraIsIdentity(frame.params);
+    const bool scatter = scattersLight(frame);
+    const bool develop = photographic && (!cameraIsIdentity(frame.params) || scatter);
     const bool derivatives = glsl::modeIsProcedural(mode) && frame.specularAA;
 
     std::vector<ClipVertex> verts(mesh.vertexCount());
@@ -404,8 +406,19 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
     }
 
     Target t{frame.width, frame.height, std::vector<float>(static_cast<std::size_t>(frame.width) * frame.height, 1.0f),
-             std::vector<glm::vec3>(static_cast<std::size_t>(frame.width) * frame.height, glm::vec3(0.0f))};
+             std::vector<glm::vec4>(static_cast<std::size_t>(frame.width) * frame.height, glm::vec4(0.0f))};
     const float W = static_cast<float>(frame.width), H = static_cast<float>(frame.height);
+    if (develop && frame.params[Param::Mask] != 0.0f) {
+        // The GPU's occluder outside the scope's mask (camera_mask.frag): the
+        // near plane's depth there, so nothing is drawn, and the scattering's
+        // taps there fall back to their centre, as on the GPU.
+        glsl::Camera grown = glsl::packCamera(frame, 1.0f);
+        grown.maskRadius += glsl::kMaskMarginPx / (0.5f * std::min(W, H));
+        for (int y = 0; y < frame.height; ++y)
+            for (int x = 0; x < frame.width; ++x)
+                if (glsl::fovMask(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f, grown) <= 0.0f)
+                    t.depth[static_cast<std::size_t>(y) * frame.width + x] = 0.0f;
+    }
 
     auto shade = [&](const float* var, const float* varDx, const float* varDy) {
         Varyings v;
@@ -434,12 +447,14 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         if (glsl::modeReadsHighlight(mode))
             highlight = sampleTexture(textures.highlight, v.sphereUv.x, v.sphereUv.y, {0, 0, 0})[0];
         // Level 0 only: its slope deviation (alpha) is 0 (reflectance::specularMipChain).
-        const glm::vec3 c =
-            glsl::tissueFragment(v, glm::vec3(albedo[0], albedo[1], albedo[2]), glm::vec4(map[0], map[1], map[2], 0.0f),
-                                 highlight, footprint, m, pr, f, mode);
+        const glm::vec4 parts =
+            glsl::tissueFragmentParts(v, glm::vec3(albedo[0], albedo[1], albedo[2]),
+                                      glm::vec4(map[0], map[1], map[2], 0.0f), highlight, footprint, m, pr, f, mode);
         // Linear radiance for the camera (kept in the range of the GPU's
-        // half-float target), or display values.
-        return develop ? glm::clamp(c, 0.0f, glsl::kHalfMax) : glm::clamp(c, 0.0f, 1.0f);
+        // half-float target), apart for the scattering, or display values.
+        if (scatter) return glm::clamp(parts, 0.0f, glsl::kHalfMax);
+        const glm::vec3 c = glm::vec3(parts) + glm::vec3(parts.w);
+        return glm::vec4(develop ? glm::clamp(c, 0.0f, glsl::kHalfMax) : glm::clamp(c, 0.0f, 1.0f), 0.0f);
     };
 
     for (std::size_t tri = 0; tri + 2 < mesh.indices.size(); tri += 3) {
@@ -461,11 +476,23 @@ image::Image8 renderReference(const mesh::Mesh& mesh, const FrameSetup& frame, c
         for (std::size_t i = 1; i + 1 < sv.size(); ++i) rasterTriangle(t, sv[0], sv[i], sv[i + 1], derivatives, shade);
     }
 
-    if (develop) t.color = applyCamera(t.color, frame, exposure);
+    std::vector<glm::vec3> color(t.color.size());
+    if (scatter) {
+        std::vector<float> parts(4 * t.color.size());
+        for (std::size_t i = 0; i < t.color.size(); ++i)
+            for (int c = 0; c < 4; ++c) parts[4 * i + c] = t.color[i][c];
+        const std::vector<float> rgb =
+            applyScatter(parts, t.depth, frame.width, frame.height, frame.projection,
+                         scatterKernel(frame.params.color(Param::Scatter)), frame.params[Param::ScatterShare]);
+        for (std::size_t i = 0; i < color.size(); ++i) color[i] = glm::vec3(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+    } else {
+        for (std::size_t i = 0; i < color.size(); ++i) color[i] = glm::vec3(t.color[i]);
+    }
+    if (develop) color = applyCamera(color, frame, exposure);
     image::Image8 out(frame.width, frame.height, 3);
     for (int y = 0; y < frame.height; ++y)
         for (int x = 0; x < frame.width; ++x) {
-            const glm::vec3& c = t.color[static_cast<std::size_t>(y) * frame.width + x];
+            const glm::vec3& c = color[static_cast<std::size_t>(y) * frame.width + x];
             const int row = frame.height - 1 - y;  // OpenGL's y is up; files are top-down
             out.at(x, row, 0) = quantize(c.x);
             out.at(x, row, 1) = quantize(c.y);

@@ -197,6 +197,56 @@ TEST(LensRender, APhotographicFrameThroughThePinholesRaysIsThePinholeFrame) {
     if (d.meanAbs > 2.0) test::writeComparison("lens_pinhole_cube", cube, direct);
 }
 
+// The sub-surface scattering runs on the perspective images a lens reads:
+// the one wide face gives the pinhole frame's scattering, and through a cube
+// map (a 160-degree fisheye) it moves light without making or losing any.
+TEST(LensRender, ScatteringThroughALensIsThePinholesAndKeepsTheLight) {
+    test::glContext();
+    render::Renderer renderer;
+    renderer.setMesh(mesh::makeTube(6.0f, 80.0f, 96, 160));
+    const int w = 160, h = 120;
+    const camera::Pose pose = camera::lookAt({0, 0, -2}, {3.0f, 0, -20}, {0, 1, 0});
+    const camera::Lens lens;
+    auto draw = [&](const shading::FrameSetup& f) {
+        render::Framebuffer fb(w, h);
+        fb.bind();
+        renderer.draw(f);
+        return fb.readRgb();
+    };
+    shading::FrameSetup f = frameAt(pose, lens, w, h, shading::Mode::Noise);
+    f.params.setColor(shading::Param::Scatter, {0.5f, 0.3f, 0.2f});
+    f.params.set(shading::Param::ScatterShare, 1.0f);
+    f.params.set(shading::Param::AutoExposure, 0.0f);  // the same exposure with and without
+    f.params.set(shading::Param::FullWell, 0.0f);
+    f.params.set(shading::Param::ReadNoise, 0.0f);
+    shading::FrameSetup sharp = f;
+    sharp.params.set(shading::Param::ScatterShare, 0.0f);
+    renderer.setLensRays({});
+    const image::Image8 direct = draw(f), directSharp = draw(sharp);
+    EXPECT_GT(test::diff(direct, directSharp, 4).fractionOver, 0.05) << "the scattering must show";
+    renderer.setLensRays(dataset::rayImage(dataset::fromIntrinsics(dataset::intrinsicsOf(lens, w, h))));
+    const image::Image8 face = draw(f);
+    const test::DiffStats d = test::diff(direct, face, 12);
+    if (d.meanAbs > 2.0) test::writeComparison("lens_scatter_face", face, direct);
+    std::printf("scattered pinhole frame through one face: mean %.2f/255, %.2f%% of pixels over 12/255\n", d.meanAbs,
+                100 * d.fractionOver);
+    EXPECT_LE(d.meanAbs, 2.0);
+    EXPECT_LE(d.fractionOver, 0.02);
+    image::ImageF wide = dataset::rayImage(dataset::equidistantFisheye(w, h, 160.0));
+    ASSERT_FALSE(render::drawnInOneFace(wide));
+    renderer.setLensRays(wide);
+    const image::Image8 cube = draw(f), cubeSharp = draw(sharp);
+    EXPECT_GT(test::diff(cube, cubeSharp, 4).fractionOver, 0.05) << "the scattering must show through the cube";
+    auto mean = [](const image::Image8& img) {
+        double m = 0;
+        for (std::size_t i = 0; i < img.size(); ++i) m += img.data()[i];
+        return m / static_cast<double>(img.size());
+    };
+    std::printf("through the cube: mean level %.2f scattered, %.2f sharp\n", mean(cube), mean(cubeSharp));
+    EXPECT_GT(mean(cubeSharp), 20.0);
+    EXPECT_NEAR(mean(cube) / mean(cubeSharp), 1.0, 0.03);
+}
+
 // A lens whose every ray the mask removed sees nothing: a black frame.
 TEST(LensRender, RaysThatSeeNothingGiveABlackFrame) {
     test::glContext();

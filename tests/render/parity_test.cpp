@@ -12,6 +12,7 @@
 #include <mucosa/render/context.hpp>
 #include <mucosa/render/renderer.hpp>
 #include <mucosa/shading/reference.hpp>
+#include <mucosa/shading/scatter.hpp>
 
 #include "render_test_support.hpp"
 
@@ -149,6 +150,29 @@ TEST(RenderParity, TheCameraOffAndItsVariantsMatchReference) {
 
 // The mesh's per-vertex tint (mesh::Mesh::colors, the phantom's paler
 // cartilage) multiplies the albedo alike on both paths, and shows.
+// Sub-surface scattering (scatter.frag against shading::applyScatter): a
+// sphere close up, so the light diffuses over many pixels, with silhouettes
+// against the empty background and the scope's mask; and it shows.
+TEST(RenderParity, ScatteringMatchesReferenceAndSoftensTheTexture) {
+    const mesh::Mesh sphere = mesh::makeSphere(10.0f, 96, 48);
+    const image::Image8 map = testMap(256, "bronchial");
+    const image::Image8 diffuse = testDiffuse(64);
+    using P = shading::Param;
+    for (Mode mode : {Mode::Noise, Mode::VertexPhong}) {
+        shading::FrameSetup f = frameFor(camera::lookAt({0.0f, -19.0f, 9.0f}, {0, 0, 0}, {0, 0, 1}), 320, 240, mode);
+        f.params.setColor(P::Scatter, {0.6f, 0.3f, 0.2f});
+        f.params.set(P::ScatterShare, 0.8f);
+        f.params.set(P::Mask, 1.0f);
+        f.params.set(P::MaskRadius, 0.95f);
+        ASSERT_TRUE(shading::scattersLight(f));
+        const Parity scattered = renderBoth(sphere, f, map, diffuse);
+        expectParity(scattered, "parity_scatter_" + std::string(shading::modeName(mode)));
+        f.params.set(P::ScatterShare, 0.0f);
+        const Parity sharp = renderBoth(sphere, f, map, diffuse);
+        EXPECT_GT(test::diff(scattered.gl, sharp.gl, 4).fractionOver, 0.05) << "the scattering must show";
+    }
+}
+
 TEST(RenderParity, PerVertexTintMatchesReferenceAndShows) {
     mesh::Mesh quad = mesh::makeQuad(40.0f, 8);
     const image::Image8 map = testMap(256, "bronchial");

@@ -20,7 +20,7 @@ namespace mucosa::test {
 
 // The paper's look, for tests that measure the shading model's highlights
 // rather than the default camera: the material of the paper's figures
-// (k_s 0.8, n 40, no sheen, no wrap), and a camera that only exposes
+// (k_s 0.8, n 40, no sheen, wrap or scattering), and a camera that only exposes
 // (auto-exposure metering the mean; linear response, no noise, softness,
 // vignetting or mask).
 inline void paperLook(shading::ParamSet& p) {
@@ -30,6 +30,7 @@ inline void paperLook(shading::ParamSet& p) {
     p.set(Param::Shininess, 40.0f);
     p.set(Param::SheenStrength, 0.0f);
     p.set(Param::Wrap, 0.0f);
+    p.set(Param::ScatterShare, 0.0f);
     p.set(Param::LightSpread, 0.0f);
     shading::setCameraIdentity(p);
     p.set(Param::AutoExposure, 1.0f);

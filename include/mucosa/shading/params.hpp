@@ -115,8 +115,10 @@ enum class Param : int {
     ClearcoatRoughness,  // clearcoatRoughnessFactor
     Knee,                // the video processor's highlight knee (camera.knee)
     Flare,               // the optics' veiling glare (camera.flare)
+    Scatter,             // sub-surface scattering distance per channel (material.scatter, mm)
+    ScatterShare,        // the share of the body light that diffuses (material.scatter_share)
 };
-inline constexpr std::size_t kParamCount = 44;
+inline constexpr std::size_t kParamCount = 46;
 
 struct ParamInfo {
     Param id;
