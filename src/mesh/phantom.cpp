@@ -428,12 +428,14 @@ Field makeField(const std::vector<Tube>& tubes, const Vec3d& lo, const Vec3d& hi
 constexpr Vec3d kTintMucosa{1.0, 0.92, 0.90}, kTintCartilage{1.0, 1.0, 0.95}, kTintMembrane{0.93, 0.80, 0.79};
 
 // Hyperaemic patches: real mucosa is patchy within one view, redder areas
-// (more blood in the lamina propria) beside paler ones, 5-15 mm across. A
+// (more blood in the lamina propria) beside paler ones, 3-10 mm across. A
 // two-octave solid noise in the wall's own 3D position, so the patches run
 // on across branch junctions without the seams of a texture's UV atlas.
-// Redness f in -1..1: a red patch (f > 0) loses up to 16 % of its green and
-// 8 % of its blue, a pale yellowish one (f < 0) up to 14 % of its blue.
-constexpr double kPatchMm = 14.0, kPatchGreen = 0.16, kPatchBlueRed = 0.08, kPatchBlueYellow = 0.14;
+// Redness f in -1..1: a red patch (f > 0) loses up to 30 % of its green and
+// 15 % of its blue, a pale yellowish one (f < 0) up to 30 % of its blue; the
+// hue spread within a frame then comes near the real frames' (docs/theory.md,
+// "Airway phantom").
+constexpr double kPatchMm = 9.0, kPatchGreen = 0.3, kPatchBlueRed = 0.15, kPatchBlueYellow = 0.3;
 
 Vec3d patchTint(const noise::Permutation& perm, const Vec3d& p) {
     const double e = 0.65 * noise::perlin(perm, p[0] / kPatchMm, p[1] / kPatchMm, p[2] / kPatchMm) +
