@@ -85,29 +85,28 @@ PostProgram linkCameraPass(const char* frag, const char* name) {
     return p;
 }
 
-// A depth buffer the scattering passes can read (scatter.frag): a 24-bit
-// depth texture, sampled texel by texel.
-GLuint makeDepthTexture(int w, int h) {
+// A texture of w x h texels sampled texel by texel (nearest, no mips): the
+// targets the passes read with texelFetch.
+GLuint makeTexelTexture(GLint internalFormat, GLenum format, GLenum type, int w, int h) {
     GLuint id = 0;
     glGenTextures(1, &id);
     glBindTexture(GL_TEXTURE_2D, id);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, w, h, 0, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, nullptr);
+    glTexImage2D(GL_TEXTURE_2D, 0, internalFormat, w, h, 0, format, type, nullptr);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
     return id;
 }
 
-// An RGBA16F texture of w x h texels, sampled texel by texel.
+// A depth buffer the scattering passes can read (scatter.frag): 24 bits.
+GLuint makeDepthTexture(int w, int h) {
+    return makeTexelTexture(GL_DEPTH_COMPONENT24, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, w, h);
+}
+
+// Linear radiance in half floats (RGBA16F: renderable on every GL 3.3
+// implementation).
 GLuint makeHalfTexture(int w, int h) {
-    GLuint id = 0;
-    glGenTextures(1, &id);
-    glBindTexture(GL_TEXTURE_2D, id);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, w, h, 0, GL_RGBA, GL_FLOAT, nullptr);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-    return id;
+    return makeTexelTexture(GL_RGBA16F, GL_RGBA, GL_FLOAT, w, h);
 }
 
 // The surface pass's target for the photographic modes: linear radiance in
@@ -156,18 +155,6 @@ struct HdrTarget {
         width = height = 0;
     }
 };
-
-// A float texture of w x h texels, sampled texel by texel.
-GLuint makeFloatTexture(int w, int h) {
-    GLuint id = 0;
-    glGenTextures(1, &id);
-    glBindTexture(GL_TEXTURE_2D, id);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, nullptr);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-    return id;
-}
 
 // The sub-surface scattering's passes (scatter.frag): the program, the
 // kernel of the distances it last served, its targets (grown to the largest
@@ -221,8 +208,8 @@ struct ScatterPass {
         const std::uint64_t pixels = static_cast<std::uint64_t>(width) * static_cast<std::uint64_t>(height);
         requireMemory(saturatingMul(pixels, 8 + 2 * 16 / 4 + 16), "the scattering's targets");
         const int hw = (width + 1) / 2, hh = (height + 1) / 2;
-        halfA = makeFloatTexture(hw, hh);
-        halfB = makeFloatTexture(hw, hh);
+        halfA = makeTexelTexture(GL_RGBA32F, GL_RGBA, GL_FLOAT, hw, hh);
+        halfB = makeTexelTexture(GL_RGBA32F, GL_RGBA, GL_FLOAT, hw, hh);
         kept = makeHalfTexture(width, height);
         attach(fboA, halfA, "half-size target");
         attach(fboB, halfB, "half-size target");
