@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <mucosa/core/error.hpp>
+
 #include "glsl.hpp"
 
 namespace mucosa::shading {
@@ -15,7 +17,7 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 // The taps reach 10 d of the widest channel: the marginal's tail beyond it
-// holds exp(-10/3) K0-like mass, under 2 %.
+// holds 1.0 % of its light.
 constexpr double kReach = 10.0;
 
 // The marginal's integral over [a, b] (0 <= a < b, in mm): midpoint rule in
@@ -90,6 +92,8 @@ std::vector<float> applyScatter(const std::vector<float>& bodySpecular, const st
                                 int h, const std::array<float, 16>& projection, const ScatterKernel& kernel,
                                 float share) {
     const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+    MUCOSA_CHECK(w > 0 && h > 0 && bodySpecular.size() == 4 * n && windowDepth.size() == n,
+                 "applyScatter: the images do not hold w x h pixels");
     const float a = projection[10], b = projection[14];
     // The focal lengths in pixels along x and y: P[0][0] W / 2, P[1][1] H / 2.
     const float fx = projection[0] * 0.5f * static_cast<float>(w), fy = projection[5] * 0.5f * static_cast<float>(h);

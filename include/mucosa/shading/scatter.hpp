@@ -1,7 +1,7 @@
 #pragma once
 // Sub-surface scattering of the mucosa (shaders/scatter.glsl; docs/theory.md,
 // "Light under the mucosa"): Burley's normalised diffusion profile, its
-// marginal along a line (the 1D kernel of the two screen-space passes), the
+// marginal along a line (the 1D kernel of the screen-space passes), the
 // taps the passes take, and the passes themselves on the CPU (the C++
 // reference of scatter.frag).
 #include <array>
@@ -26,7 +26,7 @@ double diffusionMarginal(double x, double d);
 // The taps of one pass for the distances d (mm per channel; the largest sets
 // the spacing): offsets in mm, quadratically spaced out to 10 d, and per
 // channel the marginal's integral over each tap's interval, normalised to
-// sum to 1 per channel (the tail beyond 10 d, under 2 % for the largest,
+// sum to 1 per channel (the tail beyond 10 d, 1 % for the widest channel,
 // goes to the others in proportion). A channel with d = 0 gets the centre
 // alone.
 struct ScatterKernel {
@@ -39,9 +39,11 @@ ScatterKernel scatterKernel(const std::array<float, 3>& distanceMm);
 // specular apart) with a scatter distance and share above 0.
 bool scattersLight(const FrameSetup& frame) noexcept;
 
-// The two passes on a perspective image of w x h pixels (rows bottom-up, as
-// OpenGL): `bodySpecular` 4 floats per pixel (body light rgb, specular),
-// `windowDepth` per pixel in [0, 1] (1: no surface); `projection` the
+// The passes of scatter.frag (the diffusion along x and y at half size, then
+// the full-size mix) on a perspective image of w x h pixels (rows bottom-up,
+// as OpenGL): `bodySpecular` 4 floats per pixel (body light rgb, specular),
+// `windowDepth` per pixel in [0, 1] (1: no surface, 0: the occluder outside
+// the scope's mask); `projection` the
 // frame's (column-major), whose focal lengths and near and far planes turn
 // millimetres into pixels; `share` of the body light diffuses. Returns the
 // radiance, 3 floats per pixel: the body light (scatterMix of the scattered
