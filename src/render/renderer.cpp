@@ -206,7 +206,8 @@ struct ScatterPass {
             if (*t != 0) glDeleteTextures(1, t), *t = 0;
         width = std::max(w, width), height = std::max(h, height);
         const std::uint64_t pixels = static_cast<std::uint64_t>(width) * static_cast<std::uint64_t>(height);
-        requireMemory(saturatingMul(pixels, 8 + 2 * 16 / 4 + 16), "the scattering's targets");
+        // The copy (8 bytes a pixel) and the two half-size RGBA32F images (16 bytes a quarter pixel each).
+        requireMemory(saturatingMul(pixels, 8 + 2 * 16 / 4), "the scattering's targets");
         const int hw = (width + 1) / 2, hh = (height + 1) / 2;
         halfA = makeTexelTexture(GL_RGBA32F, GL_RGBA, GL_FLOAT, hw, hh);
         halfB = makeTexelTexture(GL_RGBA32F, GL_RGBA, GL_FLOAT, hw, hh);
