@@ -7,18 +7,15 @@
 #include <limits>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/image/png.hpp>
-
-#include "core/json_parse.hpp"
+#include <mucosa/tune/frame_stats.hpp>
 
 namespace mucosa::tune {
 
 namespace fs = std::filesystem;
-using json = nlohmann::json;
 
 namespace {
 
@@ -311,36 +308,6 @@ Distance distance(const HighlightSummary& ours, const HighlightSummary& target,
 
 namespace {
 
-std::vector<FrameHighlights> readStatsJson(const fs::path& path) {
-    const std::string file = path.string();
-    const json j = detail::parseJsonFile(readTextFile(path), file);
-    if (!j.is_object() || !j.contains("frames") || !j["frames"].is_array())
-        throw InputError("frames", file, "a statistics file needs a \"frames\" array (realism_stats.py export)");
-    std::vector<FrameHighlights> out;
-    for (std::size_t i = 0; i < j["frames"].size(); ++i) {
-        const json& f = j["frames"][i];
-        const std::string where = fmt::format("frames[{}].stats", i);
-        if (!f.is_object() || !f.contains("stats") || !f["stats"].is_object())
-            throw InputError(where, file, "missing: each frame needs a \"stats\" object");
-        FrameHighlights h;
-        for (int k = 0; k < kHighlightStatCount; ++k) {
-            const std::string key(kStats[static_cast<std::size_t>(k)].name);
-            const json* v = f["stats"].contains(key) ? &f["stats"][key] : nullptr;
-            if (v == nullptr || v->is_null()) {
-                h.values[static_cast<std::size_t>(k)] = kNaN;
-            } else if (v->is_number()) {
-                h.values[static_cast<std::size_t>(k)] = v->get<double>();
-            } else {
-                throw InputError(where + "." + key, file,
-                                 std::string("must be a number or null, not ") + v->type_name());
-            }
-        }
-        out.push_back(h);
-    }
-    if (out.empty()) throw InputError("frames", file, "is empty: no frames to take statistics from");
-    return out;
-}
-
 std::string lower(std::string s) {
     for (char& ch : s) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
     return s;
@@ -382,8 +349,18 @@ FrameHighlights measureFrameFile(const fs::path& png) {
 std::vector<FrameHighlights> readTargetFrames(const fs::path& path) {
     std::error_code ec;
     if (!fs::exists(path, ec)) throw IoError("target", path.string(), "no such file or folder");
-    if (!fs::is_directory(path, ec)) return readStatsJson(path);
     std::vector<FrameHighlights> out;
+    if (!fs::is_directory(path, ec)) {
+        // A statistics file: its highlight statistics (read with the others).
+        for (const FrameStats& f : readFrameStats(path)) {
+            FrameHighlights h;
+            for (int k = 0; k < kHighlightStatCount; ++k)
+                h.values[static_cast<std::size_t>(k)] =
+                    f.values[static_cast<std::size_t>(FrameStat::HlFrac) + static_cast<std::size_t>(k)];
+            out.push_back(h);
+        }
+        return out;
+    }
     for (const fs::path& p : listFrames(path)) out.push_back(measureFrameFile(p));
     return out;
 }

@@ -5,5 +5,7 @@
 # look, so it needs the renderer but not Ceres, and neither the fit nor the
 # registration uses it.
 target_sources(mucosa_tune PRIVATE
+  ${CMAKE_CURRENT_LIST_DIR}/frame_stats.cpp
   ${CMAKE_CURRENT_LIST_DIR}/highlight_stats.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/observer.cpp
   ${CMAKE_CURRENT_LIST_DIR}/tune.cpp)
