@@ -55,6 +55,19 @@ std::string count(std::uint64_t n, std::string_view singular, std::string_view p
     return fmt::format("{} {}", n, plural);
 }
 
+std::vector<std::string> splitList(const std::string& s) {
+    std::vector<std::string> out;
+    std::size_t pos = 0;
+    while (pos <= s.size() && !s.empty()) {
+        const auto comma = s.find(',', pos);
+        std::string part = s.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+        if (!part.empty()) out.push_back(part);
+        if (comma == std::string::npos) break;
+        pos = comma + 1;
+    }
+    return out;
+}
+
 std::string formatDuration(double seconds) {
     const long long t = std::llround(std::max(seconds, 0.0));
     if (t >= 3600) return fmt::format("{}h{:02}m", t / 3600, t / 60 % 60);

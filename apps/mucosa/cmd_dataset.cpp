@@ -132,6 +132,7 @@ json planArgs(const RenderArgs& a) {
             {"specular_aa", a.scene.specularAA},
             {"set", a.scene.sets},
             {"variation", a.scene.variation},
+            {"look", absolute(a.scene.look)},
             {"outputs", a.outputs},
             {"lens", absolute(a.lens)},
             {"rgb_bits", a.rgbBits},
@@ -194,6 +195,7 @@ Plan readPlan(const fs::path& dir) {
         p.args.scene.specularAA = text("specular_aa");
         p.args.scene.sets = a.at("set").get<std::vector<std::string>>();
         p.args.scene.variation = text("variation");
+        if (a.contains("look")) p.args.scene.look = text("look");  // absent in plans made before looks existed
         p.args.outputs = text("outputs");
         p.args.lens = text("lens");
         p.args.rgbBits = a.at("rgb_bits").get<int>();

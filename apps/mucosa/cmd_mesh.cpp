@@ -121,7 +121,7 @@ MaterialPlan planMaterial(const MeshArgs& a) {
         throw InputError("--material keep", a.positional.empty() ? "" : a.positional[0],
                          "only a glTF input's materials are kept (use auto, mucosa or plain)");
     // Read now, so a bad scene fails before the mesh work.
-    p.look = a.look.empty() ? scene::defaultScene() : scene::loadScene(a.look);
+    p.look = a.look.empty() ? scene::defaultScene() : scene::loadSceneOrLook(a.look);
     for (const std::string& w : p.look.warnings) warn(w);
     return p;
 }
@@ -336,8 +336,8 @@ void addMeshCommand(CLI::App& app, Global& g) {
                   "untextured tissue colour), auto (keep for a glTF input with materials, else mucosa with UVs, "
                   "plain without) [auto]");
     c->add_option("--look", a->look,
-                  "Mucosa's material from this scene file (its material, diffuse and reflectance_map); implies "
-                  "--material mucosa");
+                  "Mucosa's material from this scene file (its material, diffuse and reflectance_map) or look file "
+                  "(mucosa look fit); implies --material mucosa");
     c->add_option("--unit", a->unit, "Unit of the input: auto, mm, cm, m, in [auto]");
     c->require_subcommand(0, 1);
 

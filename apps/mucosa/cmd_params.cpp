@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include <mucosa/reflectance/appearance.hpp>
 #include <mucosa/shading/params.hpp>
 
 #include "commands.hpp"
@@ -25,6 +26,12 @@ std::string paramsText() {
     s += shading::registryHelp();
     s += "\nReflectance map (--set reflectance_map.KEY=VALUE): the keys of a scene's \"reflectance_map\" object, "
          "the options of mucosa map (docs/scene-format.md).\n";
+    s += "\nGenerated tissue texture (--set tissue.KEY=VALUE, or the scene file's \"tissue\" object; over the "
+         "patient's draw with --variation):\n";
+    const reflectance::TissueParams defaults = reflectance::defaultAppearance().tissue;
+    for (const reflectance::TissueParamInfo& i : reflectance::tissueRegistry())
+        s += fmt::format("  tissue.{} ({}{}{}..{}, default {}): {}\n", i.name, i.unit, i.unit.empty() ? "" : ", ",
+                         i.min, i.max, defaults.*i.member, i.meaning);
     return s;
 }
 

@@ -45,7 +45,9 @@ void addPhantomCommand(CLI::App& app, Global& g) {
     c->add_option("--material", a->material,
                   "glTF output's material: mucosa (the wet look: subject texture, reflectance map on a clearcoat, "
                   "docs/engines.md) or plain (one untextured tissue colour) [mucosa]");
-    c->add_option("--look", a->look, "Mucosa's material from this scene file (material, diffuse, reflectance_map)");
+    c->add_option(
+        "--look", a->look,
+        "Mucosa's material from this scene file (material, diffuse, reflectance_map) or look file (mucosa look fit)");
     c->callback([a, &g] {
         const mesh::FileFormat format = mesh::outputFormat(a->output);
         const bool gltf = format == mesh::FileFormat::Glb || format == mesh::FileFormat::Gltf;
@@ -56,7 +58,7 @@ void addPhantomCommand(CLI::App& app, Global& g) {
         if (!a->look.empty() && !gltf)
             throw InputError("--look", a->output, "materials are written to .glb and .gltf only");
         // The look's scene is read before the long part, so a bad one fails at once.
-        const scene::Scene lookScene = a->look.empty() ? scene::defaultScene() : scene::loadScene(a->look);
+        const scene::Scene lookScene = a->look.empty() ? scene::defaultScene() : scene::loadSceneOrLook(a->look);
         requireWritable(a->output);
         std::filesystem::path cl = a->centerline;
         if (cl.empty()) cl = std::filesystem::path(a->output).replace_extension(".centerline.json");

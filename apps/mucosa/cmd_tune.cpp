@@ -17,6 +17,7 @@
 #include <mucosa/core/file.hpp>
 #include <mucosa/tune/tune.hpp>
 
+#include "progress_line.hpp"
 #include "scene_options.hpp"
 
 namespace mucosa::cli {
@@ -44,62 +45,12 @@ struct FitArgs {
     int maxEvals = 80;
 };
 
-std::string formatDuration(double seconds) {
-    const long long t = std::llround(std::max(seconds, 0.0));
-    if (t >= 3600) return fmt::format("{}h{:02}m", t / 3600, t / 60 % 60);
-    if (t >= 60) return fmt::format("{}m{:02}s", t / 60, t % 60);
-    return fmt::format("{}s", t);
-}
-
-std::vector<std::string> splitList(const std::string& s) {
-    std::vector<std::string> out;
-    std::size_t pos = 0;
-    while (pos <= s.size() && !s.empty()) {
-        const auto comma = s.find(',', pos);
-        std::string part = s.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
-        if (!part.empty()) out.push_back(part);
-        if (comma == std::string::npos) break;
-        pos = comma + 1;
-    }
-    return out;
-}
-
 // The keys of --params, checked (each must be a tunable parameter), with their groups.
 std::vector<std::string> paramKeys(const std::string& list) {
     std::vector<std::string> keys;
     for (const std::string& k : splitList(list)) keys.emplace_back(tune::findTuneParam(k, "--params").key);
     return keys;
 }
-
-// Progress on stderr: a line rewritten in place on a terminal, every tenth
-// of the work otherwise (so a log keeps a bounded number of lines).
-class Progress {
-public:
-    explicit Progress(const Global& g) : show_(!g.quiet), tty_(isatty(2) != 0), t0_(std::chrono::steady_clock::now()) {}
-    void operator()(int done, int total, const std::string& what) {
-        if (!show_ || total <= 0) return;
-        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
-        const double eta = done > 0 ? s / done * (total - done) : 0;
-        const std::string line = fmt::format("[tune {:3.0f}%] {} ({}/{}, {} elapsed, ETA {})", 100.0 * done / total,
-                                             what, done, total, formatDuration(s), formatDuration(eta));
-        if (tty_) {
-            std::fprintf(stderr, "\r%s\x1b[K%s", line.c_str(), done >= total ? "\n" : "");
-            open_ = done < total;
-        } else if (done == total || done * 10 / total != (done - 1) * 10 / total) {
-            std::fprintf(stderr, "%s\n", line.c_str());
-        }
-        std::fflush(stderr);
-    }
-    void finish() {
-        if (show_ && tty_ && open_) std::fprintf(stderr, "\n");
-        open_ = false;
-    }
-
-private:
-    bool show_, tty_;
-    bool open_ = false;  // a line without its newline yet
-    std::chrono::steady_clock::time_point t0_;
-};
 
 tune::ProbeOptions probeOptions(const ProbeArgs& a, const Global& g) {
     tune::ProbeOptions o;
@@ -127,7 +78,7 @@ void runSweep(const SweepArgs& a, const Global& g) {
     std::error_code ec;
     fs::create_directory(a.output, ec);
     if (ec) throw IoError("output folder", a.output, ec.message());
-    Progress progress(g);
+    ProgressLine progress(g, "tune");
     o.progress = [&](int done, int total) { progress(done, total, "sweeping"); };
     const tune::SweepResult r = tune::sweep(scene, o);
     const fs::path dir = a.output;
@@ -188,7 +139,7 @@ void runFit(const FitArgs& a, const Global& g) {
     requireWritable(out);
     fs::path reportPath = out;
     reportPath.replace_extension(".tune.json");
-    Progress progress(g);
+    ProgressLine progress(g, "tune");
     o.progress = [&](int done, int total, double best) {
         progress(done, total, fmt::format("best distance {:.3f}", best));
     };

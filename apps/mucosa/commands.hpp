@@ -42,6 +42,9 @@ void warn(const std::string& line);
 // "vertices").
 std::string count(std::uint64_t n, std::string_view singular, std::string_view plural = {});
 
+// "a,b,,c" -> {"a", "b", "c"}: a comma-separated option's items, empty ones dropped.
+std::vector<std::string> splitList(const std::string& s);
+
 // An ETA or elapsed time: "42s", "3m05s", "1h20m".
 std::string formatDuration(double seconds);
 

@@ -92,7 +92,12 @@ json renderManifest(const scene::Scene& scene, const SceneOptions& options, int 
     m["noise_space"] = scene.noiseSpace == shading::NoiseSpace::Uv ? "uv" : "object";
     m["specular_aa"] = scene.specularAA;
     m["set"] = options.sets;
-    if (scene.variation != 0) m["variation"] = scene.variation;        // absent = 0, as before the key existed
+    if (scene.variation != 0) m["variation"] = scene.variation;  // absent = 0, as before the key existed
+    if (!scene.tissue.empty()) {                                 // absent: the variation's texture alone
+        json t = json::object();
+        for (const auto& [key, value] : scene.tissue) t[key] = value;
+        m["tissue"] = t;
+    }
     if (!outputs.empty() && outputs != "rgb") m["outputs"] = outputs;  // absent = the colour frames alone
     json params = json::object();
     for (const shading::ParamInfo& p : shading::registry()) {
@@ -122,7 +127,7 @@ std::string manifestDifferences(const json& recorded, const json& current) {
         return j.is_object() && j.contains(key) ? j[key] : json();
     };
     for (const Setting& s : kSettings) differ(s.label, field(recorded, s.key), field(current, s.key));
-    for (const char* group : {"parameters", "reflectance_map"}) {
+    for (const char* group : {"parameters", "reflectance_map", "tissue"}) {
         const json was = field(recorded, group), now = field(current, group);
         const std::string prefix = std::string(group) == "parameters" ? "" : std::string(group) + ".";
         for (const auto& [key, value] : now.items()) differ(prefix + key, field(was, key), value);

@@ -26,10 +26,17 @@ void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize) {
                   "Patient variation: draw tissue colour, vessels, mucus, exposure and the scope's softness, noise and "
                   "glare for patient SEED (a whole number; 0 = the default look; ranges: docs/theory.md, \"Patient "
                   "variation\") [0, or the scene's variation]");
+    c->add_option(
+        "--look", o.look,
+        "A look file (mucosa look fit writes one: the colour, vessels, mucus, highlights, exposure and camera "
+        "fitted to a folder of real frames) applied over the scene and the variation; --set still overrides "
+        "it");
     c->add_option("--set", o.sets,
-                  "Override a parameter, e.g. --set material.shininess=80 or --set reflectance_map.frequency=32 "
-                  "(repeatable; reflectance_map takes the keys of a scene's \"reflectance_map\" object and applies to "
-                  "the generated map and the procedural mode). Every parameter, its range and default: mucosa params");
+                  "Override a parameter, e.g. --set material.shininess=80, --set reflectance_map.frequency=32 or "
+                  "--set tissue.vessel_contrast=0.5 (repeatable; reflectance_map takes the keys of a scene's "
+                  "\"reflectance_map\" object and applies to the generated map and the procedural mode; tissue those "
+                  "of its \"tissue\" object, the generated texture's). Every parameter, its range and default: "
+                  "mucosa params");
 }
 
 std::pair<int, int> parseSize(const std::string& text, const std::string& option) {
@@ -69,6 +76,7 @@ scene::Scene resolveScene(const SceneOptions& o) {
                              "'" + o.variation + "' is not a whole number >= 0 (a patient seed; 0 = the default look)");
         scene::applyVariation(s, seed);
     }
+    if (!o.look.empty()) scene::applyLook(s, o.look);
     for (const std::string& kv : o.sets) {
         const auto eq = kv.find('=');
         if (eq == std::string::npos) throw InputError("--set", "", "'" + kv + "' is not group.name=value");
@@ -78,6 +86,14 @@ scene::Scene resolveScene(const SceneOptions& o) {
         const std::string name = dot == std::string::npos ? key : key.substr(dot + 1);
         if (dot != std::string::npos && key.substr(0, dot) == "reflectance_map") {
             scene::setMapParameter(s, name, value);
+            continue;
+        }
+        if (dot != std::string::npos && key.substr(0, dot) == "tissue") {
+            double v = 0;
+            const auto r = std::from_chars(value.data(), value.data() + value.size(), v);
+            if (value.empty() || r.ec != std::errc() || r.ptr != value.data() + value.size())
+                throw InputError("--set " + key, "", "'" + value + "' is not a number");
+            scene::setTissueParameter(s, name, v, "--set " + key);
             continue;
         }
         const shading::ParamInfo* pi = shading::findParam(name);

@@ -1,7 +1,7 @@
 #pragma once
 // Options shared by render, compare and view: the scene file and overrides
-// (--mode, --size, --noise-space, --specular-aa, --variation, --set
-// group.name=value from the parameter registry).
+// (--mode, --size, --noise-space, --specular-aa, --variation, --look,
+// --set group.name=value from the parameter registry).
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,9 +20,10 @@ struct SceneOptions {
     std::string specularAA;
     std::vector<std::string> sets;
     std::string variation;  // --variation SEED (scene::applyVariation)
+    std::string look;       // --look FILE (scene::applyLook)
 };
 
-// Adds [scene.json], --mode, --size, --noise-space, --specular-aa, --variation, --set to `c`.
+// Adds [scene.json], --mode, --size, --noise-space, --specular-aa, --variation, --look, --set to `c`.
 void addSceneOptions(CLI::App* c, SceneOptions& o, bool withSize = true);
 
 // Loads the scene (or the default one), prints its warnings (deprecated keys)

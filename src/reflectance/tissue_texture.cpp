@@ -96,6 +96,23 @@ double murrayAngle(double r0, double r1, double r2) {
     return std::acos(std::clamp(c, -1.0, 1.0));
 }
 
+constexpr std::array<TissueParamInfo, 14> kTissueRegistry = {{
+    {"tile_mm", &TissueParams::tileMm, 1, 1000, "mm", "tissue spanned by the texture along u and v"},
+    {"lightness", &TissueParams::lightness, 0, 100, "L*", "mean mucosa lightness L* (CIELAB)"},
+    {"chroma", &TissueParams::chroma, 0, 100, "", "mean mucosa chroma C*ab"},
+    {"hue", &TissueParams::hue, 0, 360, "deg", "mean mucosa hue angle h_ab"},
+    {"hue_variation", &TissueParams::hueVariation, 0, 45, "deg", "spread of hue over 10-20 mm patches"},
+    {"chroma_variation", &TissueParams::chromaVariation, 0, 50, "", "spread of chroma over the patches"},
+    {"lightness_variation", &TissueParams::lightnessVariation, 0, 50, "L*", "spread of lightness over the patches"},
+    {"mottle", &TissueParams::mottle, 0, 30, "L*", "spread of the 1-2 mm mottle"},
+    {"stipple", &TissueParams::stipple, 0, 30, "L*", "spread of the 0.2-0.4 mm stipple of glands and folds"},
+    {"vessel_density", &TissueParams::vesselDensity, 0, 8, "", "vessel trees per tile, x the default"},
+    {"trunk_radius", &TissueParams::trunkRadius, 0.01, 2, "mm", "mean radius of the vessel trunks"},
+    {"vessel_depth", &TissueParams::vesselDepth, 0.01, 3, "mm", "mean depth of the trunks under the surface"},
+    {"vessel_contrast", &TissueParams::vesselContrast, 0, 1, "", "light a vessel at the surface absorbs"},
+    {"longitudinal", &TissueParams::longitudinal, 0, 10, "", "how strongly vessels run along the airway"},
+}};
+
 void validate(const TissueParams& p) {
     auto need = [](bool ok, const char* name, double v, const char* why) {
         if (!ok || !std::isfinite(v))
@@ -456,6 +473,16 @@ image::Image8 tissueTexture(const TissueParams& p, int size) {
         for (std::size_t c = 0; c < 3; ++c) px[c] = encode(static_cast<float>(std::max(0.0, rgb[c])) * T[3 * i + c]);
     }
     return img;
+}
+
+std::span<const TissueParamInfo> tissueRegistry() noexcept {
+    return kTissueRegistry;
+}
+
+const TissueParamInfo* findTissueParam(std::string_view name) noexcept {
+    for (const TissueParamInfo& i : kTissueRegistry)
+        if (i.name == name) return &i;
+    return nullptr;
 }
 
 image::Image8 tissueTexture(int size, std::uint64_t seed) {

@@ -33,6 +33,10 @@ void OffscreenSession::setReflectanceMap(const image::Image8& map) {
     renderer_->setTexture(TextureSlot::Reflectance, map, scene_.filter, shading::Wrap::Repeat);
 }
 
+void OffscreenSession::setDiffuse(const image::Image8& texture) {
+    renderer_->setTexture(TextureSlot::Diffuse, texture, scene_.filter, shading::Wrap::Repeat);
+}
+
 void OffscreenSession::draw(const camera::Pose& pose, shading::Mode mode) {
     shading::FrameSetup f = scene::frameSetup(scene_, pose, width_, height_);
     f.mode = mode;

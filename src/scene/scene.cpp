@@ -394,6 +394,16 @@ void readMaterial(const Parser& P, const json& j, Scene& s) {
         s.fileMaterial.push_back(shading::findParam(it.key())->id);  // registryGroup checked the names
 }
 
+// "tissue": the generated texture's parameters by name.
+void readTissue(const Parser& P, const json& j, Scene& s) {
+    if (!j.contains("tissue")) return;
+    P.object(j["tissue"], "tissue");
+    for (auto it = j["tissue"].begin(); it != j["tissue"].end(); ++it) {
+        const std::string field = "tissue." + it.key();
+        setTissueParameter(s, it.key(), P.number(it.value(), field), field, P.file);
+    }
+}
+
 // "variation": a patient seed (reflectance::drawAppearance), after "material"
 // so the file's own mucus_opacity and specular_strength stay.
 void readVariation(const Parser& P, const json& j, Scene& s) {
@@ -595,6 +605,28 @@ void readCamera(const Parser& P, const json& j, Scene& s) {
 
 }  // namespace
 
+void setTissueParameter(Scene& scene, const std::string& key, double value, const std::string& field,
+                        const std::string& file) {
+    const reflectance::TissueParamInfo* info = reflectance::findTissueParam(key);
+    if (info == nullptr) {
+        std::string list;
+        for (const reflectance::TissueParamInfo& i : reflectance::tissueRegistry())
+            list += (list.empty() ? "" : ", ") + std::string(i.name);
+        throw InputError(field, file, fmt::format("unknown tissue parameter '{}' (known: {})", key, list));
+    }
+    if (!std::isfinite(value) || value < info->min || value > info->max)
+        throw InputError(field, file,
+                         fmt::format("{} is outside {}..{}{}{}", value, info->min, info->max,
+                                     info->unit.empty() ? "" : " ", info->unit));
+    scene.tissue[key] = value;
+}
+
+reflectance::TissueParams tissueParams(const Scene& scene) {
+    reflectance::TissueParams p = scene.appearance.tissue;
+    for (const auto& [key, value] : scene.tissue) p.*(reflectance::findTissueParam(key)->member) = value;
+    return p;
+}
+
 void applyVariation(Scene& scene, std::uint64_t seed) {
     scene.variation = seed;
     const double previousEv = scene.appearance.exposureEv;  // a seed applied before: replaced, not compounded
@@ -659,9 +691,10 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     const Parser P{fileForErrors.string(), fileForErrors.parent_path()};
     const json j = detail::parseJsonFile(text, P.file);
     P.object(j, "scene");
-    P.known(j, "",
-            {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
-             "light", "camera", "resolution", "frames", "outputs", "noise_space", "specular_aa", "variation"});
+    P.known(
+        j, "",
+        {"mesh", "lit_side", "closed", "diffuse", "reflectance_map", "filter", "mode", "material", "fit", "brdf",
+         "light", "camera", "resolution", "frames", "outputs", "noise_space", "specular_aa", "variation", "tissue"});
     Scene s = defaultScene();
     s.file = fileForErrors;
     readMesh(P, j, s);
@@ -670,6 +703,7 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     readShading(P, j, s);
     readMaterial(P, j, s);
     readVariation(P, j, s);
+    readTissue(P, j, s);
     readFit(P, j, s);
     readBrdfAndLight(P, j, s);
     readOutput(P, j, s);
@@ -680,6 +714,33 @@ Scene parseScene(const std::string& text, const fs::path& fileForErrors) {
     if (!s.generatedDiffuse &&
         std::find(s.fileMaterial.begin(), s.fileMaterial.end(), shading::Param::BaseColor) == s.fileMaterial.end())
         s.params.setColor(shading::Param::BaseColor, shading::ParamSet().color(shading::Param::BaseColor));
+    return s;
+}
+
+void applyLook(Scene& s, const fs::path& file) {
+    const Parser P{file.string(), file.parent_path()};
+    const json j = detail::parseJsonFile(readTextFile(file), P.file);
+    P.object(j, "look");
+    P.known(j, "", {"material", "light", "camera", "tissue", "reflectance_map"});
+    for (const char* group : {"material", "light", "camera"}) {
+        if (!j.contains(group)) continue;
+        P.registryGroup(j[group], group, s.params);
+        for (auto it = j[group].begin(); it != j[group].end(); ++it)
+            s.fileMaterial.push_back(shading::findParam(it.key())->id);  // a variation drawn later leaves it
+    }
+    readTissue(P, j, s);
+    if (j.contains("reflectance_map")) {
+        s.mapParams = P.mapParams(j["reflectance_map"], "reflectance_map", s.mapParams);
+        s.reflectanceMap.reset();  // generated from these parameters
+    }
+}
+
+Scene loadSceneOrLook(const fs::path& file) {
+    if (!fs::exists(file)) throw IoError("look", file.string(), "does not exist");
+    const json j = detail::parseJsonFile(readTextFile(file), file.string());
+    if (!j.is_object() || j.contains("mesh")) return loadScene(file);
+    Scene s = defaultScene();
+    applyLook(s, file);
     return s;
 }
 
@@ -811,7 +872,7 @@ void loadTextures(const Scene& scene, SceneAssets& a, int threads, bool reflecta
         requireFile(scene, "diffuse", *scene.diffuse);
         a.diffuse = image::to8(image::readPng(*scene.diffuse));
     } else if (scene.generatedDiffuse) {
-        a.diffuse = reflectance::tissueTexture(scene.appearance.tissue, kTissueTextureSize);
+        a.diffuse = reflectance::tissueTexture(tissueParams(scene), kTissueTextureSize);
         if (scene.variation != 0) {
             const reflectance::Appearance& v = scene.appearance;
             a.notes.push_back(fmt::format(

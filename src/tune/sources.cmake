@@ -7,5 +7,6 @@
 target_sources(mucosa_tune PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/frame_stats.cpp
   ${CMAKE_CURRENT_LIST_DIR}/highlight_stats.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/look.cpp
   ${CMAKE_CURRENT_LIST_DIR}/observer.cpp
   ${CMAKE_CURRENT_LIST_DIR}/tune.cpp)

@@ -13,9 +13,12 @@
 #include <mucosa/core/text.hpp>
 #include <mucosa/reflectance/map.hpp>
 #include <mucosa/reflectance/normal_map.hpp>
+#include <mucosa/reflectance/tissue_texture.hpp>
 #include <mucosa/render/offscreen.hpp>
 #include <mucosa/scene/scene.hpp>
 #include <mucosa/shading/params.hpp>
+
+#include "pattern_search.hpp"
 
 namespace mucosa::tune {
 
@@ -30,7 +33,11 @@ constexpr std::string_view kMapPrefix = "reflectance_map.";
 // (reflectance::validate); 2..128 cycles per map at map_tiling 4 spans
 // bumps from a quarter of the airway's circumference down to the texel scale
 // of a 1024 map. Strength 0.001..0.04 spans mean normal tilts of ~2 to ~45 deg.
-constexpr std::array<TuneParam, 8> kTuneParams = {{
+//
+// The look's parameters (tune/look.hpp; lookParams() lists them by group):
+// ranges about the default look wide enough for the scopes and patients of
+// real frames, inside the registries' ranges.
+constexpr std::array<TuneParam, 26> kTuneParams = {{
     {"reflectance_map.frequency", 2, 128, true, true, "frequency (cycles/map)"},
     {"reflectance_map.octaves", 1, 8, false, true, "octaves"},
     {"reflectance_map.gain", 0.2, 0.8, false, false, "gain (persistence)"},
@@ -39,11 +46,41 @@ constexpr std::array<TuneParam, 8> kTuneParams = {{
     {"material.specular_strength", 0.1, 3, true, false, "specular strength k_s"},
     {"material.bump_scale", 0.1, 4, true, false, "bump scale"},
     {"material.map_tiling", 1, 16, true, false, "map tiling (1/uv)"},
+    {"tissue.lightness", 40, 85, false, false, "mucosa lightness L*"},
+    {"tissue.chroma", 10, 60, false, false, "mucosa chroma C*"},
+    {"tissue.hue", 15, 70, false, false, "mucosa hue (deg)"},
+    {"tissue.hue_variation", 1, 20, true, false, "patchiness of hue (deg)"},
+    {"tissue.mottle", 0.5, 10, true, false, "mottle (L*)"},
+    {"tissue.vessel_density", 0.25, 4, true, false, "vessel density (x)"},
+    {"tissue.vessel_contrast", 0.1, 1, false, false, "vessel contrast"},
+    {"material.mucus_opacity", 0.02, 0.6, true, false, "mucus opacity"},
+    {"material.sheen", 0.05, 1, true, false, "wet sheen"},
+    {"camera.auto_key", 0.06, 0.6, true, false, "exposure key"},
+    {"camera.vignetting", 0, 4, false, false, "vignetting (cos^k)"},
+    {"light.spread", 0, 4, false, false, "lamp spread"},
+    {"camera.flare", 0.002, 0.2, true, false, "veiling glare"},
+    {"camera.softness_px", 0.05, 1.2, true, false, "optical softness (px)"},
+    {"camera.read_noise", 0.0001, 0.02, true, false, "read noise"},
+    {"camera.full_well", 500, 200000, true, false, "full well (e-)"},
+    {"camera.saturation", 0.7, 3, true, false, "colour saturation"},
+    {"camera.knee", 0.5, 1, false, false, "highlight knee"},
 }};
 constexpr std::size_t kDefaultTuneCount = 6;
 
+constexpr std::string_view kTissuePrefix = "tissue.";
+
 bool isMap(const TuneParam& p) {
     return p.key.starts_with(kMapPrefix);
+}
+
+bool isTissue(const TuneParam& p) {
+    return p.key.starts_with(kTissuePrefix);
+}
+
+const reflectance::TissueParamInfo& tissueInfo(const TuneParam& p) {
+    const reflectance::TissueParamInfo* i = reflectance::findTissueParam(p.key.substr(kTissuePrefix.size()));
+    MUCOSA_CHECK(i != nullptr, "a tunable tissue parameter that is not in the tissue registry");
+    return *i;
 }
 
 const reflectance::MapParamInfo& mapInfo(const TuneParam& p) {
@@ -56,19 +93,6 @@ const shading::ParamInfo& materialInfo(const TuneParam& p) {
     const shading::ParamInfo* i = shading::findParam(p.key.substr(p.key.find('.') + 1));
     MUCOSA_CHECK(i != nullptr && i->components == 1, "a tunable material parameter that is not a registry scalar");
     return *i;
-}
-
-// Normalised coordinate t in [0, 1] <-> value.
-double toValue(const TuneParam& p, double t) {
-    t = std::clamp(t, 0.0, 1.0);
-    const double v =
-        p.logScale ? std::exp(std::log(p.min) + t * (std::log(p.max) - std::log(p.min))) : p.min + t * (p.max - p.min);
-    return p.integer ? std::round(v) : v;
-}
-double toUnit(const TuneParam& p, double v) {
-    v = std::clamp(v, p.min, p.max);
-    return p.logScale ? (std::log(v) - std::log(p.min)) / (std::log(p.max) - std::log(p.min))
-                      : (v - p.min) / (p.max - p.min);
 }
 
 bool valid(const reflectance::MapParams& p) {
@@ -99,6 +123,18 @@ void nearestTileableFrequency(reflectance::MapParams& p) {
 }
 
 }  // namespace
+
+double fromUnit(const TuneParam& p, double t) {
+    t = std::clamp(t, 0.0, 1.0);
+    const double v =
+        p.logScale ? std::exp(std::log(p.min) + t * (std::log(p.max) - std::log(p.min))) : p.min + t * (p.max - p.min);
+    return p.integer ? std::round(v) : v;
+}
+double toUnit(const TuneParam& p, double v) {
+    v = std::clamp(v, p.min, p.max);
+    return p.logScale ? (std::log(v) - std::log(p.min)) / (std::log(p.max) - std::log(p.min))
+                      : (v - p.min) / (p.max - p.min);
+}
 
 std::span<const TuneParam> tuneParams() noexcept {
     return kTuneParams;
@@ -131,6 +167,7 @@ const TuneParam& findTuneParam(std::string_view key, const std::string& subject)
 
 double tuneValue(const scene::Scene& scene, const TuneParam& p) {
     if (isMap(p)) return reflectance::get(scene.mapParams, mapInfo(p).id);
+    if (isTissue(p)) return scene::tissueParams(scene).*(tissueInfo(p).member);
     return scene.params[materialInfo(p).id];
 }
 
@@ -147,12 +184,26 @@ void setTuneValue(scene::Scene& scene, const TuneParam& p, double value) {
         scene.mapParams.preset.clear();
         return;
     }
+    if (isTissue(p)) {
+        scene::setTissueParameter(scene, std::string(tissueInfo(p).name), value, subject);
+        return;
+    }
     scene.params.set(materialInfo(p).id, static_cast<float>(value), "", subject);
 }
 
 // ------------------------------------------------------------------ probe
 
 namespace {
+
+// The generated texture's parameters, to tell when it must be made again
+// (empty when the scene's texture is not generated).
+std::vector<double> tissueKey(const scene::Scene& s) {
+    if (!s.generatedDiffuse || s.diffuse) return {};
+    const reflectance::TissueParams t = scene::tissueParams(s);
+    std::vector<double> k = {static_cast<double>(t.seed)};
+    for (const reflectance::TissueParamInfo& i : reflectance::tissueRegistry()) k.push_back(t.*i.member);
+    return k;
+}
 
 // What the scene's map is made from: "file", or the generation parameters
 // (without the preset's name, which is informational).
@@ -173,6 +224,7 @@ struct HighlightProbe::Impl {
     std::unique_ptr<render::OffscreenSession> session;
     json mapOfBase;     // the parameters of assets.reflectanceMap ("file": the scene's map file)
     json mapOfSession;  // those of the map the session shows
+    std::vector<double> tissueOfBase, tissueOfSession;  // the generated texture's (tissueKey)
     std::vector<image::Image8> frames;
     int threads = 0;
 };
@@ -194,6 +246,8 @@ HighlightProbe::HighlightProbe(const scene::Scene& base, const ProbeOptions& o) 
     m.assets = scene::loadAssets(m.base, o.threads, shading::info(m.base.mode).readsMap);
     m.mapOfBase = mapKey(m.base);
     m.mapOfSession = m.mapOfBase;
+    m.tissueOfBase = tissueKey(m.base);
+    m.tissueOfSession = m.tissueOfBase;
     m.poses = scene::cameraPoses(m.base, m.assets, o.views);
     m.session = std::make_unique<render::OffscreenSession>(m.current, m.assets, o.size, o.size);
 }
@@ -201,6 +255,12 @@ HighlightProbe::HighlightProbe(const scene::Scene& base, const ProbeOptions& o) 
 HighlightProbe::~HighlightProbe() = default;
 
 std::vector<FrameHighlights> HighlightProbe::measure(const TuneValues& values) {
+    std::vector<FrameHighlights> out;
+    for (const image::Image8& f : renderViews(values)) out.push_back(measureHighlights(f));
+    return out;
+}
+
+const std::vector<image::Image8>& HighlightProbe::renderViews(const TuneValues& values) {
     Impl& m = *impl_;
     m.current = m.base;  // assigned in place: the session keeps its reference
     for (const auto& [p, v] : values) setTuneValue(m.current, *p, v);
@@ -222,13 +282,15 @@ std::vector<FrameHighlights> HighlightProbe::measure(const TuneValues& values) {
             m.mapOfSession = now;
         }
     }
-    std::vector<FrameHighlights> out;
-    m.frames.clear();
-    for (const camera::Pose& pose : m.poses) {
-        m.frames.push_back(m.session->render(pose));
-        out.push_back(measureHighlights(m.frames.back()));
+    if (const std::vector<double> now = tissueKey(m.current); now != m.tissueOfSession) {
+        m.session->setDiffuse(now == m.tissueOfBase ? m.assets.diffuse
+                                                    : reflectance::tissueTexture(scene::tissueParams(m.current),
+                                                                                 m.assets.diffuse.width()));
+        m.tissueOfSession = now;
     }
-    return out;
+    m.frames.clear();
+    for (const camera::Pose& pose : m.poses) m.frames.push_back(m.session->render(pose));
+    return m.frames;
 }
 
 const std::vector<image::Image8>& HighlightProbe::lastFrames() const noexcept {
@@ -247,7 +309,7 @@ std::string HighlightProbe::glRenderer() const {
 
 std::vector<double> sweepValues(const TuneParam& p, int steps, double base) {
     std::vector<double> v;
-    for (int i = 0; i < steps; ++i) v.push_back(toValue(p, steps == 1 ? 0.5 : static_cast<double>(i) / (steps - 1)));
+    for (int i = 0; i < steps; ++i) v.push_back(fromUnit(p, steps == 1 ? 0.5 : static_cast<double>(i) / (steps - 1)));
     v.push_back(p.integer ? std::round(base) : base);
     std::sort(v.begin(), v.end());
     // Distinct: integers rounded to the same value, or the base on a step.
@@ -529,11 +591,12 @@ TuneFitResult fitToTarget(const scene::Scene& scene, const HighlightSummary& tar
     // The values as set: rounded, and a tileable map's frequency moved to one its lattice takes.
     auto applied = [&](const std::vector<double>& u) {
         scene::Scene c = probe.base();
-        for (std::size_t i = 0; i < d; ++i) setTuneValue(c, *params[i], toValue(*params[i], u[i]));
+        for (std::size_t i = 0; i < d; ++i) setTuneValue(c, *params[i], fromUnit(*params[i], u[i]));
         std::vector<double> v(d);
         for (std::size_t i = 0; i < d; ++i) v[i] = tuneValue(c, *params[i]);
         return v;
     };
+    double bestSoFar = std::numeric_limits<double>::infinity();
     auto evaluate = [&](const std::vector<double>& u, bool first) -> std::pair<double, HighlightSummary> {
         // The first evaluation is at the scene's own values, unrounded.
         std::vector<double> v = first ? std::vector<double>() : applied(u);
@@ -546,43 +609,18 @@ TuneFitResult fitToTarget(const scene::Scene& scene, const HighlightSummary& tar
         const double dist = distance(s, target, stats).total;
         ++r.evaluations;
         cache[v] = {dist, s};
+        bestSoFar = std::min(bestSoFar, dist);
+        if (o.progress) o.progress(r.evaluations, o.maxEvaluations, bestSoFar);
         return cache[v];
     };
     auto [best, bestSummary] = evaluate(t, true);
     r.before = distance(bestSummary, target, stats);
     r.beforeSummary = bestSummary;
-    if (o.progress) o.progress(r.evaluations, o.maxEvaluations, best);
-    // Hooke and Jeeves 1961, exploratory moves only: each coordinate in turn
-    // tries +step and -step and keeps the better if it improves; after a
-    // sweep with no improvement the step is halved. Bounded by clamping to
-    // [0, 1]; deterministic (fixed order, strict improvement).
-    double step = 0.25;
-    while (step >= o.tolerance && r.evaluations < o.maxEvaluations) {
-        bool improved = false;
-        for (std::size_t i = 0; i < d && r.evaluations < o.maxEvaluations; ++i) {
-            std::vector<double> bestT = t;
-            for (double sgn : {+1.0, -1.0}) {
-                if (r.evaluations >= o.maxEvaluations) break;
-                std::vector<double> u = t;
-                u[i] = std::clamp(t[i] + sgn * step, 0.0, 1.0);
-                if (u[i] == t[i]) continue;
-                const int before = r.evaluations;
-                const auto [dist, summary] = evaluate(u, false);
-                if (o.progress && r.evaluations > before)
-                    o.progress(r.evaluations, o.maxEvaluations, std::min(best, dist));
-                if (dist < best - 1e-12) {
-                    best = dist;
-                    bestSummary = summary;
-                    bestT = u;
-                }
-            }
-            if (bestT != t) {
-                t = bestT;
-                improved = true;
-            }
-        }
-        if (!improved) step *= 0.5;
-    }
+    detail::patternSearch(
+        t, best, [&](const std::vector<double>& u) { return evaluate(u, false).first; },
+        [&] { return r.evaluations < o.maxEvaluations; }, o.tolerance);
+    // The best point's summary: the start's unless the search improved on it.
+    if (best < r.before.total - 1e-12) bestSummary = cache.at(applied(t)).second;
     r.afterSummary = bestSummary;
     r.after = distance(bestSummary, target, stats);
     // The best point's values: the start (unrounded) if nothing improved on it.
@@ -597,7 +635,7 @@ TuneFitResult fitToTarget(const scene::Scene& scene, const HighlightSummary& tar
     return r;
 }
 
-std::string presetJson(const scene::Scene& scene, const TuneValues& values) {
+std::string presetJson(const scene::Scene& scene, const TuneValues& values, bool everyMapKey) {
     scene::Scene s = scene;
     for (const auto& [p, v] : values) setTuneValue(s, *p, v);
     json map = json::object();
@@ -619,11 +657,22 @@ std::string presetJson(const scene::Scene& scene, const TuneValues& values) {
                 break;
         }
     }
-    json material = json::object();
-    for (const auto& [p, v] : values)
-        if (!isMap(*p)) material[std::string(p->key.substr(p->key.find('.') + 1))] = s.params[materialInfo(*p).id];
-    json j = {{"reflectance_map", map}};
-    if (!material.empty()) j["material"] = material;
+    json j = everyMapKey ? json{{"reflectance_map", map}} : json::object();
+    for (const auto& [p, v] : values) {
+        if (isMap(*p)) {
+            // Only the keys fitted: the map keeps the scene's other parameters.
+            if (!everyMapKey) j["reflectance_map"][std::string(mapInfo(*p).name)] = map[std::string(mapInfo(*p).name)];
+            continue;
+        }
+        if (isTissue(*p)) {
+            // Six significant digits: a fitted value, not a measured one.
+            j["tissue"][std::string(tissueInfo(*p).name)] = std::stod(fmt::format("{:.6g}", tuneValue(s, *p)));
+            continue;
+        }
+        // The float as its shortest decimal (0.22, not 0.2199999988).
+        const shading::ParamInfo& i = materialInfo(*p);
+        j[std::string(i.group)][std::string(i.name)] = std::stod(fmt::format("{}", s.params[i.id]));
+    }
     return j.dump(2) + "\n";
 }
 

@@ -209,10 +209,59 @@ TEST(SceneFile, MapParametersHaveTheRegistrysRanges) {
     } catch (const InputError& e) {
         EXPECT_STREQ(e.what(), "reflectance_map.octaves in s.json: must be in 1..32, got 33");
     }
-    const scene::Scene s = scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"seed": 18446744073709551615}})", "s.json");
+    const scene::Scene s =
+        scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"seed": 18446744073709551615}})", "s.json");
     EXPECT_EQ(s.mapParams.noise.seed, 18446744073709551615ull);
     EXPECT_THROW(scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"size": 16384}})", "s.json"), InputError);
-    EXPECT_THROW(scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"bits": 16}})", "s.json"), InputError);  // rendered maps are 8-bit
+    EXPECT_THROW(scene::parseScene(R"({"mesh": "phantom", "reflectance_map": {"bits": 16}})", "s.json"),
+                 InputError);  // rendered maps are 8-bit
+}
+
+// "tissue" / --set tissue.<key>: the generated texture's parameters by name,
+// over the patient's draw, kept when a variation is drawn later; a look file
+// applies them with the registry's values and refuses anything else.
+TEST(SceneFile, TissueParametersAndLookFiles) {
+    scene::Scene s = scene::parseScene(R"({"mesh": "tube", "tissue": {"hue": 30, "vessel_contrast": 0.4}})", "s.json");
+    EXPECT_EQ(scene::tissueParams(s).hue, 30);
+    EXPECT_EQ(scene::tissueParams(s).vesselContrast, 0.4);
+    EXPECT_EQ(scene::tissueParams(s).chroma, scene::defaultScene().appearance.tissue.chroma);
+    scene::applyVariation(s, 7);  // the patient's tone and vessels, the file's hue and contrast
+    EXPECT_EQ(scene::tissueParams(s).hue, 30);
+    EXPECT_EQ(scene::tissueParams(s).vesselContrast, 0.4);
+    EXPECT_EQ(scene::tissueParams(s).vesselDensity, s.appearance.tissue.vesselDensity);
+    EXPECT_NE(s.appearance.tissue.vesselDensity, scene::defaultScene().appearance.tissue.vesselDensity);
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "tissue": {"hue": 400}})"), "tissue.hue");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "tissue": {"vessels": 1}})"), "tissue.vessels");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "tissue": {"hue": "red"}})"), "tissue.hue");
+    EXPECT_EQ(subjectOf(R"({"mesh": "tube", "tissue": 3})"), "tissue");
+
+    test::TempDir dir;
+    const std::filesystem::path look = dir / "look.json";
+    std::ofstream(look) << R"({"tissue": {"chroma": 20}, "camera": {"saturation": 1.1}, "material": {"sheen": 0.3},
+                               "light": {"spread": 1.5}, "reflectance_map": {"frequency": 8}})";
+    scene::Scene t = scene::defaultScene();
+    scene::applyLook(t, look);
+    EXPECT_EQ(scene::tissueParams(t).chroma, 20);
+    EXPECT_FLOAT_EQ(t.params[shading::Param::Saturation], 1.1f);
+    EXPECT_FLOAT_EQ(t.params[shading::Param::SheenStrength], 0.3f);
+    EXPECT_FLOAT_EQ(t.params[shading::Param::LightSpread], 1.5f);
+    EXPECT_EQ(t.mapParams.noise.frequency, 8);
+    scene::applyVariation(t, 3);  // the look's values stay, as a scene file's own
+    EXPECT_FLOAT_EQ(t.params[shading::Param::SheenStrength], 0.3f);
+    EXPECT_EQ(scene::tissueParams(t).chroma, 20);
+    // A look file stands for the default scene where a scene file is expected.
+    EXPECT_EQ(scene::tissueParams(scene::loadSceneOrLook(look)).chroma, 20);
+    // Only the look's objects: a mesh or a path in a look is refused, naming it.
+    std::ofstream(look) << R"({"camera": {"saturation": 1.1}, "frames": 3})";
+    try {
+        scene::applyLook(t, look);
+        FAIL() << "a look with frames was read";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.subject(), "frames");
+        EXPECT_EQ(e.file(), look.string());
+    }
+    std::ofstream(look) << R"({"camera": {"fov_deg": 90}})";
+    EXPECT_THROW(scene::applyLook(t, look), InputError);
 }
 
 }  // namespace

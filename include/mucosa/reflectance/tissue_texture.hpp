@@ -10,6 +10,8 @@
 // airway axis; docs/theory.md, "Conventions", for which end is v = 0).
 #include <array>
 #include <cstdint>
+#include <span>
+#include <string_view>
 #include <vector>
 
 #include <mucosa/image/image.hpp>
@@ -56,6 +58,19 @@ struct TissueParams {
     double vesselContrast = 0.75;
     double longitudinal = 0.3;
 };
+
+// The texture's parameters by name: the keys of a scene's "tissue" object
+// and of `--set tissue.<key>` (docs/scene-format.md), with the range a scene
+// may set (validate's, made finite) and what each does.
+struct TissueParamInfo {
+    std::string_view name;  // "lightness", "vessel_density", ...
+    double TissueParams::*member;
+    double min, max;
+    std::string_view unit;  // "", "deg", "mm", "L*"
+    std::string_view meaning;
+};
+std::span<const TissueParamInfo> tissueRegistry() noexcept;
+const TissueParamInfo* findTissueParam(std::string_view name) noexcept;
 
 // One straight piece of a vessel, in mm, unwrapped (the torus wraps x and y
 // modulo tileMm when drawn). A vessel starts at its tree's root; each segment

@@ -40,6 +40,7 @@ public:
     void finish();
 
     void setReflectanceMap(const image::Image8& map);
+    void setDiffuse(const image::Image8& texture);  // the subject texture (sRGB-encoded)
     Renderer& renderer() noexcept { return *renderer_; }
     const std::string& glRendererName() const noexcept { return rendererName_; }
     int width() const noexcept { return width_; }

@@ -4,6 +4,7 @@
 // (every registry parameter), camera (a pose or a path), light, resolution.
 // Without a file: the airway phantom with the 'bronchial' preset.
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -106,6 +107,10 @@ struct Scene {
     // camera.exposure_ev (applyVariation).
     std::uint64_t variation = 0;
     reflectance::Appearance appearance = reflectance::defaultAppearance();
+    // "tissue" / --set tissue.<key>: the generated texture's parameters the
+    // scene sets by name (reflectance::tissueRegistry), over the patient's
+    // appearance.tissue; a variation drawn later keeps them (tissueParams).
+    std::map<std::string, double, std::less<>> tissue;
     // The material and camera parameters the scene file set explicitly.
     std::vector<shading::Param> fileMaterial;
     // What parsing accepted but warns about (a deprecated key), one line each
@@ -121,6 +126,16 @@ struct Scene {
 // map). Throws InputError("--set reflectance_map.<key>", ...).
 void setMapParameter(Scene& scene, const std::string& key, const std::string& value);
 
+// `--set tissue.<key>=<value>` or a scene's "tissue" key: one of the
+// generated texture's parameters (reflectance::tissueRegistry), checked
+// against its range. Throws InputError(field, file, ...) naming the key
+// (with the nearest known one for a typo).
+void setTissueParameter(Scene& scene, const std::string& key, double value, const std::string& field,
+                        const std::string& file = "");
+// The generated texture's parameters: the patient's appearance.tissue with
+// the scene's "tissue" values over it.
+reflectance::TissueParams tissueParams(const Scene& scene);
+
 // Draws patient `seed` (reflectance::drawAppearance; 0 = the default look)
 // into scene.variation and scene.appearance, and sets material.mucus_opacity
 // and specular_strength to their registry defaults times
@@ -129,6 +144,18 @@ void setMapParameter(Scene& scene, const std::string& key, const std::string& va
 // scope's factors, except those in scene.fileMaterial. Applying another seed
 // later replaces it.
 void applyVariation(Scene& scene, std::uint64_t seed);
+
+// A look file (`mucosa look fit` writes one; docs/look.md): a scene's
+// "material", "light" and "camera" registry values, its "tissue" and
+// "reflectance_map" objects, applied over `scene` — the mesh, path, lens and
+// outputs stay the scene's. Its values count as the
+// scene's own: a variation drawn later leaves them. Throws InputError(field,
+// file, ...) as parseScene does; anything else in the file is refused.
+void applyLook(Scene& scene, const std::filesystem::path& lookFile);
+
+// A scene file, or a look file (a JSON object without "mesh") over the
+// default scene: what `mucosa mesh --look` and `mucosa phantom --look` take.
+Scene loadSceneOrLook(const std::filesystem::path& file);
 
 // The built-in default: the phantom, 'bronchial' map (1024 texels), flying
 // down the centerline.

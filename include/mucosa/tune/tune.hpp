@@ -44,6 +44,11 @@ std::vector<std::string> defaultTuneKeys();
 // InputError(subject, "", "unknown parameter ... (did you mean ...; known: ...)").
 const TuneParam& findTuneParam(std::string_view key, const std::string& subject = "--params");
 
+// A parameter's normalised coordinate in [0, 1] over its range (in log for
+// logScale) and back (rounded for integers); both clamp.
+double toUnit(const TuneParam& p, double value);
+double fromUnit(const TuneParam& p, double t);
+
 double tuneValue(const scene::Scene& scene, const TuneParam& p);
 // Sets the value (rounded when p.integer); InputError when outside the registry's range.
 void setTuneValue(scene::Scene& scene, const TuneParam& p, double value);
@@ -67,6 +72,10 @@ public:
 
     // The base scene with `values` applied, every view measured.
     std::vector<FrameHighlights> measure(const TuneValues& values);
+    // The base scene with `values` applied, every view rendered (kept until
+    // the next call). The generated texture is made again when a tissue
+    // parameter changes.
+    const std::vector<image::Image8>& renderViews(const TuneValues& values);
     // The frames of the last measure(), in view order.
     const std::vector<image::Image8>& lastFrames() const noexcept;
     const scene::Scene& base() const noexcept;
@@ -135,9 +144,10 @@ struct TuneFitResult {
 TuneFitResult fitToTarget(const scene::Scene& scene, const HighlightSummary& target, const TuneFitOptions& options);
 
 // The fitted look as a scene file fragment: {"reflectance_map": {every map
-// key}, "material": {the tuned material parameters}}: the keys of a scene's
-// "reflectance_map" and "material" objects (docs/scene-format.md); with a
-// "mesh" added it is a scene file of its own.
-std::string presetJson(const scene::Scene& scene, const TuneValues& values);
+// key, or with everyMapKey false only those in `values`}, "material",
+// "camera", "light": {the registry values in `values`}, "tissue": {the
+// texture's}}: the keys of a scene's objects (docs/scene-format.md); with a
+// "mesh" added it is a scene file of its own, and `--look` reads it as it is.
+std::string presetJson(const scene::Scene& scene, const TuneValues& values, bool everyMapKey = true);
 
 }  // namespace mucosa::tune

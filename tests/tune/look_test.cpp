@@ -1,0 +1,100 @@
+// The look fit (tune/look.hpp): a look is recovered from frames rendered
+// with it, the fitted look is a file --look reads back to the same values,
+// and the command refuses bad input in one line.
+#include <mucosa/tune/look.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include <mucosa/core/error.hpp>
+#include <mucosa/scene/scene.hpp>
+#include <mucosa/shading/params.hpp>
+
+#include "test_support.hpp"
+
+namespace {
+
+using namespace mucosa;
+namespace fs = std::filesystem;
+
+scene::Scene smallScene() {
+    scene::Scene s = scene::defaultScene();
+    s.mapParams.size = 256;
+    return s;
+}
+
+TEST(Look, FitRecoversATissueHueAndTheCamerasSaturationFromFrames) {
+    // The target: six views of the phantom with a redder mucosa (hue 30 deg,
+    // the default 41) through a processor with less colour gain (1.1, the
+    // default 1.5).
+    const scene::Scene s = smallScene();
+    const tune::TuneParam& hue = tune::findTuneParam("tissue.hue");
+    const tune::TuneParam& sat = tune::findTuneParam("camera.saturation");
+    tune::ProbeOptions po;
+    po.views = 6;
+    po.size = 160;
+    std::vector<tune::FrameStats> target;
+    {
+        tune::HighlightProbe probe(s, po);
+        for (const image::Image8& f : probe.renderViews({{&hue, 30.0}, {&sat, 1.1}}))
+            target.push_back(tune::measureFrame(f));
+    }
+    tune::LookFitOptions o;
+    o.params = {"tissue.hue", "camera.saturation"};
+    o.probe = po;
+    o.maxEvaluations = 30;
+    o.tolerance = 1.0 / 64;
+    const tune::LookFitResult r = tune::fitLook(s, target, o);
+    ASSERT_EQ(r.best.size(), 2u);
+    EXPECT_EQ(r.start[0].second, 41.0);
+    // The search's grid about the start (steps of 1/4 .. 1/64 of 15..70 deg
+    // and of log(0.7..3)) holds points within 0.45 deg and 1.2 % of the truth.
+    EXPECT_NEAR(r.best[0].second, 30.0, 1.5) << "hue";
+    EXPECT_NEAR(std::log(r.best[1].second / 1.1), 0.0, 0.05) << "saturation " << r.best[1].second;
+    EXPECT_LT(r.after.realism.overall, 0.3 * r.before.realism.overall);
+    EXPECT_LT(r.after.objective, r.before.objective);
+    EXPECT_LE(r.evaluations, 30);
+    EXPECT_EQ(r.frames.size(), 6u);
+}
+
+TEST(Look, TheFittedLookIsAFileThatLookReadsBack) {
+    const scene::Scene s = smallScene();
+    tune::TuneValues values;
+    for (const auto& [key, v] :
+         {std::pair{"tissue.chroma", 25.0}, std::pair{"camera.saturation", 1.25}, std::pair{"material.sheen", 0.4},
+          std::pair{"light.spread", 1.0}, std::pair{"camera.full_well", 9000.0}})
+        values.push_back({&tune::findTuneParam(key), v});
+    test::TempDir dir;
+    const fs::path look = dir / "look.json";
+    std::ofstream(look) << tune::presetJson(s, values, false);
+    scene::Scene back = scene::defaultScene();
+    scene::applyLook(back, look);
+    for (const auto& [p, v] : values) EXPECT_NEAR(tune::tuneValue(back, *p), v, 1e-5 * v) << p->key;
+    // Only what was fitted: the map keeps the scene's parameters.
+    EXPECT_EQ(back.mapParams.noise.frequency, scene::defaultScene().mapParams.noise.frequency);
+    EXPECT_EQ(tune::lookGroup(tune::findTuneParam("camera.read_noise")), tune::LookGroup::Camera);
+}
+
+TEST(LookCli, BadInputIsOneLineAndNothingIsWritten) {
+    test::TempDir dir;
+    auto r = test::runCli("look fit " + (dir / "nowhere").string() + " -o " + (dir / "l.json").string());
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_EQ(r.err, "error: target in " + (dir / "nowhere").string() + ": no such file or folder\n");
+    std::ofstream(dir / "one.json") << R"({"frames": [{"name": "a", "stats": {"L_mean": 50}}]})";
+    r = test::runCli("look fit " + (dir / "one.json").string() + " -o " + (dir / "l.json").string());
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_NE(r.err.find("a fit needs at least 2"), std::string::npos) << r.err;
+    r = test::runCli("look fit " + (dir / "one.json").string() + " -o " + (dir / "l.png").string());
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_NE(r.err.find("must end in .json"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "l.json"));
+    r = test::runCli("render -o " + (dir / "f.png").string() + " --size 32x32 --look " +
+                     (dir / "missing.json").string());
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_FALSE(fs::exists(dir / "f.png"));
+}
+
+}  // namespace
