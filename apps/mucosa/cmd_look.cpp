@@ -102,7 +102,7 @@ void printSeparating(const Global& g, const std::vector<tune::FrameStats>& real,
 struct FitArgs {
     SceneOptions scene;
     std::string frames, output, params, framesOut;
-    int views = 16, size = 320, maxEvals = 200;
+    int views = 16, size = 480, maxEvals = 300;
     double observerWeight = 1.0;
 };
 
@@ -267,8 +267,11 @@ void addLookCommand(CLI::App& app, Global& g) {
     for (const tune::LookParam& p : tune::lookParams()) keys += (keys.empty() ? "" : ", ") + std::string(p.key);
     fi->add_option("--params", f->params, "Parameters searched, comma-separated [" + keys + "]");
     fi->add_option("--views", f->views, "Views along the scene's camera path [16]")->check(wholeNumber(2, 256));
-    fi->add_option("--size", f->size, "Views are NxN (measured at 320x320) [320]")->check(wholeNumber(16, 4096));
-    fi->add_option("--max-evals", f->maxEvals, "Renders of the view set at most [200]")->check(wholeNumber(1, 100000));
+    fi->add_option("--size", f->size,
+                   "Views are NxN: the size you render at (the statistics see a frame's centre square at 320x320; 480 "
+                   "is that of the default 640x480 frame) [480]")
+        ->check(wholeNumber(16, 4096));
+    fi->add_option("--max-evals", f->maxEvals, "Renders of the view set at most [300]")->check(wholeNumber(1, 100000));
     fi->add_option("--observer-weight", f->observerWeight,
                    "Weight of the observer's AUC - 0.5 beside the realism score (0: the statistics alone) [1]")
         ->check(CLI::Range(0.0, 100.0));

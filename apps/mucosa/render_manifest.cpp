@@ -10,6 +10,7 @@
 #include <mucosa/core/error.hpp>
 #include <mucosa/core/file.hpp>
 #include <mucosa/core/version.hpp>
+#include <mucosa/reflectance/tissue_texture.hpp>
 #include <mucosa/shading/params.hpp>
 
 #include "commands.hpp"

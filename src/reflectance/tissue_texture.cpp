@@ -97,20 +97,21 @@ double murrayAngle(double r0, double r1, double r2) {
 }
 
 constexpr std::array<TissueParamInfo, 14> kTissueRegistry = {{
-    {"tile_mm", &TissueParams::tileMm, 1, 1000, "mm", "tissue spanned by the texture along u and v"},
-    {"lightness", &TissueParams::lightness, 0, 100, "L*", "mean mucosa lightness L* (CIELAB)"},
-    {"chroma", &TissueParams::chroma, 0, 100, "", "mean mucosa chroma C*ab"},
-    {"hue", &TissueParams::hue, 0, 360, "deg", "mean mucosa hue angle h_ab"},
-    {"hue_variation", &TissueParams::hueVariation, 0, 45, "deg", "spread of hue over 10-20 mm patches"},
-    {"chroma_variation", &TissueParams::chromaVariation, 0, 50, "", "spread of chroma over the patches"},
-    {"lightness_variation", &TissueParams::lightnessVariation, 0, 50, "L*", "spread of lightness over the patches"},
-    {"mottle", &TissueParams::mottle, 0, 30, "L*", "spread of the 1-2 mm mottle"},
-    {"stipple", &TissueParams::stipple, 0, 30, "L*", "spread of the 0.2-0.4 mm stipple of glands and folds"},
-    {"vessel_density", &TissueParams::vesselDensity, 0, 8, "", "vessel trees per tile, x the default"},
-    {"trunk_radius", &TissueParams::trunkRadius, 0.01, 2, "mm", "mean radius of the vessel trunks"},
-    {"vessel_depth", &TissueParams::vesselDepth, 0.01, 3, "mm", "mean depth of the trunks under the surface"},
-    {"vessel_contrast", &TissueParams::vesselContrast, 0, 1, "", "light a vessel at the surface absorbs"},
-    {"longitudinal", &TissueParams::longitudinal, 0, 10, "", "how strongly vessels run along the airway"},
+    {"tile_mm", &TissueParams::tileMm, 1, 1000, "mm", "tissue spanned by the texture along u and v", true},
+    {"lightness", &TissueParams::lightness, 0, 100, "L*", "mean mucosa lightness L* (CIELAB)", false},
+    {"chroma", &TissueParams::chroma, 0, 100, "", "mean mucosa chroma C*ab", false},
+    {"hue", &TissueParams::hue, 0, 360, "deg", "mean mucosa hue angle h_ab", false},
+    {"hue_variation", &TissueParams::hueVariation, 0, 45, "deg", "spread of hue over 10-20 mm patches", false},
+    {"chroma_variation", &TissueParams::chromaVariation, 0, 50, "", "spread of chroma over the patches", false},
+    {"lightness_variation", &TissueParams::lightnessVariation, 0, 50, "L*", "spread of lightness over the patches",
+     false},
+    {"mottle", &TissueParams::mottle, 0, 30, "L*", "spread of the 1-2 mm mottle", false},
+    {"stipple", &TissueParams::stipple, 0, 30, "L*", "spread of the 0.2-0.4 mm stipple of glands and folds", false},
+    {"vessel_density", &TissueParams::vesselDensity, 0, 8, "", "vessel trees per tile, x the default", true},
+    {"trunk_radius", &TissueParams::trunkRadius, 0.01, 2, "mm", "mean radius of the vessel trunks", true},
+    {"vessel_depth", &TissueParams::vesselDepth, 0.01, 3, "mm", "mean depth of the trunks under the surface", true},
+    {"vessel_contrast", &TissueParams::vesselContrast, 0, 1, "", "light a vessel at the surface absorbs", false},
+    {"longitudinal", &TissueParams::longitudinal, 0, 10, "", "how strongly vessels run along the airway", false},
 }};
 
 void validate(const TissueParams& p) {

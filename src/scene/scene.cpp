@@ -605,8 +605,10 @@ void readCamera(const Parser& P, const json& j, Scene& s) {
 
 }  // namespace
 
-void setTissueParameter(Scene& scene, const std::string& key, double value, const std::string& field,
-                        const std::string& file) {
+namespace {
+
+// `value` for tissue parameter `key`, checked against its range.
+double checkedTissue(const std::string& key, double value, const std::string& field, const std::string& file) {
     const reflectance::TissueParamInfo* info = reflectance::findTissueParam(key);
     if (info == nullptr) {
         std::string list;
@@ -618,11 +620,25 @@ void setTissueParameter(Scene& scene, const std::string& key, double value, cons
         throw InputError(field, file,
                          fmt::format("{} is outside {}..{}{}{}", value, info->min, info->max,
                                      info->unit.empty() ? "" : " ", info->unit));
-    scene.tissue[key] = value;
+    return value;
+}
+
+}  // namespace
+
+void setTissueParameter(Scene& scene, const std::string& key, double value, const std::string& field,
+                        const std::string& file) {
+    scene.tissue[key] = checkedTissue(key, value, field, file);
 }
 
 reflectance::TissueParams tissueParams(const Scene& scene) {
     reflectance::TissueParams p = scene.appearance.tissue;
+    const reflectance::TissueParams centre = reflectance::defaultAppearance().tissue;
+    for (const auto& [key, value] : scene.look.tissue) {
+        const reflectance::TissueParamInfo& i = *reflectance::findTissueParam(key);
+        const double drawn = p.*i.member, standard = centre.*i.member;
+        const double v = i.scales && standard > 0 ? value * drawn / standard : value + (drawn - standard);
+        p.*i.member = std::clamp(v, i.min, i.max);
+    }
     for (const auto& [key, value] : scene.tissue) p.*(reflectance::findTissueParam(key)->member) = value;
     return p;
 }
@@ -631,9 +647,10 @@ void applyVariation(Scene& scene, std::uint64_t seed) {
     scene.variation = seed;
     const double previousEv = scene.appearance.exposureEv;  // a seed applied before: replaced, not compounded
     scene.appearance = reflectance::drawAppearance(seed);
-    // Scaled from the default scene's values (not compounded with a seed
-    // applied before).
-    const shading::ParamSet defaults = defaultScene().params;
+    // Scaled from the default scene's values, or a look's (not compounded
+    // with a seed applied before).
+    shading::ParamSet defaults = defaultScene().params;
+    for (const auto& [p, v] : scene.look.params) defaults.set(p, v);
     const auto scale = [&](shading::Param p, double factor) {
         if (std::find(scene.fileMaterial.begin(), scene.fileMaterial.end(), p) != scene.fileMaterial.end()) return;
         const shading::ParamInfo& info = shading::info(p);
@@ -722,17 +739,39 @@ void applyLook(Scene& s, const fs::path& file) {
     const json j = detail::parseJsonFile(readTextFile(file), P.file);
     P.object(j, "look");
     P.known(j, "", {"material", "light", "camera", "tissue", "reflectance_map"});
+    Scene::Look look;
     for (const char* group : {"material", "light", "camera"}) {
         if (!j.contains(group)) continue;
-        P.registryGroup(j[group], group, s.params);
-        for (auto it = j[group].begin(); it != j[group].end(); ++it)
-            s.fileMaterial.push_back(shading::findParam(it.key())->id);  // a variation drawn later leaves it
+        shading::ParamSet values = s.params;
+        P.registryGroup(j[group], group, values);
+        for (auto it = j[group].begin(); it != j[group].end(); ++it) {
+            const shading::Param id = shading::findParam(it.key())->id;  // registryGroup checked the names
+            if (shading::info(id).components == 3)
+                s.params.setColor(id, values.color(id));
+            else
+                look.params.push_back({id, values[id]});
+        }
     }
-    readTissue(P, j, s);
+    if (j.contains("tissue")) {
+        P.object(j["tissue"], "tissue");
+        for (auto it = j["tissue"].begin(); it != j["tissue"].end(); ++it) {
+            const std::string field = "tissue." + it.key();
+            look.tissue[it.key()] = checkedTissue(it.key(), P.number(it.value(), field), field, P.file);
+        }
+    }
     if (j.contains("reflectance_map")) {
         s.mapParams = P.mapParams(j["reflectance_map"], "reflectance_map", s.mapParams);
         s.reflectanceMap.reset();  // generated from these parameters
     }
+    for (const auto& [p, v] : look.params) {
+        // The exposure carries the patient's offset on top (applyVariation takes it off again).
+        const float offset = p == shading::Param::ExposureEv ? static_cast<float>(s.appearance.exposureEv) : 0.0f;
+        const shading::ParamInfo& i = shading::info(p);
+        s.params.set(p, std::clamp(v + offset, i.min, i.max));
+    }
+    s.look = std::move(look);
+    // The scene's patient, drawn again about the look.
+    if (s.variation != 0) applyVariation(s, s.variation);
 }
 
 Scene loadSceneOrLook(const fs::path& file) {

@@ -538,7 +538,7 @@ std::vector<FrameStats> readStatsJson(const fs::path& path) {
 
 std::vector<FrameStats> readFrameStats(const fs::path& path) {
     std::error_code ec;
-    if (!fs::exists(path, ec)) throw IoError("target", path.string(), "no such file or folder");
+    if (!fs::exists(path, ec)) throw IoError("frames", path.string(), "no such file or folder");
     if (!fs::is_directory(path, ec)) return readStatsJson(path);
     std::vector<FrameStats> out;
     for (const fs::path& p : listFrames(path)) out.push_back(measureFrameStatsFile(p));

@@ -219,7 +219,7 @@ TEST(SceneFile, MapParametersHaveTheRegistrysRanges) {
 
 // "tissue" / --set tissue.<key>: the generated texture's parameters by name,
 // over the patient's draw, kept when a variation is drawn later; a look file
-// applies them with the registry's values and refuses anything else.
+// sets the centre the patients vary about and refuses anything else.
 TEST(SceneFile, TissueParametersAndLookFiles) {
     scene::Scene s = scene::parseScene(R"({"mesh": "tube", "tissue": {"hue": 30, "vessel_contrast": 0.4}})", "s.json");
     EXPECT_EQ(scene::tissueParams(s).hue, 30);
@@ -246,9 +246,35 @@ TEST(SceneFile, TissueParametersAndLookFiles) {
     EXPECT_FLOAT_EQ(t.params[shading::Param::SheenStrength], 0.3f);
     EXPECT_FLOAT_EQ(t.params[shading::Param::LightSpread], 1.5f);
     EXPECT_EQ(t.mapParams.noise.frequency, 8);
-    scene::applyVariation(t, 3);  // the look's values stay, as a scene file's own
-    EXPECT_FLOAT_EQ(t.params[shading::Param::SheenStrength], 0.3f);
-    EXPECT_EQ(scene::tissueParams(t).chroma, 20);
+    // A patient drawn with the look varies about it: the mucus and the
+    // scope's factors scale the look's values, the tissue's draw moves the
+    // look's chroma by its own difference from the default look.
+    scene::applyVariation(t, 3);
+    const scene::Scene plain3 = [] {
+        scene::Scene p = scene::defaultScene();
+        scene::applyVariation(p, 3);
+        return p;
+    }();
+    EXPECT_FLOAT_EQ(t.params[shading::Param::SheenStrength], 0.3f);  // not varied
+    EXPECT_NEAR(scene::tissueParams(t).chroma,
+                20 + plain3.appearance.tissue.chroma - scene::defaultScene().appearance.tissue.chroma, 1e-9);
+    // The order does not matter: the variation first, then the look.
+    scene::Scene u = scene::defaultScene();
+    std::ofstream(look) << R"({"camera": {"softness_px": 0.5, "exposure_ev": 1}, "tissue": {"vessel_density": 2}})";
+    scene::applyVariation(u, 3);
+    scene::applyLook(u, look);
+    scene::Scene v = scene::defaultScene();
+    scene::applyLook(v, look);
+    scene::applyVariation(v, 3);
+    const float scope =
+        plain3.params[shading::Param::Softness] / scene::defaultScene().params[shading::Param::Softness];
+    for (const scene::Scene* w : {&u, &v}) {
+        EXPECT_NEAR(w->params[shading::Param::Softness], 0.5f * scope, 1e-6);
+        EXPECT_NEAR(w->params[shading::Param::ExposureEv], 1.0 + plain3.appearance.exposureEv, 1e-6);
+        EXPECT_NEAR(scene::tissueParams(*w).vesselDensity, 2 * plain3.appearance.tissue.vesselDensity, 1e-9);
+    }
+    std::ofstream(look) << R"({"tissue": {"chroma": 20}, "camera": {"saturation": 1.1}, "material": {"sheen": 0.3},
+                               "light": {"spread": 1.5}, "reflectance_map": {"frequency": 8}})";
     // A look file stands for the default scene where a scene file is expected.
     EXPECT_EQ(scene::tissueParams(scene::loadSceneOrLook(look)).chroma, 20);
     // Only the look's objects: a mesh or a path in a look is refused, naming it.

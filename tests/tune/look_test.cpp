@@ -7,9 +7,11 @@
 #include <filesystem>
 #include <fstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <mucosa/core/error.hpp>
+#include <mucosa/image/png.hpp>
 #include <mucosa/scene/scene.hpp>
 #include <mucosa/shading/params.hpp>
 
@@ -82,7 +84,7 @@ TEST(LookCli, BadInputIsOneLineAndNothingIsWritten) {
     test::TempDir dir;
     auto r = test::runCli("look fit " + (dir / "nowhere").string() + " -o " + (dir / "l.json").string());
     EXPECT_NE(r.exitCode, 0);
-    EXPECT_EQ(r.err, "error: target in " + (dir / "nowhere").string() + ": no such file or folder\n");
+    EXPECT_EQ(r.err, "error: frames in " + (dir / "nowhere").string() + ": no such file or folder\n");
     std::ofstream(dir / "one.json") << R"({"frames": [{"name": "a", "stats": {"L_mean": 50}}]})";
     r = test::runCli("look fit " + (dir / "one.json").string() + " -o " + (dir / "l.json").string());
     EXPECT_NE(r.exitCode, 0);
@@ -95,6 +97,39 @@ TEST(LookCli, BadInputIsOneLineAndNothingIsWritten) {
                      (dir / "missing.json").string());
     EXPECT_NE(r.exitCode, 0);
     EXPECT_FALSE(fs::exists(dir / "f.png"));
+}
+
+TEST(LookCli, StatsAndCompareMeasureFoldersOfFrames) {
+    // Two folders of three frames: salmon and grey with a little texture.
+    test::TempDir dir;
+    fs::create_directories(dir / "real");
+    fs::create_directories(dir / "ours");
+    for (int i = 0; i < 3; ++i) {
+        image::Image8 a(64, 64, 3), b(64, 64, 3);
+        for (int y = 0; y < 64; ++y)
+            for (int x = 0; x < 64; ++x) {
+                const int t = (x * 7 + y * 3 + i * 11) % 9;
+                a.at(x, y, 0) = static_cast<std::uint8_t>(200 + t);
+                a.at(x, y, 1) = static_cast<std::uint8_t>(120 + t);
+                a.at(x, y, 2) = static_cast<std::uint8_t>(100 + t);
+                for (int c = 0; c < 3; ++c) b.at(x, y, c) = static_cast<std::uint8_t>(140 + t);
+            }
+        image::writePng(dir / "real" / fmt::format("r{}.png", i), a);
+        image::writePng(dir / "ours" / fmt::format("o{}.png", i), b);
+    }
+    auto r = test::runCli("look stats " + (dir / "real").string());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.out.rfind("frame\tL_mean\tL_std\t", 0), 0u) << r.out;
+    EXPECT_NE(r.out.find("\nr2.png\t"), std::string::npos);
+    EXPECT_NE(r.out.find("\nmedian\t"), std::string::npos);
+    r = test::runCli("look compare " + (dir / "real").string() + " " + (dir / "ours").string());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    // Grey against salmon: a* far from the real median, told apart every time.
+    EXPECT_NE(r.out.find("AUC 1.000"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("realism score"), std::string::npos);
+    r = test::runCli("look compare " + (dir / "real").string() + " " + (dir / "none").string());
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_EQ(r.err, "error: frames in " + (dir / "none").string() + ": no such file or folder\n");
 }
 
 }  // namespace

@@ -68,6 +68,7 @@ struct TissueParamInfo {
     double min, max;
     std::string_view unit;  // "", "deg", "mm", "L*"
     std::string_view meaning;
+    bool scales;  // a patient's draw scales it (lengths, density) rather than offsets it
 };
 std::span<const TissueParamInfo> tissueRegistry() noexcept;
 const TissueParamInfo* findTissueParam(std::string_view name) noexcept;

@@ -111,6 +111,14 @@ struct Scene {
     // scene sets by name (reflectance::tissueRegistry), over the patient's
     // appearance.tissue; a variation drawn later keeps them (tissueParams).
     std::map<std::string, double, std::less<>> tissue;
+    // A look (applyLook, --look): the centre the patients vary about. The
+    // registry values the variation scales are scaled from these instead of
+    // the defaults; a patient's tissue is the look's moved by the draw's
+    // difference from the default look (tissueParams).
+    struct Look {
+        std::vector<std::pair<shading::Param, float>> params;
+        std::map<std::string, double, std::less<>> tissue;
+    } look;
     // The material and camera parameters the scene file set explicitly.
     std::vector<shading::Param> fileMaterial;
     // What parsing accepted but warns about (a deprecated key), one line each
@@ -132,8 +140,10 @@ void setMapParameter(Scene& scene, const std::string& key, const std::string& va
 // (with the nearest known one for a typo).
 void setTissueParameter(Scene& scene, const std::string& key, double value, const std::string& field,
                         const std::string& file = "");
-// The generated texture's parameters: the patient's appearance.tissue with
-// the scene's "tissue" values over it.
+// The generated texture's parameters: the patient's appearance.tissue moved
+// to the look's centre (each look value plus the draw's difference from the
+// default look, or times its ratio for the lengths and the vessel density,
+// in range), then the scene's "tissue" values over it.
 reflectance::TissueParams tissueParams(const Scene& scene);
 
 // Draws patient `seed` (reflectance::drawAppearance; 0 = the default look)
@@ -148,9 +158,10 @@ void applyVariation(Scene& scene, std::uint64_t seed);
 // A look file (`mucosa look fit` writes one; docs/look.md): a scene's
 // "material", "light" and "camera" registry values, its "tissue" and
 // "reflectance_map" objects, applied over `scene` — the mesh, path, lens and
-// outputs stay the scene's. Its values count as the
-// scene's own: a variation drawn later leaves them. Throws InputError(field,
-// file, ...) as parseScene does; anything else in the file is refused.
+// outputs stay the scene's. The look is the centre a variation varies
+// about (Scene::look; the scene's variation is drawn again about it).
+// Throws InputError(field, file, ...) as parseScene does; anything else in
+// the file is refused.
 void applyLook(Scene& scene, const std::filesystem::path& lookFile);
 
 // A scene file, or a look file (a JSON object without "mesh") over the

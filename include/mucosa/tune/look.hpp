@@ -45,8 +45,8 @@ LookEvaluation evaluateLook(const std::vector<FrameStats>& target, const FrameSt
 
 struct LookFitOptions {
     std::vector<std::string> params;  // tuneParams() keys; empty = lookParams()
-    ProbeOptions probe{16, 320, 0};   // views along the scene's camera path, their size
-    int maxEvaluations = 200;         // renders of the view set
+    ProbeOptions probe{16, 480, 0};   // views along the scene's camera path, their size
+    int maxEvaluations = 300;         // renders of the view set
     double tolerance = 1.0 / 32;      // smallest step, in each parameter's normalised range
     double observerWeight = 1.0;
     int observerGroups = 0;  // rendered frames held out together; 0: as many as the real frames
