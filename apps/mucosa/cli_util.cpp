@@ -68,6 +68,26 @@ std::vector<std::string> splitList(const std::string& s) {
     return out;
 }
 
+void printStatsTable(const Global& g, const std::vector<std::string>& columns,
+                     const std::vector<std::pair<std::string, std::vector<double>>>& frames,
+                     const std::vector<StatColumn>& summary) {
+    std::string header = "frame";
+    for (const std::string& c : columns) header += "\t" + c;
+    info(g, header);
+    for (const auto& [name, values] : frames) {
+        std::string line = name;
+        for (double v : values) line += fmt::format("\t{:.10g}", v);
+        info(g, line);
+    }
+    std::string med = "median", iqr = "iqr";
+    for (const StatColumn& st : summary) {
+        med += "\t" + (st.n ? fmt::format("{:.6g}", st.median) : std::string("nan"));
+        iqr += "\t" + (st.n ? fmt::format("{:.6g}", st.iqr) : std::string("nan"));
+    }
+    info(g, med);
+    info(g, iqr);
+}
+
 std::string formatDuration(double seconds) {
     const long long t = std::llround(std::max(seconds, 0.0));
     if (t >= 3600) return fmt::format("{}h{:02}m", t / 3600, t / 60 % 60);

@@ -197,30 +197,23 @@ void runFit(const FitArgs& a, const Global& g) {
 
 // Every statistic of every frame (tab-separated), then the medians and IQRs.
 void runStats(const std::vector<std::string>& inputs, const Global& g) {
-    std::string header = "frame";
+    std::vector<std::string> columns;
     for (std::size_t k = 0; k < tune::kFrameStatCount; ++k)
-        header += fmt::format("\t{}", tune::info(static_cast<FrameStat>(k)).name);
-    info(g, header);
+        columns.emplace_back(tune::info(static_cast<FrameStat>(k)).name);
     std::vector<tune::FrameStats> frames;
+    std::vector<std::pair<std::string, std::vector<double>>> rows;
     for (const std::string& in : inputs) {
         std::error_code ec;
         if (!fs::exists(in, ec)) throw IoError("frames", in, "no such file or folder");
         const std::vector<fs::path> files = fs::is_directory(in, ec) ? tune::listFrames(in) : std::vector<fs::path>{in};
         for (const fs::path& f : files) {
             frames.push_back(tune::measureFrameStatsFile(f));
-            std::string line = f.filename().string();
-            for (double v : frames.back().values) line += fmt::format("\t{:.10g}", v);
-            info(g, line);
+            rows.push_back({f.filename().string(), {frames.back().values.begin(), frames.back().values.end()}});
         }
     }
-    const tune::FrameStatsSummary s = tune::summarise(frames);
-    std::string med = "median", iqr = "iqr";
-    for (const tune::StatSummary& st : s.stats) {
-        med += "\t" + (st.n ? fmt::format("{:.6g}", st.median) : std::string("nan"));
-        iqr += "\t" + (st.n ? fmt::format("{:.6g}", st.iqr()) : std::string("nan"));
-    }
-    info(g, med);
-    info(g, iqr);
+    std::vector<StatColumn> summary;
+    for (const tune::StatSummary& st : tune::summarise(frames).stats) summary.push_back({st.median, st.iqr(), st.n});
+    printStatsTable(g, columns, rows, summary);
 }
 
 struct CompareArgs {

@@ -222,25 +222,18 @@ void runStats(const std::vector<std::string>& inputs, const Global& g) {
             files.emplace_back(in);
         }
     }
-    std::string header = "frame";
+    std::vector<std::string> columns;
     for (int k = 0; k < tune::kHighlightStatCount; ++k)
-        header += fmt::format("\t{}", tune::statName(static_cast<tune::HighlightStat>(k)));
-    info(g, header);
+        columns.emplace_back(tune::statName(static_cast<tune::HighlightStat>(k)));
     std::vector<tune::FrameHighlights> frames;
+    std::vector<std::pair<std::string, std::vector<double>>> rows;
     for (const fs::path& f : files) {
         frames.push_back(tune::measureFrameFile(f));
-        std::string line = f.filename().string();
-        for (double v : frames.back().values) line += fmt::format("\t{:.10g}", v);
-        info(g, line);
+        rows.push_back({f.filename().string(), {frames.back().values.begin(), frames.back().values.end()}});
     }
-    const tune::HighlightSummary s = tune::summarise(frames);
-    std::string med = "median", iqr = "iqr";
-    for (const tune::StatSummary& st : s.stats) {
-        med += "\t" + (st.n ? fmt::format("{:.6g}", st.median) : std::string("nan"));
-        iqr += "\t" + (st.n ? fmt::format("{:.6g}", st.iqr()) : std::string("nan"));
-    }
-    info(g, med);
-    info(g, iqr);
+    std::vector<StatColumn> summary;
+    for (const tune::StatSummary& st : tune::summarise(frames).stats) summary.push_back({st.median, st.iqr(), st.n});
+    printStatsTable(g, columns, rows, summary);
 }
 
 void addProbeOptions(CLI::App* c, ProbeArgs& a) {

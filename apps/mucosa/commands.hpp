@@ -45,6 +45,17 @@ std::string count(std::uint64_t n, std::string_view singular, std::string_view p
 // "a,b,,c" -> {"a", "b", "c"}: a comma-separated option's items, empty ones dropped.
 std::vector<std::string> splitList(const std::string& s);
 
+// A table of per-frame statistics on stdout, tab-separated: a header
+// ("frame", then `columns`), one line per frame (name, values to 10 digits),
+// then "median" and "iqr" lines (`n` = 0: "nan").
+struct StatColumn {
+    double median = 0, iqr = 0;
+    int n = 0;
+};
+void printStatsTable(const Global& g, const std::vector<std::string>& columns,
+                     const std::vector<std::pair<std::string, std::vector<double>>>& frames,
+                     const std::vector<StatColumn>& summary);
+
 // An ETA or elapsed time: "42s", "3m05s", "1h20m".
 std::string formatDuration(double seconds);
 

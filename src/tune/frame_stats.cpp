@@ -457,13 +457,8 @@ FrameStats measureFrame(const image::Image8& frame, const image::Image8* mask) {
 }
 
 FrameStats measureFrameStatsFile(const fs::path& png) {
-    const image::Image8 img = image::to8(image::readPng(png));
-    fs::path maskPath = png;
-    maskPath.replace_extension(".mask.png");
-    std::error_code ec;
-    if (!fs::exists(maskPath, ec)) return measureFrame(img);
-    const image::Image8 mask = image::to8(image::readPng(maskPath));
-    return measureFrame(img, &mask);
+    const FrameFile f = readFrameFile(png);
+    return measureFrame(f.frame, f.mask.empty() ? nullptr : &f.mask);
 }
 
 FrameStatsSummary summarise(const std::vector<FrameStats>& frames) {

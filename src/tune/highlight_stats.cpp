@@ -336,14 +336,19 @@ std::vector<fs::path> listFrames(const fs::path& folder) {
     return frames;
 }
 
-FrameHighlights measureFrameFile(const fs::path& png) {
-    const image::Image8 img = image::to8(image::readPng(png));
+FrameFile readFrameFile(const fs::path& png) {
+    FrameFile f;
+    f.frame = image::to8(image::readPng(png));
     fs::path maskPath = png;
     maskPath.replace_extension(".mask.png");
     std::error_code ec;
-    if (!fs::exists(maskPath, ec)) return measureHighlights(img);
-    const image::Image8 mask = image::to8(image::readPng(maskPath));
-    return measureHighlights(img, &mask);
+    if (fs::exists(maskPath, ec)) f.mask = image::to8(image::readPng(maskPath));
+    return f;
+}
+
+FrameHighlights measureFrameFile(const fs::path& png) {
+    const FrameFile f = readFrameFile(png);
+    return measureHighlights(f.frame, f.mask.empty() ? nullptr : &f.mask);
 }
 
 std::vector<FrameHighlights> readTargetFrames(const fs::path& path) {

@@ -111,14 +111,7 @@ LookFitResult fitLook(const scene::Scene& scene, const std::vector<FrameStats>& 
         r.start.push_back({params[i], v});
         t[i] = toUnit(*params[i], v);
     }
-    // The values as set (rounded where whole), the cache's key.
-    auto applied = [&](const std::vector<double>& u) {
-        scene::Scene c = probe.base();
-        for (std::size_t i = 0; i < d; ++i) setTuneValue(c, *params[i], fromUnit(*params[i], u[i]));
-        std::vector<double> v(d);
-        for (std::size_t i = 0; i < d; ++i) v[i] = tuneValue(c, *params[i]);
-        return v;
-    };
+    auto applied = [&](const std::vector<double>& u) { return appliedValues(probe.base(), params, u); };
     std::map<std::vector<double>, LookEvaluation> cache;
     double bestSoFar = std::numeric_limits<double>::infinity();
     auto evaluate = [&](const std::vector<double>& v) -> const LookEvaluation& {

@@ -191,6 +191,15 @@ void setTuneValue(scene::Scene& scene, const TuneParam& p, double value) {
     scene.params.set(materialInfo(p).id, static_cast<float>(value), "", subject);
 }
 
+std::vector<double> appliedValues(const scene::Scene& scene, const std::vector<const TuneParam*>& params,
+                                  const std::vector<double>& unit) {
+    scene::Scene c = scene;
+    for (std::size_t i = 0; i < params.size(); ++i) setTuneValue(c, *params[i], fromUnit(*params[i], unit[i]));
+    std::vector<double> v(params.size());
+    for (std::size_t i = 0; i < params.size(); ++i) v[i] = tuneValue(c, *params[i]);
+    return v;
+}
+
 // ------------------------------------------------------------------ probe
 
 namespace {
@@ -588,14 +597,7 @@ TuneFitResult fitToTarget(const scene::Scene& scene, const HighlightSummary& tar
     // Evaluations are cached by the values applied (integers rounded), so a
     // step that rounds to the same setting costs no render.
     std::map<std::vector<double>, std::pair<double, HighlightSummary>> cache;
-    // The values as set: rounded, and a tileable map's frequency moved to one its lattice takes.
-    auto applied = [&](const std::vector<double>& u) {
-        scene::Scene c = probe.base();
-        for (std::size_t i = 0; i < d; ++i) setTuneValue(c, *params[i], fromUnit(*params[i], u[i]));
-        std::vector<double> v(d);
-        for (std::size_t i = 0; i < d; ++i) v[i] = tuneValue(c, *params[i]);
-        return v;
-    };
+    auto applied = [&](const std::vector<double>& u) { return appliedValues(probe.base(), params, u); };
     double bestSoFar = std::numeric_limits<double>::infinity();
     auto evaluate = [&](const std::vector<double>& u, bool first) -> std::pair<double, HighlightSummary> {
         // The first evaluation is at the scene's own values, unrounded.

@@ -101,6 +101,11 @@ Distance distance(const HighlightSummary& ours, const HighlightSummary& target,
 // The PNG frames of a folder, sorted by name, without the masks (<stem>.mask.png).
 // InputError when there are none.
 std::vector<std::filesystem::path> listFrames(const std::filesystem::path& folder);
+// A PNG frame and <stem>.mask.png beside it (empty if there is none).
+struct FrameFile {
+    image::Image8 frame, mask;
+};
+FrameFile readFrameFile(const std::filesystem::path& png);
 // One frame file measured, with <stem>.mask.png beside it as its mask if present.
 FrameHighlights measureFrameFile(const std::filesystem::path& png);
 

@@ -50,6 +50,11 @@ double toUnit(const TuneParam& p, double value);
 double fromUnit(const TuneParam& p, double t);
 
 double tuneValue(const scene::Scene& scene, const TuneParam& p);
+// The values `params` take in `scene` when set from the normalised point
+// `unit`: rounded where whole, a tileable map's frequency moved to one its
+// lattice takes (the fits' cache key).
+std::vector<double> appliedValues(const scene::Scene& scene, const std::vector<const TuneParam*>& params,
+                                  const std::vector<double>& unit);
 // Sets the value (rounded when p.integer); InputError when outside the registry's range.
 void setTuneValue(scene::Scene& scene, const TuneParam& p, double value);
 
