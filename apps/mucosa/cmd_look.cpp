@@ -102,7 +102,7 @@ void printSeparating(const Global& g, const std::vector<tune::FrameStats>& real,
 struct FitArgs {
     SceneOptions scene;
     std::string frames, output, params, framesOut;
-    int views = 16, size = 480, maxEvals = 300;
+    int views = 16, size = 480, maxEvals = 300, patients = 0;
     double observerWeight = 1.0;
 };
 
@@ -119,6 +119,7 @@ void runFit(const FitArgs& a, const Global& g) {
     tune::LookFitOptions o;
     for (const std::string& k : splitList(a.params)) o.params.emplace_back(tune::findTuneParam(k, "--params").key);
     o.probe.views = a.views;
+    o.probe.patients = a.patients;
     o.probe.size = a.size;
     o.probe.threads = g.threads;
     o.maxEvaluations = a.maxEvals;
@@ -139,10 +140,11 @@ void runFit(const FitArgs& a, const Global& g) {
     for (std::size_t i = 0; i < r.best.size(); ++i)
         info(g, fmt::format("{:<10} {} {} -> {}", tune::lookGroupName(tune::lookGroup(*r.best[i].first)),
                             r.best[i].first->key, num(r.start[i].second), num(r.best[i].second)));
-    info(g, fmt::format("realism score {} -> {}, observer AUC {} -> {}, objective {} -> {} ({} of {} views)",
-                        num(r.before.realism.overall), num(r.after.realism.overall), num(r.before.auc),
-                        num(r.after.auc), num(r.before.objective), num(r.after.objective),
-                        count(r.evaluations, "render", "renders"), a.views));
+    info(g,
+         fmt::format("realism score {} -> {}, observer AUC {} -> {}, objective {} -> {} ({} of {} views)",
+                     num(r.before.realism.overall), num(r.after.realism.overall), num(r.before.auc), num(r.after.auc),
+                     num(r.before.objective), num(r.after.objective), count(r.evaluations, "render", "renders"),
+                     a.patients > 0 ? fmt::format("{} x {}", a.patients + 1, a.views) : std::to_string(a.views)));
 
     writeFileAtomic(out, tune::presetJson(scene, r.best, false));
     auto summary = [](const tune::FrameStatsSummary& s) {
@@ -180,6 +182,7 @@ void runFit(const FitArgs& a, const Global& g) {
     rep["after"] = evaluation(r.after);
     rep["evaluations"] = r.evaluations;
     rep["views"] = a.views;
+    rep["patients"] = a.patients;
     rep["size"] = a.size;
     rep["observer_weight"] = a.observerWeight;
     writeFileAtomic(reportPath, rep.dump(1) + "\n");
@@ -264,6 +267,10 @@ void addLookCommand(CLI::App& app, Global& g) {
                    "Views are NxN: the size you render at (the statistics see a frame's centre square at 320x320; 480 "
                    "is that of the default 640x480 frame) [480]")
         ->check(wholeNumber(16, 4096));
+    fi->add_option("--patients", f->patients,
+                   "Also fit over patients 1..N drawn about the look (--variation), --views each on its own survey: "
+                   "the look becomes the centre of a varied dataset [0]")
+        ->check(wholeNumber(0, 64));
     fi->add_option("--max-evals", f->maxEvals, "Renders of the view set at most [300]")->check(wholeNumber(1, 100000));
     fi->add_option("--observer-weight", f->observerWeight,
                    "Weight of the observer's AUC - 0.5 beside the realism score (0: the statistics alone) [1]")

@@ -763,13 +763,17 @@ void applyLook(Scene& s, const fs::path& file) {
         s.mapParams = P.mapParams(j["reflectance_map"], "reflectance_map", s.mapParams);
         s.reflectanceMap.reset();  // generated from these parameters
     }
+    applyLook(s, look);
+}
+
+void applyLook(Scene& s, const Scene::Look& look) {
     for (const auto& [p, v] : look.params) {
         // The exposure carries the patient's offset on top (applyVariation takes it off again).
         const float offset = p == shading::Param::ExposureEv ? static_cast<float>(s.appearance.exposureEv) : 0.0f;
         const shading::ParamInfo& i = shading::info(p);
         s.params.set(p, std::clamp(v + offset, i.min, i.max));
     }
-    s.look = std::move(look);
+    s.look = look;
     // The scene's patient, drawn again about the look.
     if (s.variation != 0) applyVariation(s, s.variation);
 }

@@ -102,7 +102,9 @@ LookFitResult fitLook(const scene::Scene& scene, const std::vector<FrameStats>& 
     }
     const FrameStatsSummary targetSummary = summarise(target);
 
-    HighlightProbe probe(scene, o.probe);
+    ProbeOptions po = o.probe;
+    po.asLook = true;  // the values are the centre the patients vary about, as --look applies them
+    HighlightProbe probe(scene, po);
     const std::size_t d = params.size();
     LookFitResult r;
     std::vector<double> t(d);

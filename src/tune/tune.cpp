@@ -226,38 +226,86 @@ json mapKey(const scene::Scene& s) {
 }  // namespace
 
 struct HighlightProbe::Impl {
-    scene::Scene base;
+    // The scene, then each patient drawn from it: the scene itself, its
+    // views, and its own generated texture.
+    struct Base {
+        scene::Scene scene;
+        std::vector<camera::Pose> poses;
+        std::vector<double> tissue;  // tissueKey
+        image::Image8 texture;
+    };
+    std::vector<Base> bases;
     scene::Scene current;  // the session reads this one (by reference)
     scene::SceneAssets assets;
-    std::vector<camera::Pose> poses;
     std::unique_ptr<render::OffscreenSession> session;
-    json mapOfBase;     // the parameters of assets.reflectanceMap ("file": the scene's map file)
-    json mapOfSession;  // those of the map the session shows
-    std::vector<double> tissueOfBase, tissueOfSession;  // the generated texture's (tissueKey)
+    json mapOfBase;                       // the parameters of assets.reflectanceMap ("file": the scene's map file)
+    json mapOfSession;                    // those of the map the session shows
+    std::vector<double> tissueOfSession;  // the generated texture's (tissueKey)
     std::vector<image::Image8> frames;
     int threads = 0;
+    bool asLook = false;
+
+    // The base scene with `values` applied.
+    scene::Scene with(const scene::Scene& base, const TuneValues& values) const {
+        scene::Scene s = base;
+        if (!asLook) {
+            for (const auto& [p, v] : values) setTuneValue(s, *p, v);
+            return s;
+        }
+        // The map's parameters as they are; the rest as a look's centre.
+        scene::Scene::Look look = s.look;
+        for (const auto& [p, v] : values) {
+            if (isMap(*p)) {
+                setTuneValue(s, *p, v);
+            } else if (isTissue(*p)) {
+                look.tissue[std::string(tissueInfo(*p).name)] = v;
+            } else {
+                const shading::Param id = materialInfo(*p).id;
+                std::erase_if(look.params, [id](const auto& q) { return q.first == id; });
+                look.params.push_back({id, static_cast<float>(v)});
+            }
+        }
+        scene::applyLook(s, look);
+        return s;
+    }
 };
 
 HighlightProbe::HighlightProbe(const scene::Scene& base, const ProbeOptions& o) : impl_(std::make_unique<Impl>()) {
     if (o.views < 1) throw InputError("--views", "", fmt::format("must be at least 1, got {}", o.views));
     if (o.size < 16) throw InputError("--size", "", fmt::format("must be at least 16, got {}", o.size));
+    if (o.patients < 0 || o.patients > 64)
+        throw InputError("--patients", "", fmt::format("must be in 0..64, got {}", o.patients));
     Impl& m = *impl_;
     m.threads = o.threads;
-    m.base = base;
-    m.base.width = m.base.height = o.size;
-    if (m.base.mode != shading::Mode::Noise && m.base.mode != shading::Mode::Procedural &&
-        m.base.mode != shading::Mode::BrdfNoise)
+    m.asLook = o.asLook;
+    scene::Scene first = base;
+    first.width = first.height = o.size;
+    if (first.mode != shading::Mode::Noise && first.mode != shading::Mode::Procedural &&
+        first.mode != shading::Mode::BrdfNoise)
         throw InputError("--mode", "",
                          fmt::format("tuning needs a mode that reads the map's noise (noise, procedural, "
                                      "brdf-noise), not {}",
-                                     shading::modeName(m.base.mode)));
-    m.current = m.base;
-    m.assets = scene::loadAssets(m.base, o.threads, shading::info(m.base.mode).readsMap);
-    m.mapOfBase = mapKey(m.base);
+                                     shading::modeName(first.mode)));
+    m.current = first;
+    m.assets = scene::loadAssets(first, o.threads, shading::info(first.mode).readsMap);
+    m.mapOfBase = mapKey(first);
     m.mapOfSession = m.mapOfBase;
-    m.tissueOfBase = tissueKey(m.base);
-    m.tissueOfSession = m.tissueOfBase;
-    m.poses = scene::cameraPoses(m.base, m.assets, o.views);
+    for (int k = 0; k <= o.patients; ++k) {
+        Impl::Base b;
+        b.scene = first;
+        if (k > 0) {
+            scene::applyVariation(b.scene, static_cast<std::uint64_t>(k));
+            b.scene.path.fly.seed = static_cast<std::uint64_t>(k);
+        }
+        b.poses = scene::cameraPoses(b.scene, m.assets, o.views);
+        b.tissue = tissueKey(b.scene);
+        if (k == 0)
+            b.texture = m.assets.diffuse;
+        else if (!b.tissue.empty())
+            b.texture = reflectance::tissueTexture(scene::tissueParams(b.scene), m.assets.diffuse.width());
+        m.bases.push_back(std::move(b));
+    }
+    m.tissueOfSession = m.bases.front().tissue;
     m.session = std::make_unique<render::OffscreenSession>(m.current, m.assets, o.size, o.size);
 }
 
@@ -271,34 +319,35 @@ std::vector<FrameHighlights> HighlightProbe::measure(const TuneValues& values) {
 
 const std::vector<image::Image8>& HighlightProbe::renderViews(const TuneValues& values) {
     Impl& m = *impl_;
-    m.current = m.base;  // assigned in place: the session keeps its reference
-    for (const auto& [p, v] : values) setTuneValue(m.current, *p, v);
-    if (shading::info(m.current.mode).readsMap) {
-        // The map the session shows: the scene's (a file, or generated by
-        // loadAssets) while the map parameters are the scene's, else one
-        // generated as scene::loadAssets generates it.
-        const json now = mapKey(m.current);
-        if (now != m.mapOfSession) {
-            if (now == m.mapOfBase) {
-                m.session->setReflectanceMap(m.assets.reflectanceMap);
-            } else {
-                const image::ImageF h = reflectance::heightField(m.current.mapParams, m.threads);
-                m.session->setReflectanceMap(reflectance::encodeNormals8(
-                    h, m.current.mapParams.strength,
-                    m.current.mapParams.noise.tileable ? reflectance::Edges::Wrap : reflectance::Edges::Clamp,
-                    m.threads));
-            }
-            m.mapOfSession = now;
-        }
-    }
-    if (const std::vector<double> now = tissueKey(m.current); now != m.tissueOfSession) {
-        m.session->setDiffuse(now == m.tissueOfBase ? m.assets.diffuse
-                                                    : reflectance::tissueTexture(scene::tissueParams(m.current),
-                                                                                 m.assets.diffuse.width()));
-        m.tissueOfSession = now;
-    }
     m.frames.clear();
-    for (const camera::Pose& pose : m.poses) m.frames.push_back(m.session->render(pose));
+    for (const Impl::Base& b : m.bases) {
+        m.current = m.with(b.scene, values);  // assigned in place: the session keeps its reference
+        if (shading::info(m.current.mode).readsMap) {
+            // The map the session shows: the scene's (a file, or generated by
+            // loadAssets) while the map parameters are the scene's, else one
+            // generated as scene::loadAssets generates it.
+            const json now = mapKey(m.current);
+            if (now != m.mapOfSession) {
+                if (now == m.mapOfBase) {
+                    m.session->setReflectanceMap(m.assets.reflectanceMap);
+                } else {
+                    const image::ImageF h = reflectance::heightField(m.current.mapParams, m.threads);
+                    m.session->setReflectanceMap(reflectance::encodeNormals8(
+                        h, m.current.mapParams.strength,
+                        m.current.mapParams.noise.tileable ? reflectance::Edges::Wrap : reflectance::Edges::Clamp,
+                        m.threads));
+                }
+                m.mapOfSession = now;
+            }
+        }
+        if (const std::vector<double> now = tissueKey(m.current); now != m.tissueOfSession) {
+            m.session->setDiffuse(
+                now == b.tissue ? b.texture
+                                : reflectance::tissueTexture(scene::tissueParams(m.current), m.assets.diffuse.width()));
+            m.tissueOfSession = now;
+        }
+        for (const camera::Pose& pose : b.poses) m.frames.push_back(m.session->render(pose));
+    }
     return m.frames;
 }
 
@@ -307,7 +356,7 @@ const std::vector<image::Image8>& HighlightProbe::lastFrames() const noexcept {
 }
 
 const scene::Scene& HighlightProbe::base() const noexcept {
-    return impl_->base;
+    return impl_->bases.front().scene;
 }
 
 std::string HighlightProbe::glRenderer() const {

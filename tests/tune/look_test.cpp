@@ -62,6 +62,27 @@ TEST(Look, FitRecoversATissueHueAndTheCamerasSaturationFromFrames) {
     EXPECT_EQ(r.frames.size(), 6u);
 }
 
+TEST(Look, AProbeWithPatientsRendersEachAboutTheLook) {
+    tune::ProbeOptions po;
+    po.views = 2;
+    po.size = 64;
+    po.patients = 2;
+    po.asLook = true;
+    tune::HighlightProbe probe(smallScene(), po);
+    const tune::TuneParam& chroma = tune::findTuneParam("tissue.chroma");
+    const std::vector<image::Image8> plain = probe.renderViews({});
+    ASSERT_EQ(plain.size(), 6u);  // the scene's two views, then each patient's
+    EXPECT_NE(plain[0], plain[2]);
+    EXPECT_NE(plain[2], plain[4]);
+    // A greyer look: every view, the scene's and the patients', less saturated.
+    const std::vector<image::Image8> grey = probe.renderViews({{&chroma, 12.0}});
+    ASSERT_EQ(grey.size(), 6u);
+    auto chromaOf = [](const image::Image8& f) { return tune::measureFrame(f)[tune::FrameStat::ChromaMean]; };
+    for (std::size_t i = 0; i < 6; ++i) EXPECT_LT(chromaOf(grey[i]), chromaOf(plain[i]) - 3) << i;
+    // The same values give the same frames (the texture made once per setting).
+    EXPECT_EQ(probe.renderViews({}), plain);
+}
+
 TEST(Look, TheFittedLookIsAFileThatLookReadsBack) {
     const scene::Scene s = smallScene();
     tune::TuneValues values;

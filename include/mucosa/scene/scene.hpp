@@ -163,6 +163,9 @@ void applyVariation(Scene& scene, std::uint64_t seed);
 // Throws InputError(field, file, ...) as parseScene does; anything else in
 // the file is refused.
 void applyLook(Scene& scene, const std::filesystem::path& lookFile);
+// The same with the look's values (checked by the caller), replacing the
+// scene's look.
+void applyLook(Scene& scene, const Scene::Look& look);
 
 // A scene file, or a look file (a JSON object without "mesh") over the
 // default scene: what `mucosa mesh --look` and `mucosa phantom --look` take.

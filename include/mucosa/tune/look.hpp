@@ -45,9 +45,12 @@ LookEvaluation evaluateLook(const std::vector<FrameStats>& target, const FrameSt
 
 struct LookFitOptions {
     std::vector<std::string> params;  // tuneParams() keys; empty = lookParams()
-    ProbeOptions probe{16, 480, 0};   // views along the scene's camera path, their size
-    int maxEvaluations = 300;         // renders of the view set
-    double tolerance = 1.0 / 32;      // smallest step, in each parameter's normalised range
+    // Views along the scene's camera path, their size, and patients drawn
+    // about the look (each with views of its own); the values are applied as
+    // a look (ProbeOptions::asLook) whatever the probe says.
+    ProbeOptions probe{16, 480, 0, 0, true};
+    int maxEvaluations = 300;     // renders of the view set
+    double tolerance = 1.0 / 32;  // smallest step, in each parameter's normalised range
     double observerWeight = 1.0;
     int observerGroups = 0;  // rendered frames held out together; 0: as many as the real frames
     // After each new evaluation: (evaluations, maxEvaluations, best objective so far).

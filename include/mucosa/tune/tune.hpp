@@ -61,9 +61,15 @@ void setTuneValue(scene::Scene& scene, const TuneParam& p, double value);
 using TuneValues = std::vector<std::pair<const TuneParam*, double>>;
 
 struct ProbeOptions {
-    int views = 8;    // poses along the scene's camera path
+    int views = 8;    // poses along the scene's camera path (each patient's)
     int size = 320;   // frames are size x size (measured at 320 x 320)
     int threads = 0;  // map generation
+    // Besides the scene, patients 1..patients (scene::applyVariation, each
+    // on its own survey: camera.path.seed = the patient), `views` each.
+    int patients = 0;
+    // The values are a look (scene::applyLook): the centre the patients vary
+    // about. Otherwise they are set as they are (setTuneValue).
+    bool asLook = false;
 };
 
 // Renders `views` poses of a scene offscreen (EGL) and measures them. The
