@@ -108,8 +108,12 @@ LookFitResult fitLook(const scene::Scene& scene, const std::vector<FrameStats>& 
     const std::size_t d = params.size();
     LookFitResult r;
     std::vector<double> t(d);
+    // The start: the scene's centre — its own values and look without its
+    // patient's draw, which the probe draws again about every trial look.
+    scene::Scene centre = probe.base();
+    if (centre.variation != 0) scene::applyVariation(centre, 0);
     for (std::size_t i = 0; i < d; ++i) {
-        const double v = tuneValue(probe.base(), *params[i]);
+        const double v = tuneValue(centre, *params[i]);
         r.start.push_back({params[i], v});
         t[i] = toUnit(*params[i], v);
     }

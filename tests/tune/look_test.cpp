@@ -83,6 +83,27 @@ TEST(Look, AProbeWithPatientsRendersEachAboutTheLook) {
     EXPECT_EQ(probe.renderViews({}), plain);
 }
 
+TEST(Look, AFitOfAPatientStartsFromTheCentreItVariesAbout) {
+    // Patient 3's hue is drawn about the look; the fit's start is the centre
+    // (the default look's 41 deg), not the patient's own hue.
+    scene::Scene s = smallScene();
+    scene::applyVariation(s, 3);
+    ASSERT_NE(scene::tissueParams(s).hue, 41.0);
+    tune::LookFitOptions o;
+    o.params = {"tissue.hue"};
+    o.probe.views = 2;
+    o.probe.size = 64;
+    o.maxEvaluations = 1;
+    std::vector<tune::FrameStats> target;
+    {
+        tune::HighlightProbe probe(smallScene(), o.probe);
+        for (const image::Image8& f : probe.renderViews({})) target.push_back(tune::measureFrame(f));
+    }
+    const tune::LookFitResult r = tune::fitLook(s, target, o);
+    EXPECT_EQ(r.start[0].second, 41.0);
+    EXPECT_EQ(r.evaluations, 1);
+}
+
 TEST(Look, TheFittedLookIsAFileThatLookReadsBack) {
     const scene::Scene s = smallScene();
     tune::TuneValues values;
